@@ -1,0 +1,44 @@
+"""spectral_cam — a spectral, path-traced scene-to-sensor camera simulator.
+
+The chain, one module per stage::
+
+    load_scene (scene.py) -> render (render.py, Mitsuba 3) -> expose (sensor.py)
+        -> write_dng / read_raw (raw.py) -> develop (isp/)
+
+Heavy modules (Mitsuba, OpenEXR) are imported on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from .errors import ConfigError, RawFormatError, RenderError, SensorError, SpectralCamError
+from .scene import SceneConfig, load_scene, scene_from_dict
+
+__version__ = "0.1.0"
+
+_LAZY = {
+    "render": ("render", "render"),
+    "SpectralImage": ("render", "SpectralImage"),
+    "ThinLens": ("optics", "ThinLens"),
+    "write_spectral_exr": ("spectral_exr", "write_spectral_exr"),
+    "read_spectral_exr": ("spectral_exr", "read_spectral_exr"),
+    "expose": ("sensor", "expose"),
+    "RawImage": ("raw", "RawImage"),
+    "write_dng": ("raw", "write_dng"),
+    "read_raw": ("raw", "read_raw"),
+    "develop": ("isp", "develop"),
+    "ISPConfig": ("isp", "ISPConfig"),
+}
+
+__all__ = [
+    "SpectralCamError", "ConfigError", "RenderError", "SensorError", "RawFormatError",
+    "SceneConfig", "load_scene", "scene_from_dict", *_LAZY,
+]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        module, attribute = _LAZY[name]
+        return getattr(importlib.import_module(f".{module}", __name__), attribute)
+    raise AttributeError(f"module 'spectral_cam' has no attribute {name!r}")

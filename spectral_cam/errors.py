@@ -1,0 +1,29 @@
+"""The exception tree of spectral_cam.
+
+Every error a user can cause derives from :class:`SpectralCamError`, so the CLI can print
+its message without a traceback and programs can catch one base class.
+"""
+
+from __future__ import annotations
+
+__all__ = ["SpectralCamError", "ConfigError", "RenderError", "SensorError", "RawFormatError"]
+
+
+class SpectralCamError(Exception):
+    """Base class of every error spectral_cam raises on purpose."""
+
+
+class ConfigError(SpectralCamError, ValueError):
+    """A scene file, override or argument is invalid; the message says what would be valid."""
+
+
+class RenderError(SpectralCamError, RuntimeError):
+    """Mitsuba could not render the scene (bad scene file, no usable variant, ...)."""
+
+
+class SensorError(SpectralCamError, ValueError):
+    """The sensor model got input it cannot simulate (NaN or negative radiance, ...)."""
+
+
+class RawFormatError(SpectralCamError, ValueError):
+    """A RAW/DNG/EXR file is unreadable, truncated or lacks a required tag."""

@@ -1,0 +1,65 @@
+"""Safe file output: every file appears complete or not at all.
+
+References
+----------
+.. [1] POSIX rename(2): replacing a path by rename is atomic within one file system.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Iterator
+
+from .errors import ConfigError
+
+__all__ = ["atomic_path", "staged_directory"]
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """Yield a temporary path in the target's folder; rename it onto ``path`` on success,
+    remove it on failure. A killed process leaves only a ``.partial-*`` file behind."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.partial-", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp)
+    try:
+        yield tmp
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a result file should not be
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+@contextlib.contextmanager
+def staged_directory(target: str | Path, *, force: bool = False) -> Iterator[Path]:
+    """Fill a temporary sibling folder, then move it onto ``target`` in one rename.
+
+    An existing ``target`` is replaced only with ``force``; on any error the partial
+    folder is removed, so no half-written result directory is ever left under ``target``.
+    """
+    target = Path(target)
+    if target.exists() and not force:
+        raise ConfigError(f"{target} exists; pass --force (force=True) to overwrite it")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=target.parent))
+    try:
+        yield stage
+        if target.exists():
+            trash = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
+            os.replace(target, trash / target.name)
+            os.replace(stage, target)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            os.replace(stage, target)
+    finally:
+        if stage.exists():
+            shutil.rmtree(stage, ignore_errors=True)

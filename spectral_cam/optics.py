@@ -1,0 +1,155 @@
+"""Thin-lens optics: aperture, image distance, field of view, defocus, diffraction, vignetting.
+
+All lengths in metres unless the name says otherwise (``focal_length_mm``), angles in
+degrees where named ``_deg``.
+
+References
+----------
+.. [1] Hecht, E. (2017). Optics, 5th ed., §5.2 (thin lens), §10.2.5 (Airy pattern).
+.. [2] Ray, S. F. (2002). Applied Photographic Optics, 3rd ed., ch. 10 (depth of field,
+   circle of confusion), ch. 17 (cos⁴ law).
+.. [3] Pharr, M., Jakob, W., & Humphreys, G. (2023). Physically Based Rendering, 4th ed.,
+   §5.2.3 (thin-lens camera model).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .scene import LensSection, SensorSection
+
+__all__ = ["ThinLens"]
+
+
+@dataclass(frozen=True)
+class ThinLens:
+    """A thin lens of focal length ``focal_length_m`` at f-number ``f_number``, focused at
+    ``focus_distance_m`` (object distance along the optical axis), imaging onto a sensor
+    ``sensor_width_m`` × ``sensor_height_m`` of ``width_px`` × ``height_px`` pixels."""
+
+    focal_length_m: float
+    f_number: float
+    focus_distance_m: float
+    sensor_width_m: float
+    sensor_height_m: float
+    width_px: int
+    height_px: int
+
+    @classmethod
+    def from_config(cls, lens: LensSection, sensor: SensorSection) -> "ThinLens":
+        return cls(
+            focal_length_m=lens.focal_length_mm * 1e-3,
+            f_number=lens.f_number,
+            focus_distance_m=lens.focus_distance_m,
+            sensor_width_m=sensor.width_m,
+            sensor_height_m=sensor.height_m,
+            width_px=sensor.width_px,
+            height_px=sensor.height_px,
+        )
+
+    # ------------------------------------------------------------------ first-order optics
+    @property
+    def aperture_radius_m(self) -> float:
+        """Entrance-pupil radius R = f / (2N) (m)."""
+        return self.focal_length_m / (2.0 * self.f_number)
+
+    @property
+    def image_distance_m(self) -> float:
+        """Lens-to-sensor distance v = f·z_f / (z_f − f) (Gaussian lens equation) (m)."""
+        f, z = self.focal_length_m, self.focus_distance_m
+        return f * z / (z - f)
+
+    @property
+    def magnification(self) -> float:
+        """Magnification m = f / (z_f − f) at the focus distance (> 0, unsigned)."""
+        return self.focal_length_m / (self.focus_distance_m - self.focal_length_m)
+
+    @property
+    def working_f_number(self) -> float:
+        """Working f-number N_w = N·(1 + m) = N·v/f."""
+        return self.f_number * (1.0 + self.magnification)
+
+    @property
+    def pixel_pitch_m(self) -> float:
+        return self.sensor_width_m / self.width_px
+
+    @property
+    def fov_x_deg(self) -> float:
+        """Horizontal field of view 2·atan(s_w / 2v), from the image distance (not f)."""
+        return math.degrees(2.0 * math.atan(self.sensor_width_m / (2.0 * self.image_distance_m)))
+
+    @property
+    def fov_y_deg(self) -> float:
+        return math.degrees(2.0 * math.atan(self.sensor_height_m / (2.0 * self.image_distance_m)))
+
+    # ------------------------------------------------------------------ defocus
+    def coc_diameter_m(self, depth_m):
+        """Circle-of-confusion diameter on the sensor for a point at depth z (m).
+
+        c = A·f·|z − z_f| / (z·(z_f − f)), A = 2R [2, ch. 10].
+        """
+        z = np.asarray(depth_m, dtype=float)
+        f, zf = self.focal_length_m, self.focus_distance_m
+        return 2.0 * self.aperture_radius_m * f * np.abs(z - zf) / (z * (zf - f))
+
+    def coc_diameter_px(self, depth_m):
+        return self.coc_diameter_m(depth_m) / self.pixel_pitch_m
+
+    def hyperfocal_distance_m(self, coc_m: float) -> float:
+        """H = f²/(N·c) + f for an acceptable circle of confusion c (m)."""
+        f = self.focal_length_m
+        return f * f / (self.f_number * coc_m) + f
+
+    def depth_of_field_m(self, coc_m: float) -> tuple[float, float]:
+        """Near and far limits of acceptable sharpness for a CoC ``coc_m`` (far may be inf)."""
+        hyper = self.hyperfocal_distance_m(coc_m)
+        z, f = self.focus_distance_m, self.focal_length_m
+        near = z * (hyper - f) / (hyper + z - 2 * f)
+        far = math.inf if z >= hyper else z * (hyper - f) / (hyper - z)
+        return near, far
+
+    # ------------------------------------------------------------------ diffraction
+    def airy_diameter_m(self, wavelength_nm):
+        """Diameter of the Airy disc's first dark ring, 2.44·λ·N_w (m) [1, §10.2.5]."""
+        return 2.44 * np.asarray(wavelength_nm, dtype=float) * 1e-9 * self.working_f_number
+
+    # ------------------------------------------------------------------ image geometry
+    def pixel_angles_cos(self) -> np.ndarray:
+        """cos θ of each pixel centre's chief ray with the optical axis, shape (H, W)."""
+        pitch = self.pixel_pitch_m
+        x = (np.arange(self.width_px) + 0.5 - self.width_px / 2) * pitch
+        y = (np.arange(self.height_px) + 0.5 - self.height_px / 2) * pitch
+        r2 = x[None, :] ** 2 + y[:, None] ** 2
+        return self.image_distance_m / np.sqrt(r2 + self.image_distance_m ** 2)
+
+    def project(self, x_m, y_m, z_m):
+        """Pixel coordinates (column, row; continuous, 0 at the top-left corner) of a point
+        in camera space (camera at the origin looking along +z, +y up).
+
+        Mitsuba's ``look_at`` puts camera-space +x on the image's left, hence the minus sign.
+        """
+        scale = self.image_distance_m / (np.asarray(z_m, dtype=float) * self.pixel_pitch_m)
+        column = self.width_px / 2 - np.asarray(x_m) * scale
+        row = self.height_px / 2 - np.asarray(y_m) * scale
+        return column, row
+
+    def unproject(self, column, row, z_m):
+        """Camera-space (x, y) at depth z of pixel coordinates (inverse of :meth:`project`)."""
+        scale = np.asarray(z_m, dtype=float) * self.pixel_pitch_m / self.image_distance_m
+        return (self.width_px / 2 - np.asarray(column)) * scale, (self.height_px / 2 - np.asarray(row)) * scale
+
+    def describe(self) -> dict:
+        """Derived quantities for meta.json."""
+        return {
+            "aperture_radius_m": self.aperture_radius_m,
+            "image_distance_m": self.image_distance_m,
+            "magnification": self.magnification,
+            "working_f_number": self.working_f_number,
+            "fov_x_deg": self.fov_x_deg,
+            "fov_y_deg": self.fov_y_deg,
+            "sensor_width_m": self.sensor_width_m,
+            "sensor_height_m": self.sensor_height_m,
+        }

@@ -1,0 +1,287 @@
+"""Spectral rendering with Mitsuba 3: variant choice, camera, film bands, passes, depth.
+
+The only module that imports Mitsuba. It turns a :class:`~spectral_cam.scene.SceneConfig`
+into a :class:`SpectralImage` of band radiances (W·m⁻²·sr⁻¹ per band: each value is the
+integral of L(λ) over its band, as Mitsuba's ``specfilm`` returns it) and a depth map.
+
+References
+----------
+.. [1] Jakob, W., et al. (2022). Mitsuba 3 renderer, https://mitsuba-renderer.org
+   (plugins ``thinlens``, ``perspective``, ``specfilm``, ``aov``).
+.. [2] Pharr, M., Jakob, W., & Humphreys, G. (2023). Physically Based Rendering, 4th ed.,
+   §5.2.3 (thin lens), §4.6 (spectral sampling).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from . import spectra
+from .errors import ConfigError, RenderError
+from .optics import ThinLens
+from .scene import SceneConfig
+
+__all__ = ["SpectralImage", "render", "choose_variant", "band_film"]
+
+#: Wavefront lanes per Mitsuba pass (pixels × spp); bounds memory for the vectorised variants.
+LANES_PER_PASS = 1 << 22
+#: Lanes per pass for the scalar variant (its cost is per sample; smaller passes give progress).
+SCALAR_LANES_PER_PASS = 1 << 20
+#: Oldest libLLVM that drjit's LLVM backend works with (older ones abort the process).
+MIN_LLVM_MAJOR = 16
+
+
+@dataclass
+class SpectralImage:
+    """Spectral radiance on the image plane.
+
+    Attributes
+    ----------
+    data
+        (H, W, B) float32 band integrals of radiance, W·m⁻²·sr⁻¹ (per band, not per nm).
+    wavelengths_nm
+        (B,) band centres, nm.
+    band_edges_nm
+        (B + 1,) band edges, nm.
+    depth_m
+        (H, W) camera-space z in metres (inf where nothing was hit), or None.
+    meta
+        Provenance: variant, spp, seeds, timings, optics.
+    """
+
+    data: np.ndarray
+    wavelengths_nm: np.ndarray
+    band_edges_nm: np.ndarray
+    depth_m: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def band_widths_nm(self) -> np.ndarray:
+        return np.diff(self.band_edges_nm)
+
+    @property
+    def radiance_per_nm(self) -> np.ndarray:
+        """Mean spectral radiance in each band, W·m⁻²·sr⁻¹·nm⁻¹."""
+        return self.data / self.band_widths_nm.astype(np.float32)
+
+
+# ----------------------------------------------------------------------------- variants
+_PROBE = r"""
+import sys
+import drjit as dr
+version = dr.detail.llvm_version()
+if version is None or version[0] < {min_major}:
+    sys.exit(3)
+import mitsuba as mi
+mi.set_variant("llvm_ad_spectral")
+scene = mi.load_dict({{"type": "scene", "sensor": {{"type": "perspective",
+    "film": {{"type": "specfilm", "width": 2, "height": 2,
+              "b": {{"type": "spectrum", "value": [(500, 1.0), (510, 1.0)]}}}}}},
+    "integrator": {{"type": "path"}}, "light": {{"type": "constant"}}}})
+mi.render(scene, spp=4)
+"""
+
+
+@functools.lru_cache(maxsize=None)
+def _llvm_usable() -> bool:
+    """Try the LLVM backend in a child process: with libLLVM < 16 drjit aborts the whole
+    process ("Cannot select fminimum"), which must not take this one down."""
+    try:
+        result = subprocess.run(
+            [sys.executable, "-c", _PROBE.format(min_major=MIN_LLVM_MAJOR)],
+            capture_output=True, timeout=120,
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return result.returncode == 0
+
+
+@functools.lru_cache(maxsize=None)
+def _cuda_usable() -> bool:
+    code = "import drjit as dr, sys; sys.exit(0 if dr.has_backend(dr.JitBackend.CUDA) else 3)"
+    try:
+        return subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+
+
+def choose_variant(requested: str = "auto") -> str:
+    """The Mitsuba variant to render with.
+
+    ``"auto"`` picks ``cuda_ad_spectral`` where a CUDA device works, else
+    ``llvm_ad_spectral`` where libLLVM ≥ 16 works, else ``scalar_spectral``. The
+    environment variable ``SPECTRAL_CAM_VARIANT`` overrides ``"auto"``.
+    """
+    import mitsuba as mi
+
+    requested = os.environ.get("SPECTRAL_CAM_VARIANT", requested) if requested == "auto" else requested
+    available = mi.variants()
+    if requested != "auto":
+        if requested not in available:
+            raise ConfigError(
+                f"render.variant = {requested!r} is not in this Mitsuba build; valid: auto, "
+                + ", ".join(v for v in available if "spectral" in v)
+            )
+        if requested.startswith("llvm") and not _llvm_usable():
+            raise RenderError(
+                f"{requested} needs libLLVM >= {MIN_LLVM_MAJOR} (apt-get install libllvm19); "
+                "use render.variant = 'scalar_spectral' or 'auto'"
+            )
+        return requested
+    if "cuda_ad_spectral" in available and _cuda_usable():
+        return "cuda_ad_spectral"
+    if "llvm_ad_spectral" in available and _llvm_usable():
+        return "llvm_ad_spectral"
+    return "scalar_spectral"
+
+
+# ----------------------------------------------------------------------------- scene dict
+def band_film(bands: spectra.BandGrid, width: int, height: int) -> dict:
+    """A ``specfilm`` with one box-shaped unit-sensitivity channel per band, so each channel
+    is the band integral of radiance. Names sort in band order (EXR sorts channel names)."""
+    film = {
+        "type": "specfilm",
+        "width": width,
+        "height": height,
+        "component_format": "float32",  # float16 overflows above 65504
+        "rfilter": {"type": "box"},  # the default gaussian correlates neighbouring pixels
+    }
+    for index, (lo, hi) in enumerate(zip(bands.edges_nm[:-1], bands.edges_nm[1:])):
+        film[f"band_{index:03d}"] = {"type": "spectrum", "value": [(lo, 1.0), (hi, 1.0)]}
+    return film
+
+
+def _camera(mi, lens: ThinLens, model: str, film: dict, spp: int) -> dict:
+    camera = {
+        "type": "thinlens" if model == "thin" else "perspective",
+        "fov": lens.fov_x_deg,
+        "fov_axis": "x",
+        "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0]),
+        "film": film,
+        "sampler": {"type": "independent", "sample_count": spp},
+        "near_clip": min(1e-3, lens.focus_distance_m / 10),
+    }
+    if model == "thin":
+        camera["aperture_radius"] = lens.aperture_radius_m
+        camera["focus_distance"] = lens.focus_distance_m
+    return camera
+
+
+def _scene_dict(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrator: dict) -> dict:
+    from .presets import build_objects
+
+    scene = {"type": "scene", "integrator": integrator, "sensor": camera}
+    scene.update(build_objects(config, lens, mi))
+    return scene
+
+
+def _load(mi, scene_dict: dict):
+    try:
+        return mi.load_dict(scene_dict)
+    except Exception as exc:  # Mitsuba raises plain RuntimeError on bad scenes
+        raise RenderError(f"Mitsuba could not load the scene: {exc}") from exc
+
+
+def _pass_seed(seed: int, index: int) -> int:
+    """Distinct, reproducible 32-bit seeds for the passes of one frame."""
+    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
+
+
+# ----------------------------------------------------------------------------- render
+def render(
+    config: SceneConfig,
+    *,
+    progress: Callable[[int, int, float], None] | None = None,
+    with_depth: bool = True,
+) -> SpectralImage:
+    """Render the scene's spectral radiance through the configured lens.
+
+    Parameters
+    ----------
+    config
+        The validated scene.
+    progress
+        Called after each pass with (spp done, spp total, seconds so far).
+    with_depth
+        Also render the camera-space depth map (a second, cheap render).
+
+    Returns
+    -------
+    SpectralImage
+        Band integrals of radiance, W·m⁻²·sr⁻¹, shape (height_px, width_px, bands).
+    """
+    import mitsuba as mi
+
+    variant = choose_variant(config.render.variant)
+    mi.set_variant(variant)
+    lens = ThinLens.from_config(config.lens, config.sensor)
+    bands = spectra.parse_bands(config.render.bands)
+    width, height = config.sensor.width_px, config.sensor.height_px
+    pixels = width * height
+    total_spp = config.render.spp
+    lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
+    spp_per_pass = max(1, min(total_spp, lanes // pixels))
+
+    started = time.perf_counter()
+    camera = _camera(mi, lens, config.lens.model, band_film(bands, width, height), spp_per_pass)
+    integrator = {"type": "path", "max_depth": config.render.max_depth}
+    scene = _load(mi, _scene_dict(mi, config, lens, camera, integrator))
+    load_s = time.perf_counter() - started
+
+    accumulated = np.zeros((height, width, len(bands)), dtype=np.float64)
+    done, index, seeds = 0, 0, []
+    while done < total_spp:
+        spp = min(spp_per_pass, total_spp - done)
+        seed = _pass_seed(config.render.seed, index)
+        image = np.asarray(mi.render(scene, seed=seed, spp=spp), dtype=np.float64)
+        accumulated += image.reshape(height, width, len(bands)) * spp
+        done += spp
+        index += 1
+        seeds.append(seed)
+        if progress is not None:
+            progress(done, total_spp, time.perf_counter() - started)
+    data = (accumulated / total_spp).astype(np.float32)
+    radiance_s = time.perf_counter() - started - load_s
+
+    depth, depth_s = None, 0.0
+    if with_depth:
+        t0 = time.perf_counter()
+        depth = render_depth(mi, config, lens)
+        depth_s = time.perf_counter() - t0
+
+    meta = {
+        "variant": variant,
+        "spp": total_spp,
+        "spp_per_pass": spp_per_pass,
+        "passes": index,
+        "pass_seeds": seeds,
+        "bands_nm": list(bands.centres_nm),
+        "optics": lens.describe(),
+        "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s},
+    }
+    return SpectralImage(data, np.asarray(bands.centres_nm), np.asarray(bands.edges_nm), depth, meta)
+
+
+def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
+    """Camera-space z (m) per pixel from the first hit's world position.
+
+    Mitsuba's ``depth`` AOV is the ray length, which off axis exceeds z by 1/cos θ; the
+    camera looks along +z from the origin, so the position's z component is the depth.
+    One sample per pixel keeps it a depth of one surface, never a blend across an edge.
+    """
+    width, height = config.sensor.width_px, config.sensor.height_px
+    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+            "pixel_format": "luminance", "component_format": "float32"}
+    camera = _camera(mi, lens, "pinhole", film, 1)
+    scene = _load(mi, _scene_dict(mi, config, lens, camera, {"type": "aov", "aovs": "pos:position"}))
+    image = np.asarray(mi.render(scene, seed=_pass_seed(config.render.seed, 1 << 20), spp=1))
+    z = image.reshape(height, width, -1)[..., 2].astype(np.float64)
+    return np.where(z > 0, z, np.inf).astype(np.float32)

@@ -1,0 +1,421 @@
+"""Scene files: TOML -> validated, frozen :class:`SceneConfig`.
+
+A scene file says only what differs from the defaults below; any key can be overridden
+with ``section.key=value`` strings (the CLI's ``--set``) or an ``overrides`` mapping.
+Every section is a frozen dataclass; :meth:`SceneConfig.to_dict` round-trips through
+:func:`scene_from_dict`, so each output's ``meta.json`` can reproduce its render.
+
+The geometry of the presets lives in :mod:`spectral_cam.presets`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+from . import spectra
+from .errors import ConfigError
+
+__all__ = [
+    "SceneConfig",
+    "SceneSection",
+    "IlluminantSection",
+    "LensSection",
+    "SensorSection",
+    "ExposureSection",
+    "RenderSection",
+    "ISPSection",
+    "load_scene",
+    "scene_from_dict",
+    "parse_override",
+    "PRESETS",
+    "CFA_PATTERNS",
+]
+
+#: Scene presets (geometry in :mod:`spectral_cam.presets`).
+PRESETS = ("colorchecker", "dof_targets", "slanted_edge", "flat_field", "point_sources")
+#: Bayer tiles, read row by row from the top-left pixel; "none" = monochrome.
+CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG", "none")
+LENS_MODELS = ("thin", "pinhole")
+
+
+def _fail(key: str, value: Any, rule: str) -> None:
+    raise ConfigError(f"{key} = {value!r}: {rule}")
+
+
+def _positive(key: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        _fail(key, value, "must be a finite number > 0")
+
+
+def _non_negative(key: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+        _fail(key, value, "must be a finite number >= 0")
+
+
+@dataclass(frozen=True)
+class SceneSection:
+    """What is in front of the camera.
+
+    ``distance_m`` is the subject distance of ``colorchecker``, ``flat_field`` and
+    ``slanted_edge``; ``depths_m`` the plane depths of ``dof_targets`` and the source depths
+    of ``point_sources``. ``fill`` is the fraction of the frame width the chart covers and
+    ``gap`` the fraction of each patch pitch left as dark border. ``reflectance`` is the
+    flat-field target (a number in [0, 1], a ColorChecker patch name or a CSV path).
+    """
+
+    preset: str = "colorchecker"
+    mitsuba_xml: str = ""
+    distance_m: float = 2.0
+    depths_m: tuple[float, ...] = (1.0, 2.0, 4.0)
+    fill: float = 0.8
+    gap: float = 0.15
+    reflectance: float | str = 0.18
+    edge_angle_deg: float = 5.0
+    source_radius_m: float = 0.002
+
+    def __post_init__(self) -> None:
+        if not self.mitsuba_xml and self.preset not in PRESETS:
+            _fail("scene.preset", self.preset, f"unknown preset; valid: {', '.join(PRESETS)} "
+                  "(or set scene.mitsuba_xml)")
+        if self.mitsuba_xml and not Path(self.mitsuba_xml).is_file():
+            _fail("scene.mitsuba_xml", self.mitsuba_xml, "file does not exist")
+        _positive("scene.distance_m", self.distance_m)
+        if not self.depths_m:
+            _fail("scene.depths_m", self.depths_m, "give at least one depth in metres")
+        for depth in self.depths_m:
+            _positive("scene.depths_m", depth)
+        if self.preset == "dof_targets" and len(self.depths_m) < 3:
+            _fail("scene.depths_m", self.depths_m, "dof_targets needs three or more depths")
+        if not 0 < self.fill <= 1:
+            _fail("scene.fill", self.fill, "must lie in (0, 1]")
+        if not 0 <= self.gap < 1:
+            _fail("scene.gap", self.gap, "must lie in [0, 1)")
+        if not 0 <= self.edge_angle_deg < 45:
+            _fail("scene.edge_angle_deg", self.edge_angle_deg, "must lie in [0, 45)")
+        _positive("scene.source_radius_m", self.source_radius_m)
+        spectra.reflectance(self.reflectance)
+
+
+@dataclass(frozen=True)
+class IlluminantSection:
+    """The light: a named SPD, ``blackbody:<K>`` or a CSV path, at ``illuminance_lux`` on a
+    surface facing the camera."""
+
+    spd: str = "D65"
+    illuminance_lux: float = 1000.0
+
+    def __post_init__(self) -> None:
+        _positive("illuminant.illuminance_lux", self.illuminance_lux)
+        spectra.illuminant(self.spd)
+
+
+@dataclass(frozen=True)
+class LensSection:
+    """A thin lens (or a pinhole with the same field of view)."""
+
+    focal_length_mm: float = 8.0
+    f_number: float = 2.8
+    focus_distance_m: float = 2.0
+    model: str = "thin"
+    transmission: float | str = 1.0
+
+    def __post_init__(self) -> None:
+        _positive("lens.focal_length_mm", self.focal_length_mm)
+        _positive("lens.f_number", self.f_number)
+        _positive("lens.focus_distance_m", self.focus_distance_m)
+        if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
+            _fail("lens.focus_distance_m", self.focus_distance_m,
+                  f"a thin lens focuses only beyond its focal length "
+                  f"({self.focal_length_mm / 1000:g} m); give a larger focus distance")
+        if self.model not in LENS_MODELS:
+            _fail("lens.model", self.model, f"valid: {', '.join(LENS_MODELS)}")
+        spectra.transmission(self.transmission)
+
+
+@dataclass(frozen=True)
+class SensorSection:
+    """The image sensor (EMVA 1288 linear model). Zero switches a noise term off."""
+
+    model: str = "nikon_d850"
+    width_px: int = 480
+    height_px: int = 320
+    pixel_pitch_um: float = 6.0
+    cfa: str = "RGGB"
+    peak_qe: float = 0.6
+    full_well_e: float = 20000.0
+    read_noise_e: float = 2.5
+    dark_current_e_per_s: float = 1.0
+    dsnu_e: float = 0.5
+    prnu: float = 0.005
+    bit_depth: int = 12
+    black_level_dn: int = 256
+    base_iso: float = 100.0
+    ir_cut: float | str = 1.0
+    seed: int = 0
+    shot_noise: bool = True
+    vignetting: bool = True
+
+    def __post_init__(self) -> None:
+        for key in ("width_px", "height_px"):
+            value = getattr(self, key)
+            if not isinstance(value, int) or value < 1 or value > 20000:
+                _fail(f"sensor.{key}", value, "must be a whole number of pixels in 1..20000")
+        _positive("sensor.pixel_pitch_um", self.pixel_pitch_um)
+        if self.model != "ideal":
+            spectra.camera_sensitivities(self.model)
+        if self.cfa not in CFA_PATTERNS:
+            _fail("sensor.cfa", self.cfa, f"valid: {', '.join(CFA_PATTERNS)}")
+        if self.cfa == "none" and self.model != "ideal":
+            _fail("sensor.cfa", self.cfa, "a monochrome sensor needs sensor.model = 'ideal'")
+        if not (isinstance(self.peak_qe, (int, float)) and 0 < self.peak_qe <= 1):
+            _fail("sensor.peak_qe", self.peak_qe, "must lie in (0, 1]")
+        _positive("sensor.full_well_e", self.full_well_e)
+        for key in ("read_noise_e", "dark_current_e_per_s", "dsnu_e", "prnu"):
+            _non_negative(f"sensor.{key}", getattr(self, key))
+        if not isinstance(self.bit_depth, int) or not 8 <= self.bit_depth <= 16:
+            _fail("sensor.bit_depth", self.bit_depth, "must be a whole number in 8..16")
+        if not isinstance(self.black_level_dn, int) or not 0 <= self.black_level_dn < 2 ** self.bit_depth - 1:
+            _fail("sensor.black_level_dn", self.black_level_dn,
+                  f"must be a whole number in 0..{2 ** self.bit_depth - 2}")
+        _positive("sensor.base_iso", self.base_iso)
+        spectra.transmission(self.ir_cut)
+
+    @property
+    def width_m(self) -> float:
+        return self.width_px * self.pixel_pitch_um * 1e-6
+
+    @property
+    def height_m(self) -> float:
+        return self.height_px * self.pixel_pitch_um * 1e-6
+
+
+@dataclass(frozen=True)
+class ExposureSection:
+    """Exposure time (s, or ``"auto"``: the brightest relevant region at ``auto_fraction``
+    of saturation) and ISO."""
+
+    time_s: float | str = "auto"
+    iso: float = 100.0
+    auto_fraction: float = 0.8
+
+    def __post_init__(self) -> None:
+        if self.time_s != "auto":
+            _positive("exposure.time_s", self.time_s)
+        _positive("exposure.iso", self.iso)
+        if not 0 < self.auto_fraction <= 1:
+            _fail("exposure.auto_fraction", self.auto_fraction, "must lie in (0, 1]")
+
+
+@dataclass(frozen=True)
+class RenderSection:
+    """Monte-Carlo rendering: samples per pixel, spectral bands, Mitsuba variant, seed."""
+
+    spp: int = 64
+    bands: str = "400:700:10"
+    variant: str = "auto"
+    seed: int = 0
+    max_depth: int = 8
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.spp, int) or self.spp < 1:
+            _fail("render.spp", self.spp, "must be a whole number >= 1")
+        spectra.parse_bands(self.bands)
+        if self.variant != "auto" and "spectral" not in self.variant:
+            _fail("render.variant", self.variant,
+                  "must be 'auto' or a spectral Mitsuba variant such as 'llvm_ad_spectral', "
+                  "'scalar_spectral' or 'cuda_ad_spectral'")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            _fail("render.seed", self.seed, "must be a whole number >= 0")
+        if not isinstance(self.max_depth, int) or self.max_depth < 1:
+            _fail("render.max_depth", self.max_depth, "must be a whole number >= 1")
+
+
+@dataclass(frozen=True)
+class ISPSection:
+    """Image-processing choices (see :mod:`spectral_cam.isp`)."""
+
+    white_balance: str = "as_shot"
+    demosaic: str = "malvar2004"
+    denoise: str = "off"
+    sharpen: float = 0.0
+    tone: str = "srgb"
+    colour_matrix: str = "fitted"
+    outputs: tuple[str, ...] = ("png",)
+
+
+_SECTIONS = {
+    "scene": SceneSection,
+    "illuminant": IlluminantSection,
+    "lens": LensSection,
+    "sensor": SensorSection,
+    "exposure": ExposureSection,
+    "render": RenderSection,
+    "isp": ISPSection,
+}
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """A whole, validated scene: one frozen section per TOML table."""
+
+    scene: SceneSection = field(default_factory=SceneSection)
+    illuminant: IlluminantSection = field(default_factory=IlluminantSection)
+    lens: LensSection = field(default_factory=LensSection)
+    sensor: SensorSection = field(default_factory=SensorSection)
+    exposure: ExposureSection = field(default_factory=ExposureSection)
+    render: RenderSection = field(default_factory=RenderSection)
+    isp: ISPSection = field(default_factory=ISPSection)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Plain, JSON/TOML-serialisable dict (tuples become lists)."""
+        out = {}
+        for name in _SECTIONS:
+            section = dataclasses.asdict(getattr(self, name))
+            out[name] = {k: list(v) if isinstance(v, tuple) else v for k, v in section.items()}
+        return out
+
+    def replace(self, **overrides: Any) -> "SceneConfig":
+        """A copy with ``"section.key": value`` overrides applied and validated."""
+        return scene_from_dict(self.to_dict(), overrides=overrides)
+
+
+# ----------------------------------------------------------------------------- coercion
+def _coerce(key: str, value: Any, default: Any, annotation: str) -> Any:
+    """Check a TOML value against a field's type and convert int->float, list->tuple."""
+    kinds = annotation.replace(" ", "").split("|")
+    if isinstance(value, bool):
+        if "bool" in kinds:
+            return value
+    elif isinstance(value, int) and "int" in kinds:
+        return value
+    elif isinstance(value, (int, float)) and "float" in kinds:
+        return float(value)
+    elif isinstance(value, float) and "int" in kinds and value.is_integer():
+        return int(value)
+    elif isinstance(value, str) and "str" in kinds:
+        return value
+    elif isinstance(value, str) and key in ("exposure.time_s",) and value == "auto":
+        return value
+    elif isinstance(value, (list, tuple)) and any(k.startswith("tuple") for k in kinds):
+        inner = "float" if "float" in annotation else "str"
+        items = []
+        for item in value:
+            if inner == "float" and isinstance(item, (int, float)) and not isinstance(item, bool):
+                items.append(float(item))
+            elif inner == "str" and isinstance(item, str):
+                items.append(item)
+            else:
+                _fail(key, value, f"must be a list of {inner} values")
+        return tuple(items)
+    expected = " or ".join("a list" if k.startswith("tuple") else k for k in kinds)
+    _fail(key, value, f"has the wrong type; expected {expected} (default {default!r})")
+
+
+def _resolve_path(value: Any, base_dir: Path) -> Any:
+    """Make a relative file path (CSV, XML) relative to the scene file's folder."""
+    if isinstance(value, str) and (value.lower().endswith((".csv", ".xml"))):
+        path = Path(value).expanduser()
+        if not path.is_absolute():
+            path = base_dir / path
+        return str(path.resolve())
+    return value
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """Split ``"section.key=value"``; the value is read as a TOML value, else a string."""
+    if "=" not in text:
+        raise ConfigError(f"override {text!r}: use section.key=value, e.g. lens.f_number=2.8")
+    key, raw = (part.strip() for part in text.split("=", 1))
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value
+
+
+def scene_from_dict(
+    data: Mapping[str, Any],
+    *,
+    overrides: Mapping[str, Any] | None = None,
+    base_dir: str | Path = ".",
+) -> SceneConfig:
+    """Build and validate a :class:`SceneConfig` from nested dicts (as read from TOML).
+
+    Parameters
+    ----------
+    data
+        ``{"section": {"key": value}}``; missing keys take their defaults.
+    overrides
+        ``{"section.key": value}`` applied on top (values as Python objects or strings).
+    base_dir
+        Folder that relative CSV/XML paths are resolved against.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown section or key (listing the valid ones) or an invalid value.
+    """
+    base_dir = Path(base_dir)
+    merged: dict[str, dict[str, Any]] = {}
+    for section, table in data.items():
+        if section not in _SECTIONS:
+            raise ConfigError(f"unknown section [{section}]; valid: {', '.join(_SECTIONS)}")
+        if not isinstance(table, Mapping):
+            raise ConfigError(f"[{section}] must be a table of key = value pairs")
+        merged[section] = dict(table)
+    for dotted, value in (overrides or {}).items():
+        section, _, key = str(dotted).partition(".")
+        if section not in _SECTIONS or not key:
+            raise ConfigError(
+                f"override {dotted!r}: use section.key with a section among {', '.join(_SECTIONS)}"
+            )
+        merged.setdefault(section, {})[key] = value
+    sections = {}
+    for name, cls in _SECTIONS.items():
+        table = merged.get(name, {})
+        known = {f.name: f for f in fields(cls)}
+        unknown = sorted(set(table) - set(known))
+        if unknown:
+            raise ConfigError(
+                f"unknown key(s) {', '.join(f'{name}.{k}' for k in unknown)}; valid keys of "
+                f"[{name}]: {', '.join(known)}"
+            )
+        kwargs = {}
+        for key, value in table.items():
+            f = known[key]
+            value = _resolve_path(value, base_dir)
+            kwargs[key] = _coerce(f"{name}.{key}", value, f.default, str(f.type))
+        try:
+            sections[name] = cls(**kwargs)
+        except ConfigError:
+            raise
+        except (TypeError, ValueError) as exc:  # e.g. a comparison with a wrong type
+            raise ConfigError(f"[{name}]: {exc}") from None
+    return SceneConfig(**sections)
+
+
+def load_scene(path: str | Path, overrides: Mapping[str, Any] | list[str] | None = None) -> SceneConfig:
+    """Read a TOML scene file, apply overrides and validate.
+
+    Parameters
+    ----------
+    path
+        The ``.toml`` scene file.
+    overrides
+        ``{"lens.f_number": 2.8}`` or a list of ``"section.key=value"`` strings.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"scene file {str(path)!r} does not exist")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path} is not a valid TOML scene file: {exc}") from None
+    if isinstance(overrides, (list, tuple)):
+        overrides = dict(parse_override(item) for item in overrides)
+    return scene_from_dict(data, overrides=overrides, base_dir=path.parent)

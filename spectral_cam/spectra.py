@@ -1,0 +1,366 @@
+"""Spectral data: wavelength bands, illuminants, reflectances, camera sensitivities, filters.
+
+Everything here is a plain function returning :class:`colour.SpectralDistribution` or
+:class:`colour.MultiSpectralDistributions` objects, or NumPy arrays sampled on a band grid.
+Wavelengths are in nm throughout.
+
+Sources
+-------
+- Illuminants and light sources: colour-science (CIE 15:2004 tables and others).
+- ColorChecker reflectances: BabelColor average of 30 charts (colour-science
+  ``SDS_COLOURCHECKERS["BabelColor Average"]``).
+- Camera sensitivities: the 17 measured cameras shipped in ``spectral_cam/data/cameras``
+  (pbrt-v4 / PhysLight data, see the README there) and colour-science's two NPL cameras.
+
+References
+----------
+.. [1] CIE 15:2004, Colorimetry, 3rd edition.
+.. [2] Pascale, D. (2006). RGB coordinates of the Macbeth ColorChecker. BabelColor.
+.. [3] Langlands, A., & Fascione, L. (2020). PhysLight: An end-to-end pipeline for
+   scene-referred lighting. DigiPro '20.
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import re
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ConfigError
+
+__all__ = [
+    "BandGrid",
+    "parse_bands",
+    "illuminant",
+    "illuminant_names",
+    "absolute_irradiance",
+    "reflectance",
+    "colorchecker_reflectances",
+    "camera_sensitivities",
+    "camera_names",
+    "transmission",
+    "load_spectrum_csv",
+    "sample",
+    "band_integrals",
+    "MITSUBA_RANGE_NM",
+    "K_M_LM_PER_W",
+]
+
+#: Wavelength range Mitsuba 3's spectral variants sample (nm).
+MITSUBA_RANGE_NM = (360.0, 830.0)
+#: Maximum luminous efficacy of photopic vision (lm/W), CIE 15:2004.
+K_M_LM_PER_W = 683.0
+COLORCHECKER_SET = "BabelColor Average"
+_CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
+
+
+# ----------------------------------------------------------------------------- bands
+@dataclass(frozen=True)
+class BandGrid:
+    """Contiguous wavelength bands given by their centres and edges (nm).
+
+    ``edges_nm`` has ``len(centres_nm) + 1`` entries; band *i* covers
+    ``[edges_nm[i], edges_nm[i + 1]]``.
+    """
+
+    centres_nm: tuple[float, ...]
+    edges_nm: tuple[float, ...]
+
+    @property
+    def widths_nm(self) -> np.ndarray:
+        return np.diff(np.asarray(self.edges_nm))
+
+    def __len__(self) -> int:
+        return len(self.centres_nm)
+
+
+def parse_bands(spec: str) -> BandGrid:
+    """Parse ``"start:stop:step"`` (band CENTRES in nm, each band ``step`` wide).
+
+    ``"400:700:10"`` gives 31 bands centred on 400, 410, ..., 700 nm, each ±5 nm.
+
+    Raises
+    ------
+    ConfigError
+        If the string is malformed or the bands leave Mitsuba's 360–830 nm range.
+    """
+    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*:\s*(\d+(?:\.\d+)?)\s*:\s*(\d+(?:\.\d+)?)\s*", str(spec))
+    if not match:
+        raise ConfigError(
+            f"render.bands = {spec!r} is not valid: use 'start:stop:step' band centres in nm "
+            "(e.g. '400:700:10') or 'camera'"
+        )
+    start, stop, step = (float(g) for g in match.groups())
+    if step <= 0 or stop < start:
+        raise ConfigError(f"render.bands = {spec!r}: need step > 0 and stop >= start")
+    count = int(round((stop - start) / step)) + 1
+    centres = start + step * np.arange(count)
+    edges = np.concatenate([centres - step / 2, [centres[-1] + step / 2]])
+    lo, hi = MITSUBA_RANGE_NM
+    if edges[0] < lo or edges[-1] > hi:
+        raise ConfigError(
+            f"render.bands = {spec!r} spans {edges[0]:g}–{edges[-1]:g} nm; Mitsuba samples "
+            f"{lo:g}–{hi:g} nm only"
+        )
+    return BandGrid(tuple(float(c) for c in centres), tuple(float(e) for e in edges))
+
+
+# ----------------------------------------------------------------------------- CSV
+def load_spectrum_csv(path: str | Path) -> "colour.SpectralDistribution":  # noqa: F821
+    """Read a two-column CSV ``wavelength_nm,value`` (a header line is optional)."""
+    import colour
+
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"spectrum file {str(path)!r} does not exist")
+    rows = []
+    try:
+        with path.open(newline="") as handle:
+            for row in csv.reader(handle):
+                if not row or row[0].strip().startswith("#"):
+                    continue
+                try:
+                    rows.append((float(row[0]), float(row[1])))
+                except (ValueError, IndexError):
+                    if rows:  # a header is allowed only before the data
+                        raise ConfigError(f"{path}: unreadable row {row!r}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path} is not a text CSV file: {exc}") from None
+    if len(rows) < 2:
+        raise ConfigError(f"{path}: need at least two 'wavelength_nm,value' rows")
+    data = np.asarray(sorted(rows))
+    if not np.all(np.isfinite(data)) or np.any(data[:, 1] < 0):
+        raise ConfigError(f"{path}: values must be finite and non-negative")
+    return colour.SpectralDistribution(dict(zip(data[:, 0], data[:, 1])), name=path.stem)
+
+
+# ----------------------------------------------------------------------------- illuminants
+@functools.lru_cache(maxsize=1)
+def _illuminant_table() -> dict[str, object]:
+    import colour
+
+    table = {}
+    for mapping in (colour.SDS_LIGHT_SOURCES, colour.SDS_ILLUMINANTS):
+        for name, sd in mapping.items():
+            table[name] = sd
+    return table
+
+
+def illuminant_names() -> list[str]:
+    """Names accepted by :func:`illuminant` (besides ``blackbody:<K>`` and CSV paths)."""
+    return sorted(_illuminant_table(), key=str.casefold)
+
+
+def illuminant(spec: str) -> "colour.SpectralDistribution":  # noqa: F821
+    """Relative spectral power distribution of a named illuminant.
+
+    Parameters
+    ----------
+    spec
+        A colour-science illuminant or light-source name (``"D65"``, ``"A"``, ``"FL11"``,
+        ``"LED-B1"``, ...), ``"blackbody:<temperature in K>"`` or the path of a CSV file.
+    """
+    import colour
+
+    spec = str(spec).strip()
+    if spec.lower().startswith("blackbody:"):
+        try:
+            kelvin = float(spec.split(":", 1)[1])
+        except ValueError:
+            kelvin = -1.0
+        if not 500 <= kelvin <= 50000:
+            raise ConfigError(f"illuminant {spec!r}: use 'blackbody:<K>' with 500 <= K <= 50000")
+        return colour.sd_blackbody(kelvin, colour.SpectralShape(360, 830, 1))
+    if spec.lower().endswith(".csv") or "/" in spec:
+        return load_spectrum_csv(spec)
+    table = _illuminant_table()
+    by_fold = {name.casefold(): name for name in table}
+    if spec.casefold() in by_fold:
+        return table[by_fold[spec.casefold()]].copy()
+    raise ConfigError(
+        f"unknown illuminant {spec!r}; valid: 'blackbody:<K>', a CSV path, or one of "
+        + ", ".join(illuminant_names())
+    )
+
+
+def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, np.ndarray]:
+    """Spectral irradiance (W·m⁻²·nm⁻¹) on 1-nm steps over Mitsuba's range for a given
+    illuminance.
+
+    The relative SPD S(λ) is scaled by k so that ``K_m ∫ k S(λ) ȳ(λ) dλ = E_v``
+    (CIE 15:2004 eq. for luminous quantities, ȳ = CIE 1931 2° observer, K_m = 683 lm/W).
+
+    Returns
+    -------
+    wavelengths_nm, irradiance_w_m2_nm
+    """
+    import colour
+
+    if not np.isfinite(illuminance_lux) or illuminance_lux <= 0:
+        raise ConfigError(f"illuminant.illuminance_lux = {illuminance_lux!r}: must be > 0")
+    wavelengths = np.arange(MITSUBA_RANGE_NM[0], MITSUBA_RANGE_NM[1] + 1.0)
+    relative = sample(illuminant(spec), wavelengths, outside=0.0)
+    ybar = sample(colour.MSDS_CMFS[_CMFS_NAME], wavelengths, outside=0.0)[:, 1]
+    luminous = K_M_LM_PER_W * np.sum(relative * ybar)  # 1-nm steps
+    if luminous <= 0:
+        raise ConfigError(f"illuminant {spec!r} has no visible power; cannot set its illuminance")
+    return wavelengths, relative * (illuminance_lux / luminous)
+
+
+# ----------------------------------------------------------------------------- reflectances
+def colorchecker_reflectances() -> dict[str, "colour.SpectralDistribution"]:  # noqa: F821
+    """The 24 ColorChecker patches (BabelColor average), in chart reading order."""
+    import colour
+
+    return {name: sd.copy() for name, sd in colour.SDS_COLOURCHECKERS[COLORCHECKER_SET].items()}
+
+
+def reflectance(spec: float | str) -> "colour.SpectralDistribution":  # noqa: F821
+    """A reflectance spectrum: a number in [0, 1] (flat), a ColorChecker patch name
+    (``"dark skin"`` ... ``"black 2 (1.5 D)"``) or a CSV path."""
+    import colour
+
+    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
+        value = float(spec)
+        if not 0.0 <= value <= 1.0:
+            raise ConfigError(f"reflectance {value!r} must lie in [0, 1]")
+        return colour.SpectralDistribution({360.0: value, 830.0: value}, name=f"flat {value:g}")
+    spec = str(spec)
+    if spec.lower().endswith(".csv") or "/" in spec:
+        return load_spectrum_csv(spec)
+    patches = colorchecker_reflectances()
+    by_fold = {name.casefold(): name for name in patches}
+    if spec.casefold() in by_fold:
+        return patches[by_fold[spec.casefold()]]
+    raise ConfigError(
+        f"unknown reflectance {spec!r}; valid: a number in [0, 1], a CSV path, or a "
+        f"ColorChecker patch name: {', '.join(patches)}"
+    )
+
+
+# ----------------------------------------------------------------------------- cameras
+def _slug(name: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "_", name.casefold()).strip("_")
+
+
+@functools.lru_cache(maxsize=1)
+def _camera_sources() -> dict[str, object]:
+    """slug -> packaged CSV resource or colour-science dataset key."""
+    import colour
+
+    sources: dict[str, object] = {}
+    folder = resources.files("spectral_cam") / "data" / "cameras"
+    for entry in folder.iterdir():
+        if entry.name.endswith(".csv"):
+            sources[entry.name[:-4]] = entry
+    for key in colour.MSDS_CAMERA_SENSITIVITIES:
+        sources[_slug(key)] = key
+    return dict(sorted(sources.items()))
+
+
+def camera_names() -> list[str]:
+    """The measured cameras available as ``sensor.model`` (plus ``"ideal"``)."""
+    return list(_camera_sources())
+
+
+@functools.lru_cache(maxsize=None)
+def _camera_sensitivities_cached(slug: str):
+    import colour
+
+    source = _camera_sources()[slug]
+    if isinstance(source, str):
+        msds = colour.MSDS_CAMERA_SENSITIVITIES[source].copy()
+        msds.labels = ("r", "g", "b")
+        msds.name = slug
+        return msds
+    with source.open() as handle:
+        rows = list(csv.reader(handle))
+    header, body = rows[0], np.asarray(rows[1:], dtype=float)
+    # The 720 nm row of the pbrt-v4 data holds one fill value in r, g and b (see the
+    # data README): it is not a measurement, so the curves end at 710 nm.
+    body = body[body[:, 0] <= 710.0]
+    return colour.MultiSpectralDistributions(
+        dict(zip(body[:, 0], body[:, 1:])), labels=tuple(header[1:]), name=slug
+    )
+
+
+def camera_sensitivities(name: str) -> "colour.MultiSpectralDistributions":  # noqa: F821
+    """Relative spectral sensitivities (per unit energy) of a measured camera's r, g, b
+    channels.
+
+    Parameters
+    ----------
+    name
+        One of :func:`camera_names` (case and punctuation insensitive, e.g.
+        ``"nikon_d850"`` or ``"Nikon D850"``).
+    """
+    slug = _slug(str(name))
+    if slug not in _camera_sources():
+        raise ConfigError(
+            f"unknown camera {name!r}; valid: 'ideal' or one of {', '.join(camera_names())}"
+        )
+    return _camera_sensitivities_cached(slug).copy()
+
+
+# ----------------------------------------------------------------------------- filters
+def transmission(spec: float | str | None) -> "colour.SpectralDistribution | None":  # noqa: F821
+    """A filter/lens transmission: ``None``/``1`` (none), a number in (0, 1], or a CSV path."""
+    if spec is None or (isinstance(spec, (int, float)) and float(spec) == 1.0):
+        return None
+    if isinstance(spec, str) and spec.strip().lower() in ("", "none", "1"):
+        return None
+    sd = reflectance(spec) if isinstance(spec, (int, float)) else load_spectrum_csv(spec)
+    if np.max(sd.values) > 1.0 + 1e-9:
+        raise ConfigError(f"transmission {spec!r} exceeds 1; give a fraction in [0, 1]")
+    return sd
+
+
+# ----------------------------------------------------------------------------- sampling
+def sample(sd, wavelengths_nm, *, outside: float | None = None) -> np.ndarray:
+    """Linearly interpolate a spectral distribution at given wavelengths.
+
+    Outside the tabulated range the end values are held (``outside=None``) or replaced by
+    ``outside``. Linear interpolation keeps spiky spectra (FL11) non-negative.
+    """
+    wavelengths_nm = np.asarray(wavelengths_nm, dtype=float)
+    values = np.asarray(sd.values, dtype=float)
+    domain = np.asarray(sd.wavelengths, dtype=float)
+    if values.ndim == 1:
+        return np.interp(wavelengths_nm, domain, values,
+                         left=outside, right=outside)
+    return np.stack(
+        [np.interp(wavelengths_nm, domain, values[:, i], left=outside, right=outside)
+         for i in range(values.shape[1])],
+        axis=-1,
+    )
+
+
+def band_integrals(values_per_nm: np.ndarray, wavelengths_nm: np.ndarray, bands: BandGrid) -> np.ndarray:
+    """Integrate a function tabulated on a fine grid over each band (trapezoid rule).
+
+    Parameters
+    ----------
+    values_per_nm
+        Values per nm (e.g. W·m⁻²·sr⁻¹·nm⁻¹), shape (..., n_wavelengths).
+    wavelengths_nm
+        Increasing sample wavelengths (nm); should be fine (≤ 1 nm) for accuracy.
+    bands
+        The bands to integrate over.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (..., len(bands)), in the values' units times nm.
+    """
+    values_per_nm = np.asarray(values_per_nm, dtype=float)
+    out = []
+    for lo, hi in zip(bands.edges_nm[:-1], bands.edges_nm[1:]):
+        grid = np.linspace(lo, hi, max(int(round((hi - lo) / 0.1)), 2) + 1)
+        interp = np.apply_along_axis(lambda v: np.interp(grid, wavelengths_nm, v), -1, values_per_nm)
+        out.append(np.trapezoid(interp, grid, axis=-1))
+    return np.stack(out, axis=-1)

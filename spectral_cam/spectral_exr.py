@@ -1,0 +1,124 @@
+"""Multichannel spectral OpenEXR files (radiance per nm, one float32 channel per band).
+
+The layout is that of Fichet, Pacanowski & Wilkie (2021): emissive channels named
+``S0.<λ>nm`` with the wavelength written with a decimal comma (``S0.550,000000nm``, since a
+period separates EXR layers), a ``spectralLayoutVersion`` attribute and ``emissiveUnits``.
+pbrt-v4 and ART read it. The band edges (which the layout does not carry) are stored in an
+extra ``spectral_cam_band_edges_nm`` attribute so the file round-trips exactly.
+
+References
+----------
+.. [1] Fichet, A., Pacanowski, R., & Wilkie, A. (2021). An OpenEXR Layout for Spectral
+   Images. Journal of Computer Graphics Techniques 10(3), 1–18.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .errors import RawFormatError
+from .render import SpectralImage
+from .io import atomic_path
+
+__all__ = ["write_spectral_exr", "read_spectral_exr", "write_depth_exr", "read_depth_exr", "channel_name"]
+
+_CHANNEL = re.compile(r"^S0\.(\d+(?:,\d+)?)nm$")
+EMISSIVE_UNITS = "W.m^-2.sr^-1"
+
+
+def channel_name(wavelength_nm: float) -> str:
+    """``S0.<λ>nm`` with a decimal comma, e.g. ``S0.550,000000nm``."""
+    return "S0." + f"{wavelength_nm:.6f}".replace(".", ",") + "nm"
+
+
+def write_spectral_exr(image: SpectralImage, path: str | Path) -> Path:
+    """Write spectral radiance **per nm** (band integral / band width), W·m⁻²·sr⁻¹·nm⁻¹.
+
+    The file appears only once complete (written to a temporary name, then renamed).
+    """
+    import OpenEXR
+
+    radiance = image.radiance_per_nm.astype(np.float32)
+    channels = {
+        channel_name(w): np.ascontiguousarray(radiance[..., i])
+        for i, w in enumerate(image.wavelengths_nm)
+    }
+    header = {
+        "compression": OpenEXR.ZIP_COMPRESSION,
+        "type": OpenEXR.scanlineimage,
+        "spectralLayoutVersion": "1.0",
+        "emissiveUnits": EMISSIVE_UNITS,
+        "spectral_cam_band_edges_nm": json.dumps([float(e) for e in image.band_edges_nm]),
+    }
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with OpenEXR.File(header, channels) as exr:
+            exr.write(str(tmp))
+    return path
+
+
+def _open(path: Path):
+    import OpenEXR
+
+    if not path.is_file():
+        raise RawFormatError(f"{path} does not exist")
+    try:
+        return OpenEXR.File(str(path))
+    except Exception as exc:  # OpenEXR raises a bare Exception on corrupt files
+        raise RawFormatError(f"{path} is not a readable OpenEXR file: {exc}") from None
+
+
+def read_spectral_exr(path: str | Path) -> SpectralImage:
+    """Read a spectral EXR (ours or any file in the Fichet et al. layout) into a
+    :class:`SpectralImage` of band integrals."""
+    path = Path(path)
+    exr = _open(path)
+    header = exr.header()
+    parts = exr.channels()
+    found = []
+    for name, channel in parts.items():
+        match = _CHANNEL.match(name)
+        if match:
+            found.append((float(match.group(1).replace(",", ".")), channel.pixels))
+    if not found:
+        raise RawFormatError(
+            f"{path} has no emissive spectral channels named S0.<wavelength>nm; "
+            f"it holds {', '.join(sorted(parts)) or 'no channels'}"
+        )
+    found.sort(key=lambda item: item[0])
+    wavelengths = np.array([w for w, _ in found])
+    per_nm = np.stack([np.asarray(p, dtype=np.float32) for _, p in found], axis=-1)
+    if "spectral_cam_band_edges_nm" in header:
+        edges = np.asarray(json.loads(header["spectral_cam_band_edges_nm"]), dtype=float)
+    else:  # contiguous bands around the sampled wavelengths
+        mids = (wavelengths[1:] + wavelengths[:-1]) / 2
+        first = wavelengths[0] - (mids[0] - wavelengths[0]) if len(mids) else wavelengths[0] - 0.5
+        last = wavelengths[-1] + (wavelengths[-1] - mids[-1]) if len(mids) else wavelengths[0] + 0.5
+        edges = np.concatenate([[first], mids, [last]])
+    data = per_nm * np.diff(edges).astype(np.float32)
+    return SpectralImage(data, wavelengths, edges, None, {"source": str(path)})
+
+
+def write_depth_exr(depth_m: np.ndarray, path: str | Path) -> Path:
+    """Write camera-space depth (m) as a single float32 channel ``Z``."""
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with OpenEXR.File(header, {"Z": np.ascontiguousarray(depth_m.astype(np.float32))}) as exr:
+            exr.write(str(tmp))
+    return path
+
+
+def read_depth_exr(path: str | Path) -> np.ndarray:
+    """Read the ``Z`` channel of a depth EXR (m)."""
+    path = Path(path)
+    channels = _open(path).channels()
+    if "Z" not in channels:
+        raise RawFormatError(f"{path} has no 'Z' channel; it holds {', '.join(sorted(channels))}")
+    return np.asarray(channels["Z"].pixels, dtype=np.float32)
