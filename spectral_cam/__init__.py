@@ -15,11 +15,13 @@ import importlib
 from .errors import ConfigError, RawFormatError, RenderError, SensorError, SpectralCamError
 from .scene import SceneConfig, load_scene, scene_from_dict
 
+# imported eagerly so that the function, not the submodule of the same name, is
+# ``spectral_cam.render`` (render.py imports Mitsuba only when it renders)
+from .render import SpectralImage, render
+
 __version__ = "0.1.0"
 
 _LAZY = {
-    "render": ("render", "render"),
-    "SpectralImage": ("render", "SpectralImage"),
     "ThinLens": ("optics", "ThinLens"),
     "write_spectral_exr": ("spectral_exr", "write_spectral_exr"),
     "read_spectral_exr": ("spectral_exr", "read_spectral_exr"),
@@ -33,7 +35,7 @@ _LAZY = {
 
 __all__ = [
     "SpectralCamError", "ConfigError", "RenderError", "SensorError", "RawFormatError",
-    "SceneConfig", "load_scene", "scene_from_dict", *_LAZY,
+    "SceneConfig", "load_scene", "scene_from_dict", "render", "SpectralImage", *_LAZY,
 ]
 
 

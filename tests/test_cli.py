@@ -1,0 +1,87 @@
+"""The command line: outputs as DESIGN.md specifies, and user errors without tracebacks."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from spectral_cam.spectral_exr import read_depth_exr, read_spectral_exr
+
+
+def run_cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "spectral_cam.cli", *args],
+                          capture_output=True, text=True, cwd=cwd, timeout=240)
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(
+        '[scene]\npreset = "colorchecker"\n[sensor]\nwidth_px = 36\nheight_px = 24\n'
+        '[render]\nspp = 8\n'
+    )
+    return path
+
+
+@pytest.mark.timeout(240)
+def test_render_writes_radiance_depth_and_meta(tmp_path, scene_file):
+    out = tmp_path / "out"
+    result = run_cli("render", str(scene_file), "-o", str(out), "--set", "lens.f_number=4")
+    assert result.returncode == 0, result.stderr
+    radiance = read_spectral_exr(out / "radiance.exr")
+    assert radiance.data.shape == (24, 36, 31)
+    assert radiance.wavelengths_nm[0] == 400 and radiance.wavelengths_nm[-1] == 700
+    import OpenEXR
+
+    exr = OpenEXR.File(str(out / "radiance.exr"))
+    header, names = exr.header(), list(exr.channels())
+    assert "S0.550,000000nm" in names
+    assert header["spectralLayoutVersion"] == "1.0" and header["emissiveUnits"] == "W.m^-2.sr^-1"
+    depth = read_depth_exr(out / "depth.exr")
+    assert depth.shape == (24, 36) and np.nanmin(depth) >= 2.0 - 1e-3
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["config"]["lens"]["f_number"] == 4.0
+    optics = meta["optics"]
+    f, z = 8e-3, 2.0
+    assert optics["image_distance_m"] == pytest.approx(f * z / (z - f))
+    assert optics["aperture_radius_m"] == pytest.approx(f / 8)
+    assert meta["render"]["variant"].endswith("spectral")
+    assert set(meta["timings_s"]) >= {"radiance", "depth", "total"}
+    assert "mitsuba" in meta["versions"]
+    # an existing result is never overwritten without --force
+    again = run_cli("render", str(scene_file), "-o", str(out))
+    assert again.returncode == 2 and "--force" in again.stderr
+    forced = run_cli("render", str(scene_file), "-o", str(out), "--force", "-q")
+    assert forced.returncode == 0, forced.stderr
+
+
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        ("illuminant.spd=D66", "unknown illuminant 'D66'"),
+        ("sensor.model=nokia", "unknown camera 'nokia'"),
+        ("lens.focus_distance_m=0.005", "focuses only beyond its focal length"),
+        ("lens.f_number=0", "lens.f_number"),
+        ("sensor.width_px=-3", "sensor.width_px"),
+        ("nonsense", "use section.key=value"),
+    ],
+)
+def test_user_errors_exit_nonzero_without_traceback_or_output(tmp_path, scene_file, override, message):
+    out = tmp_path / "never"
+    result = run_cli("render", str(scene_file), "-o", str(out), "--set", override)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not out.exists()
+    assert not any(p.name.startswith(".never") for p in tmp_path.iterdir())
+
+
+def test_cameras_lists_the_measured_sensors():
+    result = run_cli("cameras")
+    assert result.returncode == 0
+    names = result.stdout.split()
+    assert "nikon_d850" in names and "sony_ilce_7m3" in names and "nikon_5100_npl" in names

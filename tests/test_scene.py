@@ -1,0 +1,112 @@
+"""Scene files, overrides and validation: bad input gets a message that says what is valid."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from spectral_cam import ConfigError, load_scene, scene_from_dict
+from spectral_cam.spectra import camera_names, illuminant_names, parse_bands
+
+
+def test_defaults_and_round_trip_through_dict(tmp_path):
+    config = scene_from_dict({"lens": {"f_number": 2}})
+    assert config.lens.f_number == 2.0 and isinstance(config.lens.f_number, float)
+    again = scene_from_dict(json.loads(json.dumps(config.to_dict())))
+    assert again == config
+
+
+def test_toml_file_with_overrides(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text('[scene]\npreset = "flat_field"\nreflectance = "dark skin"\n[lens]\nf_number = 4\n')
+    config = load_scene(path, overrides=["lens.f_number=2.8", "sensor.model=canon_eos_5d_mkiv",
+                                         "scene.depths_m=[1, 2, 3]"])
+    assert config.lens.f_number == 2.8
+    assert config.sensor.model == "canon_eos_5d_mkiv"
+    assert config.scene.depths_m == (1.0, 2.0, 3.0)
+    assert config.scene.reflectance == "dark skin"
+
+
+def test_bundled_scenes_load():
+    from pathlib import Path
+
+    for path in sorted((Path(__file__).parent.parent / "scenes").glob("*.toml")):
+        load_scene(path)
+
+
+def test_bands_are_centres():
+    bands = parse_bands("400:700:10")
+    assert len(bands) == 31
+    assert bands.centres_nm[0] == 400 and bands.edges_nm[0] == 395 and bands.edges_nm[-1] == 705
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        ({"illuminant.spd": "D66"}, "unknown illuminant 'D66'; valid:"),
+        ({"sensor.model": "nikon_d9000"}, "unknown camera 'nikon_d9000'; valid:"),
+        ({"lens.focus_distance_m": 0.04, "lens.focal_length_mm": 50}, "focuses only beyond its focal length"),
+        ({"lens.focus_distance_m": 0.05, "lens.focal_length_mm": 50}, "focuses only beyond its focal length"),
+        ({"lens.f_number": 0}, "lens.f_number = 0.0: must be a finite number > 0"),
+        ({"lens.f_number": -2}, "lens.f_number = -2.0: must be a finite number > 0"),
+        ({"sensor.width_px": 0}, "sensor.width_px = 0: must be a whole number of pixels"),
+        ({"sensor.height_px": -5}, "sensor.height_px = -5: must be a whole number of pixels"),
+        ({"sensor.pixel_pitch_um": 0}, "sensor.pixel_pitch_um = 0.0: must be a finite number > 0"),
+        ({"sensor.width_px": 2.5}, "sensor.width_px = 2.5: has the wrong type"),
+        ({"lens.model": "fisheye"}, "valid: thin, pinhole"),
+        ({"scene.preset": "teapot"}, "unknown preset; valid: colorchecker"),
+        ({"render.bands": "700:400:10"}, "need step > 0 and stop >= start"),
+        ({"render.bands": "300:700:10"}, "Mitsuba samples 360–830 nm only"),
+        ({"lens.aperture": 2}, "unknown key(s) lens.aperture; valid keys of [lens]:"),
+        ({"optics.f_number": 2}, "use section.key with a section among scene, illuminant"),
+        ({"illuminant.illuminance_lux": -1}, "must be a finite number > 0"),
+        ({"scene.reflectance": 1.5}, "reflectance 1.5 must lie in [0, 1]"),
+    ],
+)
+def test_bad_values_are_refused_with_what_is_valid(overrides, message):
+    with pytest.raises(ConfigError) as info:
+        scene_from_dict({}, overrides=overrides)
+    assert message in str(info.value)
+
+
+def test_unknown_names_list_the_valid_ones():
+    with pytest.raises(ConfigError) as info:
+        scene_from_dict({"illuminant": {"spd": "sunlight"}})
+    assert all(name in str(info.value) for name in ("D65", "A", "FL11", "blackbody:<K>"))
+    with pytest.raises(ConfigError) as info:
+        scene_from_dict({"sensor": {"model": "leica"}})
+    assert all(name in str(info.value) for name in camera_names())
+    assert len(camera_names()) == 19  # 17 measured (pbrt-v4/PhysLight) + colour-science's 2
+    assert "D65" in illuminant_names()
+
+
+def test_blackbody_and_csv_spectra(tmp_path):
+    csv = tmp_path / "led.csv"
+    csv.write_text("wavelength_nm,value\n400,0\n450,1\n500,0\n")
+    scene_from_dict({"illuminant": {"spd": "blackbody:3200"}})
+    config = load_scene(_scene_file(tmp_path, '[illuminant]\nspd = "led.csv"\n'))
+    assert config.illuminant.spd == str(csv.resolve())
+    with pytest.raises(ConfigError, match="blackbody"):
+        scene_from_dict({"illuminant": {"spd": "blackbody:-5"}})
+    bad = tmp_path / "bad.csv"
+    bad.write_text("400,1\n450,-1\n")
+    with pytest.raises(ConfigError, match="non-negative"):
+        scene_from_dict({"illuminant": {"spd": str(bad)}})
+
+
+def _scene_file(folder, text):
+    path = folder / "scene.toml"
+    path.write_text(text)
+    return path
+
+
+def test_corrupt_toml_is_a_clear_error(tmp_path):
+    with pytest.raises(ConfigError, match="not a valid TOML scene file"):
+        load_scene(_scene_file(tmp_path, "[lens\nf_number = "))
+    path = tmp_path / "binary.toml"
+    path.write_bytes(b"\xff\xfe\x00garbage")
+    with pytest.raises(ConfigError, match="not a valid TOML scene file"):
+        load_scene(path)
+    with pytest.raises(ConfigError, match="does not exist"):
+        load_scene(tmp_path / "missing.toml")
