@@ -175,12 +175,25 @@ def _camera(mi, lens: ThinLens, model: str, film: dict, spp: int) -> dict:
     return camera
 
 
-def _scene_dict(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrator: dict) -> dict:
+def _build(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrator: dict):
+    """Load (scene, sensor, integrator). Presets are built as one scene dict; a user's
+    Mitsuba XML scene keeps its shapes, emitters and its first sensor's pose, while our
+    camera (lens, film, sampler) and integrator replace its own."""
     from .presets import build_objects
 
-    scene = {"type": "scene", "integrator": integrator, "sensor": camera}
-    scene.update(build_objects(config, lens, mi))
-    return scene
+    if not config.scene.mitsuba_xml:
+        scene = {"type": "scene", "integrator": integrator, "sensor": camera}
+        scene.update(build_objects(config, lens, mi))
+        loaded = _load(mi, scene)
+        return loaded, loaded.sensors()[0], loaded.integrator()
+    try:
+        loaded = mi.load_file(config.scene.mitsuba_xml)
+    except Exception as exc:
+        raise RenderError(f"Mitsuba could not load {config.scene.mitsuba_xml}: {exc}") from None
+    if loaded.sensors():
+        matrix = np.asarray(loaded.sensors()[0].world_transform().matrix, dtype=np.float64)
+        camera = dict(camera, to_world=mi.ScalarTransform4f(matrix.reshape(4, 4, -1)[..., 0]))
+    return loaded, _load(mi, camera), _load(mi, integrator)
 
 
 def _load(mi, scene_dict: dict):
@@ -233,7 +246,7 @@ def render(
     started = time.perf_counter()
     camera = _camera(mi, lens, config.lens.model, band_film(bands, width, height), spp_per_pass)
     integrator = {"type": "path", "max_depth": config.render.max_depth}
-    scene = _load(mi, _scene_dict(mi, config, lens, camera, integrator))
+    scene, sensor, integrator = _build(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
 
     accumulated = np.zeros((height, width, len(bands)), dtype=np.float64)
@@ -241,7 +254,8 @@ def render(
     while done < total_spp:
         spp = min(spp_per_pass, total_spp - done)
         seed = _pass_seed(config.render.seed, index)
-        image = np.asarray(mi.render(scene, seed=seed, spp=spp), dtype=np.float64)
+        image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, seed=seed, spp=spp),
+                           dtype=np.float64)
         accumulated += image.reshape(height, width, len(bands)) * spp
         done += spp
         index += 1
@@ -273,15 +287,20 @@ def render(
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     """Camera-space z (m) per pixel from the first hit's world position.
 
-    Mitsuba's ``depth`` AOV is the ray length, which off axis exceeds z by 1/cos θ; the
-    camera looks along +z from the origin, so the position's z component is the depth.
-    One sample per pixel keeps it a depth of one surface, never a blend across an edge.
+    Mitsuba's ``depth`` AOV is the ray length, which off axis exceeds z by 1/cos θ, so z is
+    taken as (p − camera origin)·(optical axis) from the ``position`` AOV. One sample per
+    pixel keeps it the depth of one surface, never a blend across an edge.
     """
     width, height = config.sensor.width_px, config.sensor.height_px
     film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
             "pixel_format": "luminance", "component_format": "float32"}
     camera = _camera(mi, lens, "pinhole", film, 1)
-    scene = _load(mi, _scene_dict(mi, config, lens, camera, {"type": "aov", "aovs": "pos:position"}))
-    image = np.asarray(mi.render(scene, seed=_pass_seed(config.render.seed, 1 << 20), spp=1))
-    z = image.reshape(height, width, -1)[..., 2].astype(np.float64)
-    return np.where(z > 0, z, np.inf).astype(np.float32)
+    scene, sensor, integrator = _build(mi, config, lens, camera, {"type": "aov", "aovs": "pos:position"})
+    image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator,
+                                 seed=_pass_seed(config.render.seed, 1 << 20), spp=1))
+    position = image.reshape(height, width, -1)[..., :3].astype(np.float64)
+    to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
+    origin, axis = to_world[:3, 3], to_world[:3, 2] / np.linalg.norm(to_world[:3, 2])
+    z = (position - origin) @ axis
+    hit = np.any(position != 0.0, axis=-1)  # the AOV is all zero where a ray escapes
+    return np.where(hit & (z > 0), z, np.inf).astype(np.float32)

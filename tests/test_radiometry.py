@@ -61,3 +61,36 @@ def test_colorchecker_patch_radiance_matches_lambert_law(make_scene):
     # no systematic bias: the mean over all patches and bands is far inside the noise
     assert abs(np.mean(errors)) < 1e-3
     print(f"worst band error over 24 patches × 31 bands: {worst * 100:.2f} %")
+
+
+XML_SCENE = """<scene version="3.0.0">
+  <sensor type="perspective">
+    <transform name="to_world"><lookat origin="1, 2, -3" target="1, 2, 10" up="0, 1, 0"/></transform>
+  </sensor>
+  <emitter type="constant"><spectrum name="radiance" value="360:2, 830:2"/></emitter>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="50"/><rotate y="1" angle="180"/><translate value="0, 0, 2"/></transform>
+    <bsdf type="diffuse"><spectrum name="reflectance" value="360:0.5, 830:0.5"/></bsdf>
+  </shape>
+</scene>
+"""
+
+
+@pytest.mark.timeout(120)
+def test_mitsuba_xml_scene_keeps_its_pose_and_gets_our_camera(tmp_path, make_scene):
+    # a Lambertian plane (ρ = 0.5) in a uniform environment of L = 2 W·m⁻²·sr⁻¹·nm⁻¹ has
+    # radiance ρ·L everywhere, so each 10-nm band integral is 0.5 · 2 · 10 = 10
+    xml = tmp_path / "plane.xml"
+    xml.write_text(XML_SCENE)
+    config = make_scene(
+        scene={"mitsuba_xml": str(xml)},
+        lens={"model": "pinhole"},
+        sensor={"width_px": 16, "height_px": 12},
+        render={"spp": 4096},
+    )
+    image = render(config)
+    bands = image.data.reshape(-1, image.data.shape[-1]).mean(axis=0)
+    assert bands.mean() == pytest.approx(10.0, rel=0.005)
+    assert np.allclose(bands, 10.0, rtol=0.02)
+    # the XML camera sits at z = −3 looking along +z; the plane is at z = 2
+    assert np.allclose(image.depth_m, 5.0, rtol=1e-5)
