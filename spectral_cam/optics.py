@@ -21,7 +21,79 @@ import numpy as np
 
 from .scene import LensSection, SensorSection
 
-__all__ = ["ThinLens"]
+__all__ = [
+    "ThinLens",
+    "diffraction_mtf",
+    "defocus_mtf",
+    "pixel_mtf",
+    "airy_kernel",
+    "MTF_TOLERANCE",
+]
+
+#: An optical effect is modelled only when it costs more than this much MTF at Nyquist.
+MTF_TOLERANCE = 0.03
+
+
+def diffraction_mtf(frequency_cyc_per_m, wavelength_nm, working_f_number):
+    """Diffraction-limited MTF of an aberration-free circular pupil (incoherent light).
+
+    MTF(s) = (2/π)·(arccos s − s·√(1 − s²)), s = ν/ν_c, cut-off ν_c = 1/(λ·N_w)
+    [Goodman, Introduction to Fourier Optics, 3rd ed., §6.3.2].
+
+    Parameters
+    ----------
+    frequency_cyc_per_m
+        Spatial frequency on the sensor, cycles per metre.
+    wavelength_nm
+        Wavelength, nm.
+    working_f_number
+        N_w = N·(1 + m).
+    """
+    cutoff = 1.0 / (np.asarray(wavelength_nm, dtype=float) * 1e-9 * working_f_number)
+    s = np.clip(np.abs(np.asarray(frequency_cyc_per_m, dtype=float)) / cutoff, 0.0, 1.0)
+    return (2.0 / np.pi) * (np.arccos(s) - s * np.sqrt(1.0 - s * s))
+
+
+def defocus_mtf(frequency_cyc_per_m, coc_diameter_m):
+    """Geometric-optics MTF of a uniform blur disc of diameter c: |2·J₁(πcν)/(πcν)|
+    [Smith, Modern Optical Engineering, 4th ed., §11.10]."""
+    from scipy.special import j1
+
+    x = np.pi * np.asarray(coc_diameter_m, dtype=float) * np.abs(np.asarray(frequency_cyc_per_m, dtype=float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(x < 1e-9, 1.0, np.abs(2.0 * j1(x) / np.where(x < 1e-9, 1.0, x)))
+
+
+def pixel_mtf(frequency_cyc_per_m, pixel_pitch_m):
+    """MTF of a square pixel aperture of 100 % fill factor: |sinc(ν·p)|."""
+    return np.abs(np.sinc(np.asarray(frequency_cyc_per_m, dtype=float) * pixel_pitch_m))
+
+
+def airy_kernel(wavelength_nm: float, working_f_number: float, pixel_pitch_m: float,
+                *, energy: float = 0.995, supersample: int = 9, max_radius_px: int = 64) -> np.ndarray:
+    """The Airy PSF integrated over square pixels, normalised to sum 1.
+
+    I(r) ∝ [2·J₁(x)/x]², x = π·r/(λ·N_w) [Born & Wolf, Principles of Optics, §8.5.2]. The
+    kernel radius grows until it holds ``energy`` of the PSF (from the encircled energy
+    1 − J₀²(x) − J₁²(x)), capped at ``max_radius_px``; each pixel is integrated on a
+    ``supersample``² grid.
+    """
+    from scipy.special import j0, j1
+
+    scale = np.pi / (wavelength_nm * 1e-9 * working_f_number)  # x per metre of radius
+    radii = np.linspace(1e-12, (max_radius_px + 1) * pixel_pitch_m, 20000)
+    encircled = 1.0 - j0(radii * scale) ** 2 - j1(radii * scale) ** 2
+    reach = radii[min(np.searchsorted(encircled, energy), len(radii) - 1)]
+    half = int(min(max_radius_px, np.ceil(reach / pixel_pitch_m)))
+    offsets = (np.arange(supersample) + 0.5) / supersample - 0.5
+    centres = np.arange(-half, half + 1)
+    fine = (centres[:, None] + offsets[None, :]).ravel() * pixel_pitch_m
+    x = np.hypot(fine[:, None], fine[None, :]) * scale
+    with np.errstate(invalid="ignore", divide="ignore"):
+        psf = np.where(x < 1e-9, 1.0, (2.0 * j1(x) / np.where(x < 1e-9, 1.0, x)) ** 2)
+    n = len(centres)
+    kernel = psf.reshape(n, supersample, n, supersample).sum(axis=(1, 3))
+    return (kernel / kernel.sum()).astype(np.float32)
 
 
 @dataclass(frozen=True)
@@ -140,6 +212,23 @@ class ThinLens:
         """Camera-space (x, y) at depth z of pixel coordinates (inverse of :meth:`project`)."""
         scale = np.asarray(z_m, dtype=float) * self.pixel_pitch_m / self.image_distance_m
         return (self.width_px / 2 - np.asarray(column)) * scale, (self.height_px / 2 - np.asarray(row)) * scale
+
+    @property
+    def nyquist_cyc_per_m(self) -> float:
+        """Sensor Nyquist frequency 1/(2p), cycles per metre."""
+        return 0.5 / self.pixel_pitch_m
+
+    def diffraction_cost(self, wavelength_nm: float) -> float:
+        """MTF lost to diffraction at the sensor's Nyquist frequency, 1 − MTF_diff(ν_N)."""
+        return float(1.0 - diffraction_mtf(self.nyquist_cyc_per_m, wavelength_nm, self.working_f_number))
+
+    def defocus_cost(self, near_m: float, far_m: float) -> float:
+        """Largest MTF loss at Nyquist from defocus over the depth range [near, far] (m)."""
+        depths = [near_m, far_m]
+        if near_m <= self.focus_distance_m <= far_m:
+            depths.append(self.focus_distance_m)
+        coc = max(float(self.coc_diameter_m(z)) for z in depths)
+        return float(1.0 - defocus_mtf(self.nyquist_cyc_per_m, coc))
 
     def describe(self) -> dict:
         """Derived quantities for meta.json."""
