@@ -409,12 +409,18 @@ def load_scene(path: str | Path, overrides: Mapping[str, Any] | list[str] | None
     overrides
         ``{"lens.f_number": 2.8}`` or a list of ``"section.key=value"`` strings.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"scene file {str(path)!r} does not exist")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        path = Path(path)
+        if not path.is_file():
+            raise ConfigError(f"scene file {str(path)!r} does not exist or is not a file")
+        text = path.read_text(encoding="utf-8")
+    except (OSError, ValueError) as exc:  # unreadable, or a path with a NUL byte
+        if isinstance(exc, ConfigError):
+            raise
+        raise ConfigError(f"cannot read scene file {str(path)!r}: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path} is not a valid TOML scene file: {exc}") from None
     if isinstance(overrides, (list, tuple)):
         overrides = dict(parse_override(item) for item in overrides)

@@ -61,29 +61,33 @@ def write_spectral_exr(image: SpectralImage, path: str | Path) -> Path:
     return path
 
 
-def _open(path: Path):
+def _open(path: Path) -> tuple[dict, dict]:
+    """(header, {name: pixels}) of an EXR file, or a RawFormatError saying why not."""
     import OpenEXR
 
     if not path.is_file():
         raise RawFormatError(f"{path} does not exist")
     try:
-        return OpenEXR.File(str(path))
-    except Exception as exc:  # OpenEXR raises a bare Exception on corrupt files
+        exr = OpenEXR.File(str(path))
+        header = dict(exr.header())
+        channels = {name: np.asarray(channel.pixels) for name, channel in exr.channels().items()}
+    except Exception as exc:  # OpenEXR raises bare Exception/ValueError on corrupt files
         raise RawFormatError(f"{path} is not a readable OpenEXR file: {exc}") from None
+    if any(pixels.ndim != 2 or pixels.dtype.kind != "f" for pixels in channels.values()):
+        raise RawFormatError(f"{path} is not a readable OpenEXR file: channels are not float images")
+    return header, channels
 
 
 def read_spectral_exr(path: str | Path) -> SpectralImage:
     """Read a spectral EXR (ours or any file in the Fichet et al. layout) into a
     :class:`SpectralImage` of band integrals."""
     path = Path(path)
-    exr = _open(path)
-    header = exr.header()
-    parts = exr.channels()
+    header, parts = _open(path)
     found = []
-    for name, channel in parts.items():
+    for name, pixels in parts.items():
         match = _CHANNEL.match(name)
         if match:
-            found.append((float(match.group(1).replace(",", ".")), channel.pixels))
+            found.append((float(match.group(1).replace(",", ".")), pixels))
     if not found:
         raise RawFormatError(
             f"{path} has no emissive spectral channels named S0.<wavelength>nm; "
@@ -118,7 +122,7 @@ def write_depth_exr(depth_m: np.ndarray, path: str | Path) -> Path:
 def read_depth_exr(path: str | Path) -> np.ndarray:
     """Read the ``Z`` channel of a depth EXR (m)."""
     path = Path(path)
-    channels = _open(path).channels()
+    _, channels = _open(path)
     if "Z" not in channels:
         raise RawFormatError(f"{path} has no 'Z' channel; it holds {', '.join(sorted(channels))}")
-    return np.asarray(channels["Z"].pixels, dtype=np.float32)
+    return channels["Z"].astype(np.float32)

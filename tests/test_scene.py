@@ -106,7 +106,7 @@ def test_corrupt_toml_is_a_clear_error(tmp_path):
         load_scene(_scene_file(tmp_path, "[lens\nf_number = "))
     path = tmp_path / "binary.toml"
     path.write_bytes(b"\xff\xfe\x00garbage")
-    with pytest.raises(ConfigError, match="not a valid TOML scene file"):
+    with pytest.raises(ConfigError, match="cannot read scene file"):
         load_scene(path)
     with pytest.raises(ConfigError, match="does not exist"):
         load_scene(tmp_path / "missing.toml")

@@ -1,0 +1,104 @@
+"""Robustness of the scene loader, the EXR reader and the CLI: whatever a user types or
+feeds in gives a clear error or a valid result, never a crash or a half-written output."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from spectral_cam import ConfigError, RawFormatError, load_scene, scene_from_dict
+from spectral_cam.spectral_exr import read_depth_exr, read_spectral_exr
+
+values = st.one_of(
+    st.none(), st.booleans(), st.integers(-10**6, 10**6),
+    st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=12),
+    st.lists(st.floats(-10, 10), max_size=4),
+)
+keys = st.sampled_from([
+    "lens.focal_length_mm", "lens.f_number", "lens.focus_distance_m", "lens.model",
+    "sensor.width_px", "sensor.pixel_pitch_um", "sensor.model", "sensor.cfa", "sensor.bit_depth",
+    "sensor.peak_qe", "sensor.full_well_e", "scene.preset", "scene.depths_m", "scene.reflectance",
+    "illuminant.spd", "illuminant.illuminance_lux", "exposure.time_s", "render.spp", "render.bands",
+])
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.dictionaries(keys, values, max_size=4))
+def test_any_override_gives_a_config_or_a_config_error(overrides):
+    overrides = {k: v for k, v in overrides.items() if v is not None}
+    try:
+        config = scene_from_dict({}, overrides=overrides)
+    except ConfigError as exc:
+        assert str(exc)  # a message, not an empty error
+        return
+    assert config.lens.f_number > 0 and config.sensor.width_px >= 1
+    assert config.lens.focus_distance_m * 1000 > config.lens.focal_length_mm
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.binary(max_size=300))
+def test_any_bytes_as_a_scene_file_give_a_config_or_a_config_error(tmp_path, payload):
+    path = tmp_path / "fuzz.toml"
+    path.write_bytes(payload)
+    try:
+        load_scene(path)
+    except ConfigError:
+        pass
+
+
+def test_hostile_paths_are_clear_errors(tmp_path):
+    with pytest.raises(ConfigError, match="does not exist or is not a file"):
+        load_scene("bad\x00name.toml")
+    with pytest.raises(ConfigError, match="not a file"):
+        load_scene(tmp_path)  # a directory
+
+
+@pytest.mark.parametrize("content", [b"", b"v/1\x01" + b"\x00" * 40, b"not an exr at all"])
+def test_corrupt_exr_files_are_clear_errors(tmp_path, content):
+    path = tmp_path / "bad.exr"
+    path.write_bytes(content)
+    with pytest.raises(RawFormatError, match="not a readable OpenEXR file"):
+        read_spectral_exr(path)
+    with pytest.raises(RawFormatError):
+        read_depth_exr(path)
+
+
+def test_truncated_exr_is_a_clear_error(tmp_path):
+    import numpy as np
+
+    from spectral_cam.render import SpectralImage
+    from spectral_cam.spectral_exr import write_spectral_exr
+
+    image = SpectralImage(np.random.default_rng(0).random((32, 32, 4), dtype=np.float32),
+                          np.array([400.0, 410, 420, 430]), np.array([395.0, 405, 415, 425, 435]))
+    path = tmp_path / "full.exr"
+    write_spectral_exr(image, path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(RawFormatError):
+        read_spectral_exr(path)
+
+
+@pytest.mark.timeout(120)
+def test_killed_render_leaves_no_complete_looking_output(tmp_path):
+    scene = tmp_path / "slow.toml"
+    scene.write_text('[sensor]\nwidth_px = 64\nheight_px = 48\n[render]\nspp = 100000\n')
+    out = tmp_path / "result"
+    proc = subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "render", str(scene), "-o", str(out)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while time.time() < deadline and not any(p.name.startswith(".result.partial-") for p in tmp_path.iterdir()):
+        time.sleep(0.2)
+    time.sleep(1.0)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not out.exists()  # only a hidden, clearly partial staging folder may remain
+    leftovers = [p.name for p in tmp_path.iterdir() if p.name != "slow.toml"]
+    assert all(name.startswith(".result.partial-") for name in leftovers)
