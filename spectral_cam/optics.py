@@ -165,7 +165,9 @@ class ThinLens:
         """
         z = np.asarray(depth_m, dtype=float)
         f, zf = self.focal_length_m, self.focus_distance_m
-        return 2.0 * self.aperture_radius_m * f * np.abs(z - zf) / (z * (zf - f))
+        with np.errstate(invalid="ignore"):
+            relative = np.where(np.isinf(z), 1.0, np.abs(z - zf) / z)  # |z − z_f|/z → 1 at infinity
+        return 2.0 * self.aperture_radius_m * f * relative / (zf - f)
 
     def coc_diameter_px(self, depth_m):
         return self.coc_diameter_m(depth_m) / self.pixel_pitch_m
@@ -224,11 +226,20 @@ class ThinLens:
 
     def defocus_cost(self, near_m: float, far_m: float) -> float:
         """Largest MTF loss at Nyquist from defocus over the depth range [near, far] (m)."""
-        depths = [near_m, far_m]
-        if near_m <= self.focus_distance_m <= far_m:
-            depths.append(self.focus_distance_m)
-        coc = max(float(self.coc_diameter_m(z)) for z in depths)
+        coc = max(float(self.coc_diameter_m(z)) for z in (near_m, far_m))  # |z − z_f|/z peaks at an end of the range
         return float(1.0 - defocus_mtf(self.nyquist_cyc_per_m, coc))
+
+    def apply_diffraction(self, data: np.ndarray, wavelengths_nm) -> np.ndarray:
+        """Convolve each band of an (H, W, B) radiance cube with its pixel-integrated Airy
+        kernel (edges reflected), conserving each band's total."""
+        import cv2
+
+        out = np.empty_like(data, dtype=np.float32)
+        for band, wavelength in enumerate(wavelengths_nm):
+            kernel = airy_kernel(float(wavelength), self.working_f_number, self.pixel_pitch_m)
+            out[..., band] = cv2.filter2D(data[..., band].astype(np.float32), -1, kernel,
+                                          borderType=cv2.BORDER_REFLECT)
+        return out
 
     def describe(self) -> dict:
         """Derived quantities for meta.json."""

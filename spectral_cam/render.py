@@ -26,7 +26,7 @@ import numpy as np
 
 from . import spectra
 from .errors import ConfigError, RenderError
-from .optics import ThinLens
+from .optics import MTF_TOLERANCE, ThinLens
 from .scene import SceneConfig
 
 __all__ = ["SpectralImage", "render", "choose_variant", "band_film"]
@@ -243,8 +243,18 @@ def render(
     lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
     spp_per_pass = max(1, min(total_spp, lanes // pixels))
 
+    decisions: dict[str, dict] = {}
+    depth, depth_s = None, 0.0
+    lens_model = config.lens.model
+    if with_depth or lens_model == "auto":
+        t0 = time.perf_counter()
+        depth = render_depth(mi, config, lens)
+        depth_s = time.perf_counter() - t0
+    if lens_model == "auto":
+        lens_model, decisions["lens_model"] = decide_lens_model(lens, depth)
+
     started = time.perf_counter()
-    camera = _camera(mi, lens, config.lens.model, band_film(bands, width, height), spp_per_pass)
+    camera = _camera(mi, lens, lens_model, band_film(bands, width, height), spp_per_pass)
     integrator = {"type": "path", "max_depth": config.render.max_depth}
     scene, sensor, integrator = _build(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
@@ -265,23 +275,64 @@ def render(
     data = (accumulated / total_spp).astype(np.float32)
     radiance_s = time.perf_counter() - started - load_s
 
-    depth, depth_s = None, 0.0
-    if with_depth:
-        t0 = time.perf_counter()
-        depth = render_depth(mi, config, lens)
-        depth_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    apply, decisions["diffraction"] = decide_diffraction(lens, bands, config.render.diffraction)
+    if apply:
+        data = lens.apply_diffraction(data, bands.centres_nm)
+    diffraction_s = time.perf_counter() - t0
 
     meta = {
         "variant": variant,
+        "lens_model": lens_model,
         "spp": total_spp,
         "spp_per_pass": spp_per_pass,
         "passes": index,
         "pass_seeds": seeds,
         "bands_nm": list(bands.centres_nm),
         "optics": lens.describe(),
-        "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s},
+        "model_decisions": decisions,
+        "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s,
+                      "diffraction": diffraction_s},
     }
     return SpectralImage(data, np.asarray(bands.centres_nm), np.asarray(bands.edges_nm), depth, meta)
+
+
+def decide_lens_model(lens: ThinLens, depth_m: np.ndarray) -> tuple[str, dict]:
+    """Pinhole when defocus costs ≤ 0.03 of MTF at Nyquist over the depths in view.
+
+    Returns the chosen model and the decision record for ``meta.json``.
+    """
+    finite = depth_m[np.isfinite(depth_m)]
+    if finite.size == 0:
+        return "thin", {"choice": "thin", "reason": "nothing in view to measure depth on"}
+    near, far = float(finite.min()), float(finite.max())
+    cost = lens.defocus_cost(near, far)
+    choice = "pinhole" if cost <= MTF_TOLERANCE else "thin"
+    relation = "≤" if choice == "pinhole" else ">"
+    return choice, {
+        "choice": choice,
+        "reason": f"defocus costs {cost:.3f} of MTF at Nyquist over {near:.3g}–{far:.3g} m "
+                  f"({relation} {MTF_TOLERANCE})",
+        "mtf_cost_at_nyquist": cost,
+        "depth_range_m": [near, far],
+        "max_coc_px": float(max(lens.coc_diameter_px(near), lens.coc_diameter_px(far))),
+    }
+
+
+def decide_diffraction(lens: ThinLens, bands: spectra.BandGrid, mode: str) -> tuple[bool, dict]:
+    """Apply the per-band Airy PSF when forced, or (``auto``) when it costs more than 0.03
+    of MTF at Nyquist for the longest band (diffraction grows with λ)."""
+    longest = float(max(bands.centres_nm))
+    cost = lens.diffraction_cost(longest)
+    if mode == "auto":
+        apply = cost > MTF_TOLERANCE
+        reason = (f"diffraction costs {cost:.3f} of MTF at Nyquist at {longest:g} nm "
+                  f"({'>' if apply else '≤'} {MTF_TOLERANCE}) at N_w = {lens.working_f_number:.3g}")
+    else:
+        apply = mode == "on"
+        reason = f"render.diffraction = {mode!r} (costs {cost:.3f} of MTF at Nyquist at {longest:g} nm)"
+    return apply, {"choice": "airy_psf_per_band" if apply else "skipped", "reason": reason,
+                   "mtf_cost_at_nyquist": cost}
 
 
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:

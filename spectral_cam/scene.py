@@ -40,7 +40,9 @@ __all__ = [
 PRESETS = ("colorchecker", "dof_targets", "slanted_edge", "flat_field", "point_sources")
 #: Bayer tiles, read row by row from the top-left pixel; "none" = monochrome.
 CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG", "none")
-LENS_MODELS = ("thin", "pinhole")
+LENS_MODELS = ("auto", "thin", "pinhole")
+#: render.diffraction: "auto" applies the Airy PSF only where it costs > 0.03 MTF at Nyquist.
+DIFFRACTION_MODES = ("auto", "on", "off")
 
 
 def _fail(key: str, value: Any, rule: str) -> None:
@@ -116,12 +118,13 @@ class IlluminantSection:
 
 @dataclass(frozen=True)
 class LensSection:
-    """A thin lens (or a pinhole with the same field of view)."""
+    """A thin lens (or a pinhole with the same field of view). ``model = "auto"`` renders
+    through a pinhole when defocus costs ≤ 0.03 of MTF at Nyquist over the scene's depths."""
 
     focal_length_mm: float = 8.0
     f_number: float = 2.8
     focus_distance_m: float = 2.0
-    model: str = "thin"
+    model: str = "auto"
     transmission: float | str = 1.0
 
     def __post_init__(self) -> None:
@@ -220,8 +223,11 @@ class RenderSection:
     variant: str = "auto"
     seed: int = 0
     max_depth: int = 8
+    diffraction: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.diffraction not in DIFFRACTION_MODES:
+            _fail("render.diffraction", self.diffraction, f"valid: {', '.join(DIFFRACTION_MODES)}")
         if not isinstance(self.spp, int) or self.spp < 1:
             _fail("render.spp", self.spp, "must be a whole number >= 1")
         spectra.parse_bands(self.bands)

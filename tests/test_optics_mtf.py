@@ -50,3 +50,44 @@ def test_model_decisions_for_diffraction_follow_the_nyquist_cost():
 
     assert lens(22, 2e-6).diffraction_cost(700) > 0.03  # applied
     assert lens(1.4, 24e-6).diffraction_cost(700) < 0.03  # skipped
+
+
+def test_diffraction_decision_applied_at_f22_2um_and_skipped_at_f1_4_24um():
+    from spectral_cam.render import decide_diffraction
+    from spectral_cam.spectra import parse_bands
+
+    bands = parse_bands("400:700:10")
+
+    def decide(f_number, pitch):
+        return decide_diffraction(ThinLens(0.05, f_number, 3.0, 400 * pitch, 300 * pitch, 400, 300), bands, "auto")
+
+    applied, record = decide(22, 2e-6)
+    assert applied and record["choice"] == "airy_psf_per_band"
+    skipped, record = decide(1.4, 24e-6)
+    assert not skipped and record["choice"] == "skipped" and "0.03" in record["reason"]
+
+
+def test_lens_decision_uses_the_depth_range():
+    from spectral_cam.render import decide_lens_model
+
+    lens = ThinLens(0.025, 1.4, 2.0, 480 * 6e-6, 320 * 6e-6, 480, 320)
+    flat = np.full((4, 4), 2.0)
+    assert decide_lens_model(lens, flat)[0] == "pinhole"
+    deep = flat.copy()
+    deep[0, 0] = 1.0  # CoC at 1 m = 2R·f·|z − z_f|/(z·(z_f − f)) ≈ 228 µm ≫ one pixel
+    choice, record = decide_lens_model(lens, deep)
+    assert choice == "thin" and record["max_coc_px"] == pytest.approx(
+        (0.025 / 1.4) * 0.025 * 1.0 / (1.0 * 1.975) / 6e-6, rel=1e-6)
+
+
+@pytest.mark.timeout(120)
+def test_diffraction_blurs_the_render_and_conserves_energy(make_scene):
+    from spectral_cam import render
+
+    base = {"scene": {"preset": "slanted_edge"}, "lens": {"model": "pinhole", "f_number": 22.0},
+            "sensor": {"width_px": 32, "height_px": 32, "pixel_pitch_um": 2.0}}
+    on = render(make_scene(**base, render={"spp": 16, "diffraction": "on"}), with_depth=False)
+    off = render(make_scene(**base, render={"spp": 16, "diffraction": "off"}), with_depth=False)
+    assert on.data.sum() == pytest.approx(off.data.sum(), rel=0.02)  # reflected borders
+    # the edge spreads: fewer pixels sit at the plateaus' extremes
+    assert np.abs(np.diff(on.data[..., -1], axis=1)).max() < 0.6 * np.abs(np.diff(off.data[..., -1], axis=1)).max()
