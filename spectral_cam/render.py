@@ -272,7 +272,13 @@ def render(
         seeds.append(seed)
         if progress is not None:
             progress(done, total_spp, time.perf_counter() - started)
-    data = (accumulated / total_spp).astype(np.float32)
+    data = accumulated / total_spp
+    # Mitsuba's film can return values like −1e-19 where a pixel is black (floating-point
+    # cancellation); anything clearly negative would be a bug, not rounding
+    lowest, highest = float(data.min()), float(data.max())
+    if lowest < -1e-6 * max(highest, 1e-30):
+        raise RenderError(f"Mitsuba returned negative radiance ({lowest:g}, max {highest:g})")
+    data = np.maximum(data, 0.0).astype(np.float32)
     radiance_s = time.perf_counter() - started - load_s
 
     t0 = time.perf_counter()

@@ -19,6 +19,7 @@ from typing import Any, Mapping
 
 from . import spectra
 from .errors import ConfigError
+from .isp.config import ISPConfig as ISPSection
 
 __all__ = [
     "SceneConfig",
@@ -239,19 +240,6 @@ class RenderSection:
             _fail("render.seed", self.seed, "must be a whole number >= 0")
         if not isinstance(self.max_depth, int) or self.max_depth < 1:
             _fail("render.max_depth", self.max_depth, "must be a whole number >= 1")
-
-
-@dataclass(frozen=True)
-class ISPSection:
-    """Image-processing choices (see :mod:`spectral_cam.isp`)."""
-
-    white_balance: str = "as_shot"
-    demosaic: str = "malvar2004"
-    denoise: str = "off"
-    sharpen: float = 0.0
-    tone: str = "srgb"
-    colour_matrix: str = "fitted"
-    outputs: tuple[str, ...] = ("png",)
 
 
 _SECTIONS = {

@@ -54,7 +54,7 @@ def test_bands_are_centres():
         ({"sensor.height_px": -5}, "sensor.height_px = -5: must be a whole number of pixels"),
         ({"sensor.pixel_pitch_um": 0}, "sensor.pixel_pitch_um = 0.0: must be a finite number > 0"),
         ({"sensor.width_px": 2.5}, "sensor.width_px = 2.5: has the wrong type"),
-        ({"lens.model": "fisheye"}, "valid: thin, pinhole"),
+        ({"lens.model": "fisheye"}, "valid: auto, thin, pinhole"),
         ({"scene.preset": "teapot"}, "unknown preset; valid: colorchecker"),
         ({"render.bands": "700:400:10"}, "need step > 0 and stop >= start"),
         ({"render.bands": "300:700:10"}, "Mitsuba samples 360–830 nm only"),

@@ -1,0 +1,168 @@
+"""Bayer colour-filter-array geometry shared by the ISP stages.
+
+A CFA is named by its 2×2 tile read row by row from the top-left pixel ("RGGB" has red at
+(0, 0), green at (0, 1) and (1, 0), blue at (1, 1)), the DNG CFAPattern convention.
+OpenCV names a Bayer pattern by the tile that starts at pixel (1, 1) instead, so RGGB is
+OpenCV's ``BayerBG``.
+
+References
+----------
+.. [1] Bayer, B. E. (1976). Color imaging array. US Patent 3,971,065.
+.. [2] Adobe (2023). Digital Negative (DNG) Specification 1.7.1.0, tag CFAPattern.
+.. [3] OpenCV documentation, "Color conversions: Bayer → RGB" (imgproc, cvtColor).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = [
+    "BAYER_PATTERNS",
+    "check_cfa",
+    "channel_index",
+    "channel_masks",
+    "tile_gain_map",
+    "opencv_bayer_name",
+    "opencv_bayer_code",
+    "plane_offsets",
+]
+
+#: Bayer tiles the ISP develops.
+BAYER_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
+_CHANNEL = {"R": 0, "G": 1, "B": 2}
+
+
+def check_cfa(cfa: str) -> str:
+    """Return the upper-case Bayer tile name, or raise.
+
+    Parameters
+    ----------
+    cfa
+        Bayer tile read row by row from the top-left pixel, e.g. ``"RGGB"``.
+
+    Raises
+    ------
+    ConfigError
+        If ``cfa`` is not one of :data:`BAYER_PATTERNS`.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, CFAPattern.
+    """
+    name = str(cfa).upper()
+    if name not in BAYER_PATTERNS:
+        raise ConfigError(f"CFA pattern {cfa!r} is not a Bayer tile; valid: {', '.join(BAYER_PATTERNS)}")
+    return name
+
+
+def channel_index(shape: tuple[int, int], cfa: str) -> np.ndarray:
+    """Colour index (0 = R, 1 = G, 2 = B) of every pixel of a Bayer mosaic.
+
+    Parameters
+    ----------
+    shape
+        (height, width) of the mosaic, pixels.
+    cfa
+        Bayer tile name (see :func:`check_cfa`).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) uint8 array.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, CFAPattern.
+    """
+    tile = np.array([_CHANNEL[c] for c in check_cfa(cfa)], dtype=np.uint8).reshape(2, 2)
+    h, w = int(shape[0]), int(shape[1])
+    return np.tile(tile, ((h + 1) // 2, (w + 1) // 2))[:h, :w]
+
+
+def channel_masks(shape: tuple[int, int], cfa: str) -> np.ndarray:
+    """One float32 0/1 mask per colour: (H, W, 3), 1 where the pixel samples that colour.
+
+    Parameters
+    ----------
+    shape
+        (height, width) of the mosaic, pixels.
+    cfa
+        Bayer tile name.
+
+    References
+    ----------
+    .. [1] Bayer, B. E. (1976). US Patent 3,971,065.
+    """
+    index = channel_index(shape, cfa)
+    return np.stack([(index == c) for c in range(3)], axis=-1).astype(np.float32)
+
+
+def tile_gain_map(shape: tuple[int, int], cfa: str, values) -> np.ndarray:
+    """Per-pixel map (float32, (H, W)) holding ``values[c]`` at the pixels of colour c.
+
+    Parameters
+    ----------
+    shape
+        (height, width), pixels.
+    cfa
+        Bayer tile name.
+    values
+        Three numbers (R, G, B).
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, CFAPattern.
+    """
+    lut = np.asarray(values, dtype=np.float32).reshape(3)
+    return lut[channel_index(shape, cfa)]
+
+
+def plane_offsets(cfa: str) -> list[tuple[int, int, int]]:
+    """The four sub-sampled CFA planes as (row offset, column offset, colour index).
+
+    ``mosaic[dy::2, dx::2]`` holds one colour only.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, CFAPattern.
+    """
+    name = check_cfa(cfa)
+    return [(i // 2, i % 2, _CHANNEL[name[i]]) for i in range(4)]
+
+
+def opencv_bayer_name(cfa: str) -> str:
+    """OpenCV's two-letter Bayer name for a DNG-style tile name.
+
+    OpenCV names the pattern by the second and third pixels of the second row, i.e. the
+    tile that starts at (1, 1): RGGB → ``"BG"``, BGGR → ``"RG"``, GRBG → ``"GB"``,
+    GBRG → ``"GR"``.
+
+    References
+    ----------
+    .. [1] OpenCV documentation, imgproc "Color conversions", Bayer → RGB.
+    """
+    name = check_cfa(cfa)
+    # the tile at (1, 1): row 1 then row 0, each read from column 1
+    return name[3] + name[2]
+
+
+def opencv_bayer_code(cfa: str, method: str = "") -> int:
+    """``cv2.COLOR_Bayer??2RGB[_VNG|_EA]`` for a DNG-style tile name.
+
+    Parameters
+    ----------
+    cfa
+        Bayer tile name.
+    method
+        ``""`` (bilinear), ``"VNG"`` or ``"EA"``.
+
+    References
+    ----------
+    .. [1] OpenCV documentation, imgproc "Color conversions", Bayer → RGB.
+    """
+    import cv2
+
+    suffix = f"_{method.upper()}" if method else ""
+    return getattr(cv2, f"COLOR_Bayer{opencv_bayer_name(cfa)}2RGB{suffix}")

@@ -1,0 +1,242 @@
+"""Colour correction: white-balanced camera RGB → CIE XYZ (D65) → linear sRGB.
+
+Two sources for the camera → XYZ(D65) transform:
+
+- ``"dng"``, from the RAW's own metadata: the DNG ColorMatrix1 C maps XYZ (calibrated
+  under D65, CalibrationIlluminant1 = 21) to camera RGB, so un-balanced camera RGB → XYZ
+  is C⁻¹. For data white-balanced by gains g (neutral n = 1/g), camera = diag(n)·rgb_wb,
+  and the white those gains assume has XYZ_w = C⁻¹·n. A Bradford chromatic adaptation from
+  XYZ_w to D65 and a scale that maps the balanced white (1, 1, 1) to Y = 1 give
+  ``M = s · CAT_Bradford(XYZ_w → D65) · C⁻¹ · diag(n)``.
+- ``"fitted"`` / ``"root_polynomial"``: a transform supplied with the RAW (or by the
+  caller) that maps white-balanced camera RGB to XYZ(D65), e.g. fitted by least squares
+  from a camera's measured curves on reflectance sets under the scene illuminant. It is a
+  (3, 3) matrix, a (3, N) root-polynomial matrix (N = 6, 13, 22 for degrees 2, 3, 4 of
+  Finlayson et al. 2015) or a callable. The ISP never sees spectra: only these numbers.
+
+References
+----------
+.. [1] Adobe (2023). Digital Negative (DNG) Specification 1.7.1.0, chapter 6 "Mapping
+   Camera Color Space to CIE XYZ Space".
+.. [2] Lam, K. M. (1985). Metamerism and colour constancy. PhD thesis, University of
+   Bradford (Bradford CAT); CIE 159:2004.
+.. [3] Finlayson, G. D., Mackiewicz, M., & Hurlbert, A. (2015). Color correction using
+   root-polynomial regression. IEEE Trans. Image Process. 24(5), 1460–1470.
+.. [4] IEC 61966-2-1:1999, Multimedia systems and equipment — Colour measurement and
+   management — Default RGB colour space — sRGB.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = [
+    "ROOT_POLYNOMIAL_TERMS",
+    "xyz_d65_white",
+    "dng_camera_to_xyz_d65",
+    "camera_to_xyz",
+    "camera_to_linear_srgb",
+    "xyz_to_linear_srgb",
+    "linear_srgb_to_xyz",
+]
+
+#: Number of root-polynomial terms per degree (Finlayson et al. 2015, Table 1).
+ROOT_POLYNOMIAL_TERMS = {3: 1, 6: 2, 13: 3, 22: 4}
+
+
+def xyz_d65_white() -> np.ndarray:
+    """CIE XYZ of the sRGB (D65) white point, Y = 1.
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999 (white point x = 0.3127, y = 0.3290).
+    """
+    import colour
+
+    return colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
+
+
+def dng_camera_to_xyz_d65(color_matrix, neutral, *, adaptation: str = "Bradford") -> np.ndarray:
+    """White-balanced camera RGB → XYZ(D65) from the DNG ColorMatrix1 and a neutral.
+
+    Parameters
+    ----------
+    color_matrix
+        (3, 3) DNG ColorMatrix1: XYZ → camera RGB, calibrated under D65.
+    neutral
+        (3,) camera RGB of the white the white balance assumes (AsShotNeutral, or 1/gains).
+    adaptation
+        colour-science chromatic adaptation transform (``"Bradford"``, ``"CAT02"``, ...)
+        from that white to D65.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3, 3) matrix M, with M·(1, 1, 1) = XYZ(D65) at Y = 1.
+
+    Raises
+    ------
+    ConfigError
+        If the matrix is singular or the neutral is not positive.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6.
+    .. [2] CIE 159:2004, A colour appearance model for colour management systems: CIECAM02
+       (Bradford / von Kries adaptation).
+    """
+    import colour
+
+    cm = np.asarray(color_matrix, dtype=np.float64).reshape(3, 3)
+    n = np.asarray(neutral, dtype=np.float64).reshape(3)
+    if not np.all(np.isfinite(n)) or np.any(n <= 0):
+        raise ConfigError(f"the white-balance neutral must be three numbers > 0; got {n.tolist()}")
+    try:
+        cam_to_xyz = np.linalg.inv(cm)
+    except np.linalg.LinAlgError:
+        raise ConfigError(f"the DNG ColorMatrix1 {cm.tolist()} is singular") from None
+    xyz_white = cam_to_xyz @ n
+    if not np.all(np.isfinite(xyz_white)) or xyz_white[1] <= 0:
+        raise ConfigError("ColorMatrix1 maps the as-shot neutral to a non-physical white")
+    target = xyz_d65_white()
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+        xyz_white / xyz_white[1], target, transform=adaptation)
+    matrix = cat @ cam_to_xyz @ np.diag(n)
+    return matrix / (matrix @ np.ones(3))[1]
+
+
+def camera_to_xyz(rgb: np.ndarray, transform) -> np.ndarray:
+    """Apply a white-balanced camera RGB → XYZ(D65) transform.
+
+    Parameters
+    ----------
+    rgb
+        (..., 3) white-balanced camera RGB (linear).
+    transform
+        (3, 3) matrix; (3, N) root-polynomial matrix with N in 6, 13, 22 (degrees 2–4,
+        Finlayson 2015, applied with colour-science); or a callable ``f(rgb) -> xyz``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (..., 3) float32 CIE XYZ relative to D65.
+
+    Raises
+    ------
+    ConfigError
+        If the transform has an unusable shape.
+
+    References
+    ----------
+    .. [1] Finlayson, G. D., Mackiewicz, M., & Hurlbert, A. (2015). IEEE TIP 24(5), 1460–1470.
+    """
+    rgb = np.asarray(rgb, dtype=np.float32)
+    if callable(transform):
+        xyz = np.asarray(transform(rgb), dtype=np.float32)
+        if xyz.shape != rgb.shape:
+            raise ConfigError(f"the camera → XYZ callable returned shape {xyz.shape}, expected {rgb.shape}")
+        return xyz
+    matrix = np.asarray(transform, dtype=np.float64)
+    if matrix.ndim != 2 or matrix.shape[0] != 3 or matrix.shape[1] not in ROOT_POLYNOMIAL_TERMS:
+        raise ConfigError(f"a camera → XYZ matrix must be (3, 3) or root-polynomial (3, N), N in 6, 13, 22; "
+                          f"got shape {matrix.shape}")
+    if matrix.shape[1] == 3:
+        return _apply_3x3(rgb, matrix)
+    import colour
+
+    degree = ROOT_POLYNOMIAL_TERMS[matrix.shape[1]]
+    flat = rgb.reshape(-1, 3).astype(np.float64)
+    xyz = colour.characterisation.apply_matrix_colour_correction_Finlayson2015(
+        flat, matrix, degree=degree, root_polynomial_expansion=True)
+    return np.asarray(xyz, dtype=np.float32).reshape(rgb.shape)
+
+
+def _apply_3x3(values: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """values @ matrix.T for (..., 3) float32 data (cv2.transform: vectorised, threaded)."""
+    import cv2
+
+    values = np.ascontiguousarray(values, dtype=np.float32)
+    flat = values.reshape(-1, 1, 3)
+    return cv2.transform(flat, np.asarray(matrix, dtype=np.float32)).reshape(values.shape)
+
+
+def camera_to_linear_srgb(rgb: np.ndarray, transform) -> np.ndarray:
+    """White-balanced camera RGB → XYZ(D65) → linear sRGB in one pass.
+
+    A (3, 3) transform is folded into one matrix, M_sRGB · M; other transforms go through
+    :func:`camera_to_xyz` and :func:`xyz_to_linear_srgb`.
+
+    Parameters
+    ----------
+    rgb
+        (..., 3) white-balanced camera RGB (linear).
+    transform
+        As in :func:`camera_to_xyz`.
+
+    Returns
+    -------
+    numpy.ndarray
+        (..., 3) float32 linear sRGB, unclipped.
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999; Adobe (2023). DNG Specification 1.7.1.0, ch. 6.
+    """
+    if not callable(transform):
+        matrix = np.asarray(transform, dtype=np.float64)
+        if matrix.shape == (3, 3):
+            to_rgb, _ = _srgb_matrices()
+            return _apply_3x3(rgb, to_rgb @ matrix)
+    return xyz_to_linear_srgb(camera_to_xyz(rgb, transform))
+
+
+def _srgb_matrices() -> tuple[np.ndarray, np.ndarray]:
+    import colour
+
+    space = colour.models.RGB_COLOURSPACE_sRGB
+    return np.asarray(space.matrix_XYZ_to_RGB), np.asarray(space.matrix_RGB_to_XYZ)
+
+
+def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:
+    """CIE XYZ (D65) → linear sRGB, unclipped.
+
+    Parameters
+    ----------
+    xyz
+        (..., 3) CIE XYZ relative to D65 (Y = 1 for the reference white).
+
+    Returns
+    -------
+    numpy.ndarray
+        (..., 3) float32 linear sRGB (IEC 61966-2-1 primaries, D65).
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999, eq. (7) (the XYZ → RGB matrix, as tabulated in colour-science).
+    """
+    to_rgb, _ = _srgb_matrices()
+    return _apply_3x3(xyz, to_rgb)
+
+
+def linear_srgb_to_xyz(rgb: np.ndarray) -> np.ndarray:
+    """Linear sRGB → CIE XYZ (D65).
+
+    Parameters
+    ----------
+    rgb
+        (..., 3) linear sRGB.
+
+    Returns
+    -------
+    numpy.ndarray
+        (..., 3) float32 CIE XYZ (Y = 1 for sRGB white).
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999.
+    """
+    _, to_xyz = _srgb_matrices()
+    return _apply_3x3(rgb, to_xyz)
+

@@ -1,0 +1,189 @@
+"""The ISP's settings: a frozen, validated, TOML/JSON-serialisable :class:`ISPConfig`.
+
+This module imports nothing heavy (no NumPy, OpenCV, colour-science): the scene file
+reader uses :class:`ISPConfig` as its ``[isp]`` section. The method names below are the
+keys of the stage registries in the sibling modules (a test keeps the two in step).
+
+Every field takes a TOML-friendly type (``str``, ``float``, ``int``, ``bool`` or a tuple
+of ``str``/``float``) and its annotation is kept as a string, the form
+:func:`spectral_cam.scene._coerce` reads.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from ..errors import ConfigError
+
+__all__ = [
+    "ISPConfig",
+    "WHITE_BALANCE_METHODS",
+    "DEMOSAIC_METHODS",
+    "DENOISE_METHODS",
+    "HIGHLIGHT_METHODS",
+    "COLOUR_MATRIX_METHODS",
+    "TONE_METHODS",
+    "OUTPUT_FORMATS",
+]
+
+#: White balance: camera AsShotNeutral, grey world, white patch (bright percentile), gains.
+WHITE_BALANCE_METHODS = ("as_shot", "grey_world", "white_patch", "manual")
+#: Demosaicing algorithms (:mod:`spectral_cam.isp.demosaic`).
+DEMOSAIC_METHODS = ("bilinear", "malvar2004", "menon2007", "vng", "ea")
+#: Denoisers run in the variance-stabilised domain (:mod:`spectral_cam.isp.denoise`).
+DENOISE_METHODS = ("nlmeans", "bilateral", "tv")
+#: Clipped-highlight handling (:mod:`spectral_cam.isp.highlights`).
+HIGHLIGHT_METHODS = ("clip", "desaturate", "none")
+#: Camera RGB → XYZ(D65): "auto" = "fitted" when the RAW carries a fitted matrix, else "dng".
+COLOUR_MATRIX_METHODS = ("auto", "dng", "fitted", "root_polynomial", "none")
+#: Tone curves: sRGB OETF only (colorimetric), filmic + OETF, or linear (no curve).
+TONE_METHODS = ("srgb", "filmic", "linear")
+#: Files :func:`spectral_cam.isp.encode.write_outputs` can write.
+OUTPUT_FORMATS = ("png", "png16", "jpeg", "tiff", "exr")
+
+
+def _fail(key: str, value: Any, rule: str) -> None:
+    raise ConfigError(f"isp.{key} = {value!r}: {rule}")
+
+
+def _choice(key: str, value: Any, valid: tuple[str, ...]) -> None:
+    if value not in valid:
+        _fail(key, value, f"unknown name; valid: {', '.join(valid)}")
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+@dataclass(frozen=True)
+class ISPConfig:
+    """Image-processing choices of :func:`spectral_cam.isp.develop`.
+
+    Attributes
+    ----------
+    white_balance
+        ``"as_shot"`` (the RAW's AsShotNeutral), ``"grey_world"``, ``"white_patch"`` or
+        ``"manual"`` (then ``wb_gains`` gives the R, G, B gains).
+    wb_gains
+        Three gains for ``white_balance = "manual"`` (normalised so the smallest is 1).
+    demosaic
+        ``"bilinear"``, ``"malvar2004"``, ``"menon2007"``, ``"vng"`` (OpenCV, 8-bit core)
+        or ``"ea"`` (OpenCV edge-aware, 16-bit).
+    denoise
+        ``"off"``, ``"auto"`` (strength 1 in units of the stabilised noise σ) or a
+        strength > 0 (a multiple of that σ).
+    denoise_method
+        ``"nlmeans"`` (OpenCV fast non-local means), ``"bilateral"`` (OpenCV) or ``"tv"``
+        (scikit-image total-variation, Chambolle).
+    highlights
+        ``"clip"`` (clipped pixels become neutral at the saturation level),
+        ``"desaturate"`` (blend clipped areas to neutral) or ``"none"``.
+    colour_matrix
+        ``"auto"``, ``"dng"`` (inv(ColorMatrix1)·diag(AsShotNeutral) + Bradford CAT to
+        D65), ``"fitted"`` / ``"root_polynomial"`` (supplied in ``RawImage.meta``) or
+        ``"none"`` (camera RGB passed through, for diagnostics).
+    exposure_ev
+        Digital gain in stops applied to the linear image before the tone curve.
+    tone
+        ``"srgb"`` (the sRGB OETF only), ``"filmic"`` or ``"linear"`` (no curve).
+    sharpen
+        Unsharp-mask amount (0 = off).
+    sharpen_radius_px
+        Standard deviation of the unsharp mask's Gaussian, pixels.
+    outputs
+        Files to write: ``"png"`` (8-bit), ``"png16"``, ``"jpeg"``, ``"tiff"`` (16-bit),
+        ``"exr"`` (linear sRGB, float32).
+    jpeg_quality
+        JPEG quality 1..100.
+
+    References
+    ----------
+    .. [1] Ramanath, R., Snyder, W. E., Yoo, Y., & Drew, M. S. (2005). Color image
+       processing pipeline. IEEE Signal Processing Magazine 22(1), 34–43 (stage order).
+    """
+
+    white_balance: str = "as_shot"
+    wb_gains: tuple[float, ...] = ()
+    demosaic: str = "malvar2004"
+    denoise: float | str = "off"
+    denoise_method: str = "nlmeans"
+    highlights: str = "clip"
+    colour_matrix: str = "auto"
+    exposure_ev: float = 0.0
+    tone: str = "srgb"
+    sharpen: float = 0.0
+    sharpen_radius_px: float = 1.0
+    outputs: tuple[str, ...] = ("png",)
+    jpeg_quality: int = 95
+
+    def __post_init__(self) -> None:
+        _choice("white_balance", self.white_balance, WHITE_BALANCE_METHODS)
+        gains = tuple(self.wb_gains)
+        if self.white_balance == "manual":
+            if len(gains) != 3 or not all(_number(g) and g > 0 for g in gains):
+                _fail("wb_gains", self.wb_gains,
+                      "white_balance = 'manual' needs three positive gains, e.g. [2.0, 1.0, 1.5]")
+        elif gains and (len(gains) != 3 or not all(_number(g) and g > 0 for g in gains)):
+            _fail("wb_gains", self.wb_gains, "give three positive gains (R, G, B) or none")
+        object.__setattr__(self, "wb_gains", tuple(float(g) for g in gains))
+        _choice("demosaic", self.demosaic, DEMOSAIC_METHODS)
+        if isinstance(self.denoise, str):
+            if self.denoise not in ("off", "auto"):
+                _fail("denoise", self.denoise, "valid: 'off', 'auto' or a strength > 0 (e.g. 1.0)")
+        elif not (_number(self.denoise) and self.denoise >= 0):
+            _fail("denoise", self.denoise, "valid: 'off', 'auto' or a strength > 0 (e.g. 1.0)")
+        _choice("denoise_method", self.denoise_method, DENOISE_METHODS)
+        _choice("highlights", self.highlights, HIGHLIGHT_METHODS)
+        _choice("colour_matrix", self.colour_matrix, COLOUR_MATRIX_METHODS)
+        if not (_number(self.exposure_ev) and abs(self.exposure_ev) <= 20):
+            _fail("exposure_ev", self.exposure_ev, "must be a number of stops in [-20, 20]")
+        _choice("tone", self.tone, TONE_METHODS)
+        if not (_number(self.sharpen) and 0 <= self.sharpen <= 10):
+            _fail("sharpen", self.sharpen, "must be an unsharp-mask amount in [0, 10] (0 = off)")
+        if not (_number(self.sharpen_radius_px) and 0 < self.sharpen_radius_px <= 50):
+            _fail("sharpen_radius_px", self.sharpen_radius_px, "must be a radius in (0, 50] pixels")
+        if isinstance(self.outputs, str):
+            object.__setattr__(self, "outputs", (self.outputs,))
+        for name in self.outputs:
+            _choice("outputs", name, OUTPUT_FORMATS)
+        object.__setattr__(self, "outputs", tuple(self.outputs))
+        if (not isinstance(self.jpeg_quality, int) or isinstance(self.jpeg_quality, bool)
+                or not 1 <= self.jpeg_quality <= 100):
+            _fail("jpeg_quality", self.jpeg_quality, "must be a whole number in 1..100")
+
+    @property
+    def denoise_strength(self) -> float:
+        """The denoiser's strength in units of the stabilised noise σ (0 = off)."""
+        if self.denoise == "off":
+            return 0.0
+        if self.denoise == "auto":
+            return 1.0
+        return float(self.denoise)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain, JSON/TOML-serialisable dict (tuples become lists)."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> "ISPConfig":
+        """Build from :meth:`to_dict` output (lists become tuples).
+
+        Raises
+        ------
+        ConfigError
+            For an unknown key (listing the valid ones) or an invalid value.
+        """
+        known = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(set(data) - set(known))
+        if unknown:
+            raise ConfigError(f"unknown key(s) {', '.join('isp.' + k for k in unknown)}; valid keys "
+                              f"of [isp]: {', '.join(known)}")
+        kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+        return cls(**kwargs)
+
+    def replace(self, **changes: Any) -> "ISPConfig":
+        """A validated copy with some fields changed."""
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,289 @@
+"""Encoders: PNG (8/16-bit), JPEG, 16-bit TIFF and linear OpenEXR, written atomically.
+
+Display formats (PNG, JPEG, TIFF) take the tone-mapped display image, clip it to [0, 1]
+and quantise it; EXR stores the linear sRGB image as float32 (scene-referred, unclipped).
+Every file is written to a temporary sibling and renamed into place
+(:func:`spectral_cam.io.atomic_path`).
+
+References
+----------
+.. [1] ISO/IEC 15948:2004, Portable Network Graphics (PNG).
+.. [2] ITU-T T.81 | ISO/IEC 10918-1, JPEG baseline.
+.. [3] Adobe (1992). TIFF Revision 6.0.
+.. [4] Kainz, F., et al. OpenEXR file layout, https://openexr.com
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..io import atomic_path
+
+__all__ = [
+    "ENCODERS",
+    "FORMAT_SUFFIXES",
+    "quantise",
+    "write_png",
+    "write_jpeg",
+    "write_tiff",
+    "write_exr",
+    "write_image",
+    "write_outputs",
+]
+
+
+def quantise(image: np.ndarray, *, bits: int = 8) -> np.ndarray:
+    """Clip display values to [0, 1] and round to unsigned integers.
+
+    Parameters
+    ----------
+    image
+        (H, W, 3) display values (1 = full scale).
+    bits
+        8 or 16.
+
+    Returns
+    -------
+    numpy.ndarray
+        uint8 or uint16 array.
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999, §5 (digital encoding of non-linear sRGB values).
+    """
+    if bits not in (8, 16):
+        raise ConfigError(f"bit depth {bits!r} is not supported; valid: 8, 16")
+    top = 2 ** bits - 1
+    values = np.rint(np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, 1.0) * top)
+    return values.astype(np.uint8 if bits == 8 else np.uint16)
+
+
+def _check_rgb(image: np.ndarray) -> np.ndarray:
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[-1] != 3:
+        raise ConfigError(f"an RGB image must have shape (H, W, 3); got {image.shape}")
+    return image
+
+
+def _cv2_write(path: Path, rgb_int: np.ndarray, params: list[int]) -> Path:
+    import cv2
+
+    with atomic_path(path) as tmp:
+        if not cv2.imwrite(str(tmp), np.ascontiguousarray(rgb_int[..., ::-1]), params):
+            raise ConfigError(f"OpenCV could not encode {path}")
+    return Path(path)
+
+
+def write_png(image: np.ndarray, path: str | Path, *, bits: int = 8) -> Path:
+    """Write display sRGB values as an 8- or 16-bit PNG.
+
+    Parameters
+    ----------
+    image
+        (H, W, 3) display values in [0, 1] (clipped).
+    path
+        Output file.
+    bits
+        8 or 16.
+
+    Returns
+    -------
+    pathlib.Path
+
+    References
+    ----------
+    .. [1] ISO/IEC 15948:2004 (PNG).
+    """
+    import cv2
+
+    return _cv2_write(Path(path), quantise(_check_rgb(image), bits=bits), [cv2.IMWRITE_PNG_COMPRESSION, 6])
+
+
+def write_jpeg(image: np.ndarray, path: str | Path, *, quality: int = 95) -> Path:
+    """Write display sRGB values as a baseline 8-bit JPEG.
+
+    Parameters
+    ----------
+    image
+        (H, W, 3) display values in [0, 1] (clipped).
+    path
+        Output file.
+    quality
+        JPEG quality, 1..100.
+
+    Returns
+    -------
+    pathlib.Path
+
+    References
+    ----------
+    .. [1] ITU-T T.81 | ISO/IEC 10918-1.
+    """
+    import cv2
+
+    if not 1 <= int(quality) <= 100:
+        raise ConfigError(f"JPEG quality {quality!r} must lie in 1..100")
+    return _cv2_write(Path(path), quantise(_check_rgb(image), bits=8), [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+
+
+def write_tiff(image: np.ndarray, path: str | Path, *, bits: int = 16) -> Path:
+    """Write display sRGB values as an RGB TIFF (16-bit by default), zlib-compressed.
+
+    Parameters
+    ----------
+    image
+        (H, W, 3) display values in [0, 1] (clipped).
+    path
+        Output file.
+    bits
+        16 or 8.
+
+    Returns
+    -------
+    pathlib.Path
+
+    References
+    ----------
+    .. [1] Adobe (1992). TIFF Revision 6.0.
+    """
+    import tifffile
+
+    data = quantise(_check_rgb(image), bits=bits)
+    with atomic_path(path) as tmp:
+        tifffile.imwrite(tmp, data, photometric="rgb", compression="zlib")
+    return Path(path)
+
+
+def write_exr(linear: np.ndarray, path: str | Path) -> Path:
+    """Write linear sRGB as a float32 OpenEXR (channels R, G, B; unclipped).
+
+    Parameters
+    ----------
+    linear
+        (H, W, 3) linear sRGB (1 = reference white).
+    path
+        Output file.
+
+    Returns
+    -------
+    pathlib.Path
+
+    References
+    ----------
+    .. [1] OpenEXR file layout, https://openexr.com (chromaticities default to Rec. 709 = sRGB).
+    """
+    import OpenEXR
+
+    data = _check_rgb(linear).astype(np.float32)
+    channels = {name: np.ascontiguousarray(data[..., i]) for i, name in enumerate("RGB")}
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with atomic_path(path) as tmp:
+        with OpenEXR.File(header, channels) as exr:
+            exr.write(str(tmp))
+    return Path(path)
+
+
+def _png8(dev, path, **_):
+    return write_png(dev.image, path, bits=8)
+
+
+def _png16(dev, path, **_):
+    return write_png(dev.image, path, bits=16)
+
+
+def _jpeg(dev, path, *, quality=95, **_):
+    return write_jpeg(dev.image, path, quality=quality)
+
+
+def _tiff(dev, path, **_):
+    return write_tiff(dev.image, path, bits=16)
+
+
+def _exr(dev, path, **_):
+    return write_exr(dev.linear, path)
+
+
+#: Encoders by output-format name; each takes a DevelopedImage and a path.
+ENCODERS = {"png": _png8, "png16": _png16, "jpeg": _jpeg, "tiff": _tiff, "exr": _exr}
+#: File suffix each format writes with :func:`write_outputs`.
+FORMAT_SUFFIXES = {"png": ".png", "png16": ".16bit.png", "jpeg": ".jpg", "tiff": ".tif", "exr": ".exr"}
+_BY_SUFFIX = {".png": "png", ".jpg": "jpeg", ".jpeg": "jpeg", ".tif": "tiff", ".tiff": "tiff", ".exr": "exr"}
+
+
+def write_image(developed, path: str | Path, *, format: str | None = None, quality: int = 95) -> Path:
+    """Write a developed image in one format, chosen by name or by the path's suffix.
+
+    Parameters
+    ----------
+    developed
+        A :class:`~spectral_cam.isp.pipeline.DevelopedImage` (``.image`` display values,
+        ``.linear`` linear sRGB).
+    path
+        Output file.
+    format
+        One of :data:`ENCODERS` (``"png"``, ``"png16"``, ``"jpeg"``, ``"tiff"``,
+        ``"exr"``); ``None`` infers it from the suffix (.png, .jpg/.jpeg, .tif/.tiff, .exr).
+    quality
+        JPEG quality.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ConfigError
+        For an unknown format or suffix (listing the valid ones).
+
+    References
+    ----------
+    .. [1] ISO/IEC 15948:2004; ITU-T T.81; TIFF 6.0; OpenEXR.
+    """
+    path = Path(path)
+    if format is None:
+        format = _BY_SUFFIX.get(path.suffix.lower())
+        if format is None:
+            raise ConfigError(f"cannot tell the image format of {str(path)!r}; use a suffix among "
+                              f"{', '.join(_BY_SUFFIX)}")
+    if format not in ENCODERS:
+        raise ConfigError(f"output format {format!r} is unknown; valid: {', '.join(ENCODERS)}")
+    return ENCODERS[format](developed, path, quality=quality)
+
+
+def write_outputs(developed, directory: str | Path, formats, *, stem: str = "image",
+                  quality: int = 95) -> list[Path]:
+    """Write a developed image in several formats: ``<directory>/<stem><suffix>``.
+
+    Parameters
+    ----------
+    developed
+        A :class:`~spectral_cam.isp.pipeline.DevelopedImage`.
+    directory
+        Output folder (created if missing).
+    formats
+        Names from :data:`ENCODERS` (``ISPConfig.outputs``); suffixes per
+        :data:`FORMAT_SUFFIXES` (``png16`` → ``.16bit.png``).
+    stem
+        File name without suffix.
+    quality
+        JPEG quality.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+
+    References
+    ----------
+    .. [1] ISO/IEC 15948:2004; ITU-T T.81; TIFF 6.0; OpenEXR.
+    """
+    written = []
+    for name in formats:
+        if name not in ENCODERS:
+            raise ConfigError(f"output format {name!r} is unknown; valid: {', '.join(ENCODERS)}")
+        written.append(write_image(developed, Path(directory) / f"{stem}{FORMAT_SUFFIXES[name]}",
+                                   format=name, quality=quality))
+    return written

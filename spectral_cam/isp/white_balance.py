@@ -1,0 +1,155 @@
+"""White balance on the linear Bayer mosaic: gain estimation and application.
+
+Gains are normalised so the smallest is 1: every channel then reaches at least the
+saturation level where the sensor clipped, which is what the highlight stage relies on
+(dcraw / LibRaw use the same convention).
+
+References
+----------
+.. [1] Buchsbaum, G. (1980). A spatial processor model for object colour perception.
+   J. Franklin Inst. 310(1), 1–26 (grey world).
+.. [2] Land, E. H., & McCann, J. J. (1971). Lightness and retinex theory. JOSA 61(1),
+   1–11 (white patch / max-RGB).
+.. [3] Adobe (2023). DNG Specification 1.7.1.0, AsShotNeutral.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigError
+from .cfa import channel_index, tile_gain_map
+
+__all__ = ["WHITE_BALANCE", "white_balance_gains", "apply_white_balance"]
+
+
+def _normalised(gains) -> np.ndarray:
+    gains = np.asarray(gains, dtype=np.float64).reshape(3)
+    if not np.all(np.isfinite(gains)) or np.any(gains <= 0):
+        raise ConfigError(f"white-balance gains must be three finite numbers > 0; got {gains.tolist()}")
+    return gains / gains.min()
+
+
+def _usable(mosaic: np.ndarray, cfa: str, saturation: float):
+    index = channel_index(mosaic.shape, cfa)
+    ok = mosaic < saturation
+    return index, ok
+
+
+def _as_shot(mosaic, cfa, *, as_shot_neutral=None, saturation=1.0, **_):
+    if as_shot_neutral is None:
+        raise ConfigError("white_balance = 'as_shot' needs the RAW's AsShotNeutral; this RAW has none "
+                          "(use 'grey_world', 'white_patch' or 'manual')")
+    return _normalised(1.0 / np.asarray(as_shot_neutral, dtype=np.float64))
+
+
+def _grey_world(mosaic, cfa, *, saturation=1.0, **_):
+    index, ok = _usable(mosaic, cfa, saturation)
+    means = np.array([mosaic[(index == c) & ok].mean() if np.any((index == c) & ok) else np.nan
+                      for c in range(3)])
+    if not np.all(means > 0):
+        raise ConfigError("grey-world white balance needs unclipped signal in all three channels")
+    return _normalised(means[1] / means)
+
+
+def _white_patch(mosaic, cfa, *, saturation=1.0, percentile=99.0, **_):
+    index, ok = _usable(mosaic, cfa, saturation)
+    tops = np.array([np.percentile(mosaic[(index == c) & ok], percentile) if np.any((index == c) & ok)
+                     else np.nan for c in range(3)])
+    if not np.all(tops > 0):
+        raise ConfigError("white-patch white balance needs unclipped signal in all three channels")
+    return _normalised(tops[1] / tops)
+
+
+def _manual(mosaic, cfa, *, gains=None, **_):
+    if gains is None or len(gains) != 3:
+        raise ConfigError("white_balance = 'manual' needs isp.wb_gains = [R, G, B]")
+    return _normalised(gains)
+
+
+#: White-balance gain estimators by name.
+WHITE_BALANCE = {
+    "as_shot": _as_shot,
+    "grey_world": _grey_world,
+    "white_patch": _white_patch,
+    "manual": _manual,
+}
+
+
+def white_balance_gains(
+    mosaic: np.ndarray,
+    cfa: str,
+    *,
+    method: str = "as_shot",
+    as_shot_neutral=None,
+    gains=None,
+    saturation: float = 1.0,
+    percentile: float = 99.0,
+) -> np.ndarray:
+    """Estimate R, G, B white-balance gains (smallest = 1).
+
+    Parameters
+    ----------
+    mosaic
+        (H, W) float32 linear mosaic, black at 0 and white level at 1.
+    cfa
+        Bayer tile name.
+    method
+        ``"as_shot"``: gains = 1 / AsShotNeutral; ``"grey_world"``: the channel means are
+        made equal (Buchsbaum 1980); ``"white_patch"``: the channels' ``percentile``-th
+        values are made equal (max-RGB, Land & McCann 1971); ``"manual"``: ``gains``.
+        Clipped samples (≥ ``saturation``) are ignored by the estimators.
+    as_shot_neutral
+        (3,) camera RGB of the scene's white (DNG AsShotNeutral).
+    gains
+        (3,) manual gains.
+    saturation
+        Normalised level at which the sensor clips (1 = white level).
+    percentile
+        Percentile of each channel taken as its white for ``"white_patch"``, %.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3,) float64 gains, normalised so the smallest is 1.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown method (listing the valid ones) or missing inputs.
+
+    References
+    ----------
+    .. [1] Buchsbaum, G. (1980). J. Franklin Inst. 310(1), 1–26.
+    .. [2] Land, E. H., & McCann, J. J. (1971). JOSA 61(1), 1–11.
+    .. [3] Adobe (2023). DNG Specification 1.7.1.0, AsShotNeutral.
+    """
+    if method not in WHITE_BALANCE:
+        raise ConfigError(f"white balance {method!r} is unknown; valid: {', '.join(WHITE_BALANCE)}")
+    return WHITE_BALANCE[method](np.asarray(mosaic, dtype=np.float32), cfa, as_shot_neutral=as_shot_neutral,
+                                 gains=gains, saturation=saturation, percentile=percentile)
+
+
+def apply_white_balance(mosaic: np.ndarray, cfa: str, *, gains) -> np.ndarray:
+    """Multiply each CFA sample by its colour's gain.
+
+    Parameters
+    ----------
+    mosaic
+        (H, W) float32 linear mosaic.
+    cfa
+        Bayer tile name.
+    gains
+        (3,) R, G, B gains (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) float32 white-balanced mosaic.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, AsShotNeutral.
+    """
+    mosaic = np.asarray(mosaic, dtype=np.float32)
+    return mosaic * tile_gain_map(mosaic.shape, cfa, gains)

@@ -1,0 +1,9 @@
+"""Measurements on images and RAW frames: colour error, detail, EMVA 1288 sensor analysis.
+
+- :mod:`.image_quality`: ΔE2000 per ColorChecker patch, patch means, PSNR, SSIM.
+- :mod:`.emva1288`: the photon-transfer analysis of flat-field frame pairs.
+"""
+
+from .image_quality import colorchecker_delta_e, delta_e2000, linear_srgb_to_lab, patch_means, psnr, ssim
+
+__all__ = ["patch_means", "linear_srgb_to_lab", "delta_e2000", "colorchecker_delta_e", "psnr", "ssim"]
