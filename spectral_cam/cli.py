@@ -1,6 +1,7 @@
 """``spectral-cam``: the command-line face of the Python API.
 
     spectral-cam render SCENE.toml -o OUTDIR [--set section.key=value]... [--force]
+    spectral-cam develop RAW.dng -o IMAGE [--set isp.key=value]... [--force]
     spectral-cam cameras
 
 User errors (bad scene files, names, values, existing outputs) print one clear message and
@@ -11,25 +12,12 @@ hidden staging folder that is renamed onto OUTDIR only when every file is comple
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import time
-from importlib import metadata
 from pathlib import Path
 
 from .errors import SpectralCamError
 
 __all__ = ["main"]
-
-
-def _versions() -> dict[str, str]:
-    out = {}
-    for name in ("spectral_cam", "mitsuba", "drjit", "colour-science", "numpy", "OpenEXR", "rawpy", "tifffile"):
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    return out
 
 
 class _Progress:
@@ -52,56 +40,38 @@ class _Progress:
             print(line, file=sys.stderr, flush=True)
 
 
-def _write_json(data: dict, path: Path) -> None:
-    from .io import atomic_path
-
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
-
-
-def _json_default(value):
-    import numpy as np
-
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"cannot serialise {type(value).__name__}")
-
-
 def cmd_render(args: argparse.Namespace) -> int:
-    from .io import staged_directory
-    from .render import render
+    from .job import run_render_job
     from .scene import load_scene
-    from .spectral_exr import write_depth_exr, write_spectral_exr
 
-    started = time.perf_counter()
     config = load_scene(args.scene, overrides=args.set or [])
-    out = Path(args.output)
-    timings: dict[str, float] = {}
-    with staged_directory(out, force=args.force) as stage:
-        radiance = render(config, progress=_Progress("render", args.quiet))
-        timings.update(radiance.meta["timings_s"])
-        t0 = time.perf_counter()
-        write_spectral_exr(radiance, stage / "radiance.exr")
-        write_depth_exr(radiance.depth_m, stage / "depth.exr")
-        timings["write_exr"] = time.perf_counter() - t0
-        timings["total"] = time.perf_counter() - started
-        meta = {
-            "scene_file": str(Path(args.scene).resolve()),
-            "config": config.to_dict(),
-            "optics": radiance.meta["optics"],
-            "render": {k: v for k, v in radiance.meta.items() if k not in ("optics", "timings_s")},
-            "model_decisions": radiance.meta.get("model_decisions", {}),
-            "timings_s": timings,
-            "versions": _versions(),
-        }
-        _write_json(meta, stage / "meta.json")
+    meta = run_render_job(config, args.output, force=args.force, scene_file=args.scene,
+                          progress=_Progress("render", args.quiet))
     if not args.quiet:
-        print(f"wrote {out}/ (radiance.exr, depth.exr, meta.json) in {timings['total']:.1f} s "
-              f"with {radiance.meta['variant']}", file=sys.stderr)
+        print(f"wrote {args.output}/ ({', '.join(meta['files'])}) in {meta['timings_s']['total']:.1f} s "
+              f"with {meta['render']['variant']}", file=sys.stderr)
+    return 0
+
+
+def cmd_develop(args: argparse.Namespace) -> int:
+    from .errors import ConfigError
+    from .isp import develop
+    from .isp.encode import write_image
+    from .raw import read_raw
+    from .scene import parse_override, scene_from_dict
+
+    overrides = dict(parse_override(item) for item in args.set or [])
+    wrong = [key for key in overrides if not key.startswith("isp.")]
+    if wrong:
+        raise ConfigError(f"develop takes isp.* settings only; got {', '.join(wrong)}")
+    config = scene_from_dict({}, overrides=overrides).isp
+    output = Path(args.output)
+    if output.exists() and not args.force:
+        raise ConfigError(f"{output} exists; pass --force to overwrite it")
+    developed = develop(read_raw(args.raw), config)
+    write_image(developed, output, quality=config.jpeg_quality)
+    if not args.quiet:
+        print(f"wrote {output} in {developed.total_s:.2f} s", file=sys.stderr)
     return 0
 
 
@@ -129,6 +99,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("develop", help="develop any DNG (ours or a camera's) into an image")
+    p.add_argument("raw", help="RAW file (.dng, or any format LibRaw reads)")
+    p.add_argument("-o", "--output", required=True,
+                   help="image file; the suffix picks the format (.png, .jpg, .tif, .exr)")
+    p.add_argument("--set", action="append", metavar="isp.KEY=VALUE",
+                   help="ISP setting, e.g. --set isp.demosaic=menon2007 (repeatable)")
+    p.add_argument("--force", action="store_true", help="replace an existing output file")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary line")
+    p.set_defaults(func=cmd_develop)
 
     p = sub.add_parser("cameras", help="list the measured camera sensors")
     p.set_defaults(func=cmd_cameras)

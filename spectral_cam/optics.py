@@ -239,7 +239,8 @@ class ThinLens:
             kernel = airy_kernel(float(wavelength), self.working_f_number, self.pixel_pitch_m)
             out[..., band] = cv2.filter2D(data[..., band].astype(np.float32), -1, kernel,
                                           borderType=cv2.BORDER_REFLECT)
-        return out
+        # filter2D convolves large kernels by DFT, whose round-off leaves ~1e-9 negatives
+        return np.maximum(out, 0.0, out=out)
 
     def describe(self) -> dict:
         """Derived quantities for meta.json."""

@@ -1,17 +1,72 @@
 """RAW images: the :class:`RawImage` type, DNG writing (tifffile) and reading (rawpy).
 
+:func:`write_dng` writes one uncompressed raw IFD with the tags LibRaw and Adobe readers
+need: DNGVersion, PhotometricInterpretation = 32803 (CFA) with CFARepeatPatternDim +
+CFAPattern — or 34892 (LinearRaw, one sample) for a monochrome sensor — BlackLevel
+(+ BlackLevelRepeatDim), WhiteLevel, ColorMatrix1 with CalibrationIlluminant1 = 21 (D65),
+AsShotNeutral, NoiseProfile, UniqueCameraModel and Make/Model.
+
+:func:`read_raw` opens any raw file LibRaw supports (DNG or a camera's own format) through
+rawpy. LibRaw does not expose a DNG's ColorMatrix directly: its ``color_matrix`` is the
+camera → sRGB matrix it derived from it (``rgb_xyz_matrix`` stays zero for DNGs), so the
+XYZ → camera matrix is recovered by inverting LibRaw's derivation.
+
 References
 ----------
-.. [1] Adobe (2023). Digital Negative (DNG) Specification, version 1.7.1.0.
+.. [1] Adobe (2023). Digital Negative (DNG) Specification, version 1.7.1.0, ch. 4 (tags),
+   ch. 6 (colour).
+.. [2] LibRaw 0.21 (libraw_internal ``cam_xyz_coeff``: rgb_cam = (diag(1/pre_mul)·
+   cam_xyz·xyz_rgb)⁻¹ with rows of cam_xyz·xyz_rgb normalised to sum 1).
+.. [3] rawpy documentation, https://letmaik.github.io/rawpy/api/rawpy.RawPy.html
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["RawImage"]
+from .errors import RawFormatError
+from .io import atomic_path
+
+__all__ = ["RawImage", "write_dng", "read_raw", "DNG_TAGS"]
+
+#: TIFF/DNG tag numbers written by :func:`write_dng` (DNG 1.7.1.0 ch. 4; TIFF 6.0; TIFF/EP).
+DNG_TAGS = {
+    "NewSubFileType": 254,
+    "PhotometricInterpretation": 262,
+    "Make": 271,
+    "Model": 272,
+    "Orientation": 274,
+    "Software": 305,
+    "CFARepeatPatternDim": 33421,
+    "CFAPattern": 33422,
+    "DNGVersion": 50706,
+    "DNGBackwardVersion": 50707,
+    "UniqueCameraModel": 50708,
+    "CFAPlaneColor": 50710,
+    "CFALayout": 50711,
+    "BlackLevelRepeatDim": 50713,
+    "BlackLevel": 50714,
+    "WhiteLevel": 50717,
+    "ColorMatrix1": 50721,
+    "AsShotNeutral": 50728,
+    "CalibrationIlluminant1": 50778,
+    "NoiseProfile": 51041,
+}
+#: PhotometricInterpretation values.
+PHOTOMETRIC_CFA = 32803
+PHOTOMETRIC_LINEAR_RAW = 34892
+#: EXIF LightSource code of CIE D65 (DNG CalibrationIlluminant).
+ILLUMINANT_D65 = 21
+_CFA_CODES = {"R": 0, "G": 1, "B": 2}
+_TIFF_BYTE, _TIFF_ASCII, _TIFF_SHORT, _TIFF_LONG, _TIFF_RATIONAL, _TIFF_SRATIONAL, _TIFF_DOUBLE = 1, 2, 3, 4, 5, 10, 12
+_RATIONAL_DENOMINATOR = 1_000_000
+#: sRGB (D65) → XYZ as LibRaw hard-codes it (``xyz_rgb``), needed to undo its derivation.
+_LIBRAW_XYZ_RGB = np.array([[0.412453, 0.357580, 0.180423],
+                            [0.212671, 0.715160, 0.072169],
+                            [0.019334, 0.119193, 0.950227]])
 
 
 @dataclass
@@ -52,3 +107,248 @@ class RawImage:
     noise_profile: tuple[float, float] | None = None
     camera_model: str = ""
     meta: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- writing
+def _rationals(values, *, signed: bool) -> list[int]:
+    out = []
+    for value in np.ravel(np.asarray(values, dtype=float)):
+        numerator = int(round(value * _RATIONAL_DENOMINATOR))
+        limit = 2 ** 31 - 1 if signed else 2 ** 32 - 1
+        if not (-limit if signed else 0) <= numerator <= limit:
+            raise RawFormatError(f"value {value!r} does not fit a TIFF {'S' if signed else ''}RATIONAL")
+        out += [numerator, _RATIONAL_DENOMINATOR]
+    return out
+
+
+def _ascii(text: str) -> str:
+    return text.encode("ascii", "replace").decode("ascii") or "unknown"
+
+
+def _check_raw(raw: RawImage) -> np.ndarray:
+    mosaic = np.asarray(raw.mosaic)
+    if mosaic.ndim != 2 or mosaic.size == 0:
+        raise RawFormatError(f"RawImage.mosaic must be a non-empty (H, W) array; got shape {mosaic.shape}")
+    if mosaic.dtype != np.uint16:
+        if not np.issubdtype(mosaic.dtype, np.integer) or mosaic.min() < 0 or mosaic.max() > 65535:
+            raise RawFormatError(f"RawImage.mosaic must hold whole numbers in 0..65535; got {mosaic.dtype}")
+        mosaic = mosaic.astype(np.uint16)
+    if raw.cfa != "none" and (len(raw.cfa) != 4 or set(raw.cfa) - set("RGB") or raw.cfa.count("G") != 2):
+        raise RawFormatError(f"RawImage.cfa = {raw.cfa!r}; valid: RGGB, BGGR, GRBG, GBRG, none")
+    if not 0 < int(raw.white_level) <= 65535 or not 0 <= float(raw.black_level) < int(raw.white_level):
+        raise RawFormatError(f"levels black = {raw.black_level!r}, white = {raw.white_level!r}: need "
+                             "0 <= black < white <= 65535")
+    return np.ascontiguousarray(mosaic)
+
+
+def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str = "spectral_cam") -> Path:
+    """Write a RawImage as an uncompressed DNG (atomically).
+
+    Parameters
+    ----------
+    raw : RawImage
+        Mosaic (uint16), CFA, levels and optional colour metadata. ``color_matrix``
+        (XYZ(D65) → camera) becomes ColorMatrix1 with CalibrationIlluminant1 = 21;
+        ``as_shot_neutral`` AsShotNeutral; ``noise_profile`` NoiseProfile.
+    path : str or path-like
+        Output file (``.dng``); written through a temporary file and renamed.
+    make : str
+        Make (tag 271); Model (272) is the camera model.
+    software : str
+        Software (tag 305).
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+
+    Raises
+    ------
+    RawFormatError
+        If the RawImage cannot be stored (wrong mosaic shape or type, bad levels or CFA).
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 4 (tags 50706–51041).
+    .. [2] ISO 12234-2 (TIFF/EP): CFARepeatPatternDim (33421), CFAPattern (33422).
+    """
+    import tifffile
+
+    mosaic = _check_raw(raw)
+    path = Path(path)
+    model = _ascii(raw.camera_model or "spectral_cam")
+    black = float(raw.black_level)
+    tags = [
+        (DNG_TAGS["DNGVersion"], _TIFF_BYTE, 4, (1, 4, 0, 0), True),
+        (DNG_TAGS["DNGBackwardVersion"], _TIFF_BYTE, 4, (1, 1, 0, 0), True),
+        (DNG_TAGS["UniqueCameraModel"], _TIFF_ASCII, 0, model, True),
+        (DNG_TAGS["Make"], _TIFF_ASCII, 0, _ascii(make), True),
+        (DNG_TAGS["Model"], _TIFF_ASCII, 0, model, True),
+        (DNG_TAGS["Orientation"], _TIFF_SHORT, 1, (1,), True),
+        (DNG_TAGS["BlackLevelRepeatDim"], _TIFF_SHORT, 2, (1, 1), True),
+        ((DNG_TAGS["BlackLevel"], _TIFF_LONG, 1, (int(black),), True) if black.is_integer()
+         else (DNG_TAGS["BlackLevel"], _TIFF_RATIONAL, 1, _rationals([black], signed=False), True)),
+        (DNG_TAGS["WhiteLevel"], _TIFF_LONG, 1, (int(raw.white_level),), True),
+    ]
+    monochrome = raw.cfa == "none"
+    if not monochrome:
+        tags += [
+            (DNG_TAGS["CFARepeatPatternDim"], _TIFF_SHORT, 2, (2, 2), True),
+            (DNG_TAGS["CFAPattern"], _TIFF_BYTE, 4, tuple(_CFA_CODES[c] for c in raw.cfa), True),
+            (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, 3, (0, 1, 2), True),
+            (DNG_TAGS["CFALayout"], _TIFF_SHORT, 1, (1,), True),
+        ]
+        if raw.color_matrix is not None:
+            matrix = np.asarray(raw.color_matrix, dtype=float)
+            if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+                raise RawFormatError(f"color_matrix must be a finite 3×3 array; got {matrix.shape}")
+            tags += [
+                (DNG_TAGS["ColorMatrix1"], _TIFF_SRATIONAL, 9, _rationals(matrix, signed=True), True),
+                (DNG_TAGS["CalibrationIlluminant1"], _TIFF_SHORT, 1, (ILLUMINANT_D65,), True),
+            ]
+        if raw.as_shot_neutral is not None:
+            neutral = np.asarray(raw.as_shot_neutral, dtype=float)
+            if neutral.shape != (3,) or not np.all(neutral > 0):
+                raise RawFormatError(f"as_shot_neutral must be three positive numbers; got {neutral}")
+            tags.append((DNG_TAGS["AsShotNeutral"], _TIFF_RATIONAL, 3, _rationals(neutral, signed=False), True))
+    if raw.noise_profile is not None:
+        scale, offset = (float(v) for v in raw.noise_profile)
+        tags.append((DNG_TAGS["NoiseProfile"], _TIFF_DOUBLE, 2, (scale, offset), True))
+    with atomic_path(path) as tmp:
+        tifffile.imwrite(tmp, mosaic, photometric="cfa" if not monochrome else "minisblack",
+                         subfiletype=0, software=_ascii(software), extratags=tags, metadata=None)
+        if monochrome:  # tifffile refuses LinearRaw with one sample; set the tag in place
+            with tifffile.TiffFile(tmp, mode="r+b") as tif:
+                tif.pages[0].tags["PhotometricInterpretation"].overwrite(PHOTOMETRIC_LINEAR_RAW)
+    return path
+
+
+# ----------------------------------------------------------------------------- reading
+def _xyz_to_camera_from_libraw(rgb_cam: np.ndarray, daylight: np.ndarray) -> np.ndarray | None:
+    """Undo LibRaw's cam_xyz → rgb_cam derivation; normalise D65 white → max 1."""
+    rgb_cam = np.asarray(rgb_cam, dtype=float)[:3, :3]
+    pre_mul = np.asarray(daylight, dtype=float)[:3]
+    if not (np.all(np.isfinite(rgb_cam)) and np.all(pre_mul > 0)) or abs(np.linalg.det(rgb_cam)) < 1e-12:
+        return None
+    cam_xyz = np.diag(1.0 / pre_mul) @ np.linalg.inv(rgb_cam) @ np.linalg.inv(_LIBRAW_XYZ_RGB)
+    neutral = cam_xyz @ _LIBRAW_XYZ_RGB.sum(axis=1)
+    if not neutral.max() > 0:
+        return None
+    return cam_xyz / neutral.max()
+
+
+def _cfa_string(pattern, description: bytes, colors: int) -> str:
+    if colors == 1 or pattern is None:
+        return "none"
+    pattern = np.asarray(pattern)
+    letters = description.decode("ascii", "replace")
+    if pattern.shape != (2, 2) or colors != 3:
+        raise RawFormatError(
+            f"unsupported colour filter array ({pattern.shape[0]}×{pattern.shape[1]} tile of "
+            f"{letters!r}); spectral_cam reads 2×2 Bayer (RGGB, BGGR, GRBG, GBRG) and monochrome raws")
+    cfa = "".join(letters[i] for i in pattern.ravel())
+    if sorted(cfa) != sorted("RGGB"):
+        raise RawFormatError(f"unsupported colour filter array {cfa!r}; need a Bayer tile of R, G, G, B")
+    return cfa
+
+
+def _tiff_extras(path: Path) -> dict:
+    """NoiseProfile, UniqueCameraModel and Make/Model from a TIFF-based raw (best effort)."""
+    import tifffile
+
+    extras: dict = {}
+    try:
+        with tifffile.TiffFile(path) as tif:
+            for page in tif.pages:
+                tags = page.tags
+                for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model"):
+                    tag = tags.get(DNG_TAGS[name])
+                    if tag is not None and name not in extras:
+                        extras[name] = tag.value
+    except Exception:  # not a TIFF container (CR3, RAF, ...): rawpy's fields are all there is
+        return {}
+    return extras
+
+
+def read_raw(path) -> RawImage:
+    """Read any raw file LibRaw supports (DNG or a camera's format) into a RawImage.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The raw file.
+
+    Returns
+    -------
+    RawImage
+        ``mosaic``: the visible raw area (uint16); ``cfa`` from LibRaw's pattern and colour
+        description; ``black_level`` (mean of the per-channel levels, each in
+        ``meta["black_level_per_channel"]``); ``white_level``; ``as_shot_neutral`` =
+        1 / camera white-balance multipliers (max 1); ``color_matrix`` = XYZ(D65) → camera
+        recovered from LibRaw's ``color_matrix`` (camera → sRGB) and daylight multipliers,
+        normalised so D65's white maps to a neutral of max 1; ``noise_profile`` and
+        ``camera_model`` from the DNG tags when present.
+
+    Raises
+    ------
+    RawFormatError
+        If the file is missing, not a raw file, truncated or corrupt, or has a colour
+        filter array other than a 2×2 Bayer tile or none.
+
+    References
+    ----------
+    .. [1] rawpy API (raw_image_visible, raw_pattern, color_desc, black_level_per_channel,
+       white_level, camera_whitebalance, daylight_whitebalance, color_matrix).
+    .. [2] Adobe (2023). DNG Specification 1.7.1.0.
+    """
+    import rawpy
+
+    path = Path(path)
+    if not path.is_file():
+        raise RawFormatError(f"raw file {str(path)!r} does not exist")
+    try:
+        with rawpy.imread(str(path)) as handle:
+            mosaic = np.array(handle.raw_image_visible, dtype=np.uint16, copy=True)
+            colors = int(handle.num_colors)
+            cfa = _cfa_string(handle.raw_pattern, bytes(handle.color_desc), colors)
+            black_levels = [float(v) for v in handle.black_level_per_channel]
+            white = int(handle.white_level)
+            camera_wb = np.asarray(handle.camera_whitebalance, dtype=float)
+            daylight = np.asarray(handle.daylight_whitebalance, dtype=float)
+            rgb_cam = np.asarray(handle.color_matrix, dtype=float)
+            raw_type = str(handle.raw_type)
+    except RawFormatError:
+        raise
+    except (rawpy.LibRawError, OSError, ValueError) as exc:
+        raise RawFormatError(
+            f"{path} is not a readable raw file (missing data, truncated or corrupt): "
+            f"{type(exc).__name__}: {exc}") from None
+    if mosaic.ndim != 2 or mosaic.size == 0:
+        raise RawFormatError(f"{path}: no single-plane raw mosaic (LibRaw raw type {raw_type})")
+    neutral = matrix = None
+    if cfa != "none":
+        wb = camera_wb[:3]
+        if np.all(wb > 0):
+            neutral = (1.0 / wb) / (1.0 / wb).max()
+        matrix = _xyz_to_camera_from_libraw(rgb_cam, daylight)
+    extras = _tiff_extras(path)
+    noise = extras.get("NoiseProfile")
+    noise_profile = (float(noise[0]), float(noise[1])) if noise is not None and len(noise) >= 2 else None
+    black = float(np.mean(black_levels[: 1 if cfa == "none" else 4]))
+    return RawImage(
+        mosaic=mosaic,
+        cfa=cfa,
+        black_level=black,
+        white_level=white,
+        color_matrix=matrix,
+        as_shot_neutral=neutral,
+        noise_profile=noise_profile,
+        camera_model=str(extras.get("UniqueCameraModel", "")).strip(),
+        meta={
+            "source": str(path),
+            "black_level_per_channel": black_levels,
+            "make": str(extras.get("Make", "")).strip(),
+            "model": str(extras.get("Model", "")).strip(),
+            "libraw_raw_type": raw_type,
+        },
+    )

@@ -50,7 +50,14 @@ def test_render_writes_radiance_depth_and_meta(tmp_path, scene_file):
     assert optics["image_distance_m"] == pytest.approx(f * z / (z - f))
     assert optics["aperture_radius_m"] == pytest.approx(f / 8)
     assert meta["render"]["variant"].endswith("spectral")
-    assert set(meta["timings_s"]) >= {"radiance", "depth", "total"}
+    assert set(meta["timings_s"]) >= {"render_radiance", "render_depth", "sensor", "isp", "total"}
+    assert meta["sensor"]["K_dn_per_e"] == pytest.approx((2 ** 12 - 1 - 256) / 20000)
+    assert meta["sensor"]["saturation_e"] == pytest.approx(20000)
+    assert {"raw.dng", "image.png", "radiance.exr", "depth.exr", "meta.json"} <= set(p.name for p in out.iterdir())
+    import rawpy
+
+    with rawpy.imread(str(out / "raw.dng")) as raw:
+        assert raw.raw_image_visible.shape == (24, 36)
     assert "mitsuba" in meta["versions"]
     # an existing result is never overwritten without --force
     again = run_cli("render", str(scene_file), "-o", str(out))

@@ -1,0 +1,395 @@
+"""Spectral colour calibration of a camera: responses, XYZ, DNG colour matrix, colour correction.
+
+Everything here is computed from spectra — the camera's measured channel sensitivities, an
+illuminant's SPD and a set of reflectances (by default the 24 BabelColor ColorChecker
+patches) — on a 1-nm grid, so the DNG writer (ColorMatrix1, AsShotNeutral) and the ISP's
+fitted colour matrices rest on one definition.
+
+Conventions
+-----------
+- Camera curves ``S_c(λ)`` are relative responsivities *per unit energy* (as the packaged
+  pbrt-v4 / PhysLight data are), so the photo-electrons of channel ``c`` for a surface of
+  reflectance ρ under an illuminant of spectral power ``E`` are proportional to
+  ``∫ ρ(λ)·E(λ)·T(λ)·S_c(λ) dλ``; that integral is what :func:`camera_responses` returns
+  (relative units).
+- ``camera = "ideal"`` is a sensor of flat quantum efficiency: per unit energy its
+  responsivity is ∝ λ (three identical channels).
+- XYZ are CIE 1931 2° tristimulus values scaled so that the perfect reflecting diffuser
+  under the illuminant has Y = 1.
+
+References
+----------
+.. [1] CIE 15:2004, Colorimetry, 3rd ed., §7 (tristimulus values by integration).
+.. [2] Adobe (2023). Digital Negative (DNG) Specification 1.7.1.0, ch. 6 "Mapping Camera
+   Color Space to CIE XYZ Space" (ColorMatrix, AsShotNeutral).
+.. [3] Finlayson, G. D., & Drew, M. S. (1996). Constrained least-squares regression in
+   color spaces. Journal of Electronic Imaging 6(4) (white-point preserving fits).
+.. [4] Finlayson, G. D., Mackiewicz, M., & Hurlbert, A. (2015). Color Correction Using
+   Root-Polynomial Regression. IEEE Trans. Image Processing 24(5), 1460–1470.
+.. [5] Lam, K. M. (1985). Metamerism and colour constancy. PhD thesis, University of
+   Bradford (the Bradford chromatic adaptation transform).
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Callable, Mapping
+
+import numpy as np
+
+from . import spectra
+from .errors import ConfigError
+
+__all__ = [
+    "camera_responses",
+    "reflectance_xyz",
+    "illuminant_white_xyz",
+    "xyz_to_camera_matrix",
+    "camera_to_xyz_d65",
+    "as_shot_neutral",
+    "RootPolynomialCorrection",
+    "CORRECTION_METHODS",
+]
+
+#: Methods accepted by :func:`camera_to_xyz_d65`.
+CORRECTION_METHODS = ("linear", "root_polynomial")
+_CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
+#: CIE 1931 integration grid (nm): the CMFs' own 1-nm table.
+_XYZ_GRID_NM = np.arange(360.0, 831.0, 1.0)
+#: Wavelength range of the ideal (flat-QE) camera (nm).
+_IDEAL_RANGE_NM = (360.0, 830.0)
+
+
+# ----------------------------------------------------------------------------- inputs
+def _camera_table(camera) -> tuple[np.ndarray, np.ndarray]:
+    """(wavelengths_nm, (n, 3) per-energy responsivities) of a camera name or MSDS."""
+    if isinstance(camera, str) and camera.strip().lower() == "ideal":
+        wl = np.arange(_IDEAL_RANGE_NM[0], _IDEAL_RANGE_NM[1] + 1.0)
+        values = np.repeat((wl / wl.max())[:, None], 3, axis=1)
+        return wl, values
+    msds = spectra.camera_sensitivities(camera) if isinstance(camera, str) else camera
+    values = np.asarray(msds.values, dtype=float)
+    if values.ndim != 2 or values.shape[1] != 3:
+        raise ConfigError(f"camera {getattr(msds, 'name', camera)!r}: need three channels (r, g, b)")
+    return np.asarray(msds.wavelengths, dtype=float), values
+
+
+def _illuminant_sd(illuminant_spd):
+    return spectra.illuminant(illuminant_spd) if isinstance(illuminant_spd, str) else illuminant_spd
+
+
+def _reflectance_list(reflectances) -> list:
+    if reflectances is None:
+        return list(spectra.colorchecker_reflectances().values())
+    if isinstance(reflectances, Mapping):
+        return list(reflectances.values())
+    return [spectra.reflectance(r) if isinstance(r, (str, int, float)) else r for r in reflectances]
+
+
+def _transmission_curve(transmission, wavelengths_nm: np.ndarray) -> np.ndarray:
+    """Product of transmission curves (None, one SD/number/name, or a sequence) on a grid."""
+    if transmission is None:
+        return np.ones_like(wavelengths_nm)
+    items = transmission if isinstance(transmission, (list, tuple)) else [transmission]
+    curve = np.ones_like(wavelengths_nm)
+    for item in items:
+        sd = spectra.transmission(item) if isinstance(item, (str, int, float)) else item
+        if sd is not None:
+            curve = curve * spectra.sample(sd, wavelengths_nm)
+    return curve
+
+
+def _camera_grid(camera_wl: np.ndarray) -> np.ndarray:
+    return np.arange(np.ceil(camera_wl.min()), np.floor(camera_wl.max()) + 1.0, 1.0)
+
+
+# ----------------------------------------------------------------------------- responses
+def camera_responses(
+    camera,
+    illuminant_spd,
+    reflectances=None,
+    *,
+    transmission=None,
+) -> np.ndarray:
+    """Relative raw camera responses of reflectances under an illuminant.
+
+    ``r_c = Σ_λ ρ(λ)·E(λ)·T(λ)·S_c(λ)·Δλ`` on a 1-nm grid over the camera curves' range,
+    with ``S_c`` the per-energy channel responsivity, so ``r_c`` is proportional to the
+    photo-electrons the channel collects.
+
+    Parameters
+    ----------
+    camera : str or colour.MultiSpectralDistributions
+        A measured camera name (:func:`spectral_cam.spectra.camera_names`), ``"ideal"``
+        (flat quantum efficiency) or the curves themselves (relative, per unit energy).
+    illuminant_spd : str or colour.SpectralDistribution
+        Illuminant name (:func:`spectral_cam.spectra.illuminant`) or SPD (relative power
+        per nm; zero outside its table).
+    reflectances : mapping, sequence or None
+        Reflectance spectra (SDs, numbers in [0, 1] or ColorChecker patch names);
+        default the 24 BabelColor ColorChecker patches.
+    transmission : optional
+        Lens / filter transmission(s) T(λ) in [0, 1]: an SD, a name/number accepted by
+        :func:`spectral_cam.spectra.transmission`, or a sequence of them (multiplied).
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) relative responses (arbitrary but common scale; nm × SPD units).
+
+    References
+    ----------
+    .. [1] Pharr, Jakob & Humphreys (2023). Physically Based Rendering, 4th ed., §5.4.2
+       (sensor response from measured RGB matching functions).
+    """
+    cam_wl, cam_values = _camera_table(camera)
+    wl = _camera_grid(cam_wl)
+    sens = np.stack([np.interp(wl, cam_wl, cam_values[:, i]) for i in range(3)], axis=-1)
+    power = spectra.sample(_illuminant_sd(illuminant_spd), wl, outside=0.0)
+    power = power * _transmission_curve(transmission, wl)
+    rho = np.stack([spectra.sample(sd, wl) for sd in _reflectance_list(reflectances)])
+    return (rho * power) @ sens
+
+
+def as_shot_neutral(camera, illuminant_spd, *, transmission=None) -> np.ndarray:
+    """Camera response to the illuminant's white (a perfect diffuser), max component 1.
+
+    Parameters
+    ----------
+    camera, illuminant_spd, transmission
+        As in :func:`camera_responses`.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3,) camera neutral, the DNG ``AsShotNeutral`` of a scene lit by this illuminant.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, tag AsShotNeutral (50728).
+    """
+    white = camera_responses(camera, illuminant_spd, [1.0], transmission=transmission)[0]
+    if not np.all(white > 0):
+        raise ConfigError("the camera does not respond to this illuminant in every channel")
+    return white / white.max()
+
+
+# ----------------------------------------------------------------------------- XYZ
+def _xyz_of(rho: np.ndarray, power: np.ndarray) -> np.ndarray:
+    import colour
+    from colour.colorimetry import sd_to_XYZ_integration
+
+    cmfs = colour.MSDS_CMFS[_CMFS_NAME]
+    shape = colour.SpectralShape(_XYZ_GRID_NM[0], _XYZ_GRID_NM[-1], 1.0)
+    illum = colour.SpectralDistribution(dict(zip(_XYZ_GRID_NM, power)), name="illuminant")
+    if not np.any(power > 0):
+        raise ConfigError("the illuminant has no power in 360–830 nm")
+    return np.asarray(sd_to_XYZ_integration(rho, cmfs, illum, shape=shape)) / 100.0
+
+
+def reflectance_xyz(illuminant_spd, reflectances=None) -> np.ndarray:
+    """CIE 1931 2° XYZ of reflectances under an illuminant (perfect white: Y = 1).
+
+    Parameters
+    ----------
+    illuminant_spd : str or colour.SpectralDistribution
+        Illuminant name or SPD (zero outside its table).
+    reflectances : mapping, sequence or None
+        As in :func:`camera_responses`; default the 24 ColorChecker patches.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) XYZ, computed by colour-science's integration method on the CMFs' 1-nm grid
+        (360–830 nm); reflectances hold their end values outside their tables.
+
+    References
+    ----------
+    .. [1] CIE 15:2004, Colorimetry, §7.1.
+    """
+    power = spectra.sample(_illuminant_sd(illuminant_spd), _XYZ_GRID_NM, outside=0.0)
+    rho = np.stack([spectra.sample(sd, _XYZ_GRID_NM) for sd in _reflectance_list(reflectances)])
+    return _xyz_of(rho, power)
+
+
+def illuminant_white_xyz(illuminant_spd) -> np.ndarray:
+    """XYZ of the perfect diffuser under an illuminant, Y = 1 (the illuminant's white).
+
+    References
+    ----------
+    .. [1] CIE 15:2004, Colorimetry, §7.1.
+    """
+    return reflectance_xyz(illuminant_spd, [1.0])[0]
+
+
+# ----------------------------------------------------------------------------- fitting
+def _white_preserving_fit(source: np.ndarray, target: np.ndarray, white_source: np.ndarray,
+                          white_target: np.ndarray) -> np.ndarray:
+    """3×3 M minimising ‖source·Mᵀ − target‖² subject to M·white_source = white_target.
+
+    Row by row: m = m_ls − G·w·(wᵀm_ls − t)/(wᵀG·w), G = (XᵀX)⁻¹ (Lagrange multiplier).
+    """
+    gram_inv = np.linalg.inv(source.T @ source)
+    m_ls = gram_inv @ source.T @ target  # (3, 3): columns are rows of M
+    gw = gram_inv @ white_source
+    correction = np.outer(gw, (white_source @ m_ls - white_target) / (white_source @ gw))
+    return (m_ls - correction).T
+
+
+@functools.lru_cache(maxsize=64)
+def _xyz_to_camera_cached(camera: str, illuminant: str, transmission_key: tuple) -> np.ndarray:
+    return _xyz_to_camera(camera, illuminant, None, list(transmission_key) or None)
+
+
+def _xyz_to_camera(camera, illuminant_spd, reflectances, transmission) -> np.ndarray:
+    cam = camera_responses(camera, illuminant_spd, reflectances, transmission=transmission)
+    xyz = reflectance_xyz(illuminant_spd, reflectances)
+    white_cam = camera_responses(camera, illuminant_spd, [1.0], transmission=transmission)[0]
+    white_xyz = illuminant_white_xyz(illuminant_spd)
+    scale = white_cam.max()
+    if np.linalg.matrix_rank(cam) < 3:
+        raise ConfigError(
+            f"camera {camera!r} has linearly dependent channels; an XYZ→camera matrix "
+            "needs three distinct spectral sensitivities"
+        )
+    return _white_preserving_fit(xyz, cam / scale, white_xyz, white_cam / scale)
+
+
+def xyz_to_camera_matrix(
+    camera,
+    illuminant_spd="D65",
+    *,
+    reflectances=None,
+    transmission=None,
+) -> np.ndarray:
+    """Least-squares XYZ → camera matrix, normalised the DNG way (DNG ColorMatrix).
+
+    Fits ``cam ≈ M·XYZ`` over the reflectance set under the illuminant, constrained so
+    that the illuminant's white (XYZ with Y = 1) maps exactly onto the camera neutral
+    scaled to a maximum component of 1 — the normalisation of a DNG ColorMatrix for its
+    calibration illuminant.
+
+    Parameters
+    ----------
+    camera : str or colour.MultiSpectralDistributions
+        Camera name or curves (see :func:`camera_responses`).
+    illuminant_spd : str or colour.SpectralDistribution
+        Calibration illuminant; ``"D65"`` gives ColorMatrix1 with CalibrationIlluminant1 = 21.
+    reflectances : optional
+        Training reflectances; default the 24 ColorChecker patches.
+    transmission : optional
+        Lens / filter transmission(s) in front of the sensor.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3, 3) matrix, rows = camera channels (r, g, b), columns = X, Y, Z.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (ColorMatrix1/2).
+    .. [2] Finlayson & Drew (1996), white-point preserving least squares.
+    """
+    cacheable = (isinstance(camera, str) and isinstance(illuminant_spd, str) and reflectances is None
+                 and (transmission is None or all(
+                     isinstance(t, (str, int, float))
+                     for t in (transmission if isinstance(transmission, (list, tuple)) else [transmission]))))
+    if cacheable:
+        key = () if transmission is None else tuple(
+            transmission if isinstance(transmission, (list, tuple)) else [transmission])
+        return _xyz_to_camera_cached(camera, illuminant_spd, key).copy()
+    return _xyz_to_camera(camera, illuminant_spd, reflectances, transmission)
+
+
+class RootPolynomialCorrection:
+    """Root-polynomial colour correction (Finlayson et al. 2015) as a callable.
+
+    ``corr(rgb)`` maps white-balanced camera RGB (..., 3) to XYZ(D65) (..., 3).
+
+    Attributes
+    ----------
+    ccm : numpy.ndarray
+        (3, n_terms) matrix on the root-polynomial expansion.
+    degree : int
+        Expansion degree (2 → 6 terms: R, G, B, √RG, √GB, √RB).
+    """
+
+    def __init__(self, ccm: np.ndarray, degree: int) -> None:
+        self.ccm = np.asarray(ccm, dtype=float)
+        self.degree = int(degree)
+
+    def __call__(self, rgb) -> np.ndarray:
+        import colour
+
+        return np.asarray(colour.characterisation.apply_matrix_colour_correction(
+            np.asarray(rgb, dtype=float), self.ccm, method="Finlayson 2015",
+            degree=self.degree, root_polynomial_expansion=True))
+
+    def __repr__(self) -> str:
+        return f"RootPolynomialCorrection(degree={self.degree}, terms={self.ccm.shape[1]})"
+
+
+def camera_to_xyz_d65(
+    camera,
+    illuminant_spd,
+    *,
+    method: str = "linear",
+    reflectances=None,
+    transmission=None,
+    degree: int = 2,
+) -> np.ndarray | Callable[[np.ndarray], np.ndarray]:
+    """Colour correction from white-balanced camera RGB to XYZ adapted to D65.
+
+    Training pairs: camera responses of the reflectances under the scene illuminant,
+    divided by the camera's white response (so the illuminant's white is (1, 1, 1)),
+    and their CIE XYZ under the same illuminant, Bradford-adapted from the illuminant's
+    white to D65's (both Y = 1).
+
+    Parameters
+    ----------
+    camera : str or colour.MultiSpectralDistributions
+        Camera name or curves.
+    illuminant_spd : str or colour.SpectralDistribution
+        The scene illuminant.
+    method : {"linear", "root_polynomial"}
+        ``"linear"``: a 3×3 least-squares matrix constrained to map (1, 1, 1) onto the D65
+        white exactly; ``"root_polynomial"``: colour-science's Finlayson 2015
+        root-polynomial regression of ``degree`` (exposure invariant).
+    reflectances : optional
+        Training reflectances; default the 24 ColorChecker patches.
+    transmission : optional
+        Lens / filter transmission(s) in front of the sensor.
+    degree : int
+        Root-polynomial degree (1–4) for ``method="root_polynomial"``.
+
+    Returns
+    -------
+    numpy.ndarray or RootPolynomialCorrection
+        ``"linear"``: the (3, 3) matrix M with XYZ_D65 = M·rgb; ``"root_polynomial"``: a
+        callable mapping (..., 3) RGB to (..., 3) XYZ_D65.
+
+    References
+    ----------
+    .. [1] Finlayson, Mackiewicz & Hurlbert (2015), root-polynomial colour correction.
+    .. [2] Lam (1985), Bradford chromatic adaptation (colour-science
+       ``matrix_chromatic_adaptation_VonKries(..., "Bradford")``).
+    """
+    import colour
+
+    if method not in CORRECTION_METHODS:
+        raise ConfigError(f"colour correction method {method!r}; valid: {', '.join(CORRECTION_METHODS)}")
+    cam = camera_responses(camera, illuminant_spd, reflectances, transmission=transmission)
+    white_cam = camera_responses(camera, illuminant_spd, [1.0], transmission=transmission)[0]
+    rgb = cam / white_cam
+    xyz = reflectance_xyz(illuminant_spd, reflectances)
+    white_xyz = illuminant_white_xyz(illuminant_spd)
+    white_d65 = illuminant_white_xyz("D65")
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white_xyz, white_d65, "Bradford")
+    xyz_d65 = xyz @ np.asarray(cat).T
+    if method == "linear":
+        return _white_preserving_fit(rgb, xyz_d65, np.ones(3), white_d65)
+    if not 1 <= int(degree) <= 4:
+        raise ConfigError(f"root-polynomial degree {degree!r}; valid: 1, 2, 3, 4")
+    ccm = colour.characterisation.matrix_colour_correction(
+        rgb, xyz_d65, method="Finlayson 2015", degree=int(degree), root_polynomial_expansion=True)
+    return RootPolynomialCorrection(ccm, int(degree))

@@ -1,0 +1,148 @@
+"""One render job: scene → radiance → RAW → developed image, written as a result folder.
+
+This is what ``spectral-cam render`` runs and what dataset generation runs per item:
+
+    OUTDIR/radiance.exr   spectral radiance per nm (Fichet et al. spectral EXR layout)
+    OUTDIR/depth.exr      camera-space z (m)
+    OUTDIR/raw.dng        the simulated RAW
+    OUTDIR/image.png      the developed sRGB image (plus any other isp.outputs)
+    OUTDIR/meta.json      resolved config, optics, sensor gain, seeds, timings, model decisions
+
+The folder appears in one rename when every file is complete (:func:`io.staged_directory`).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from importlib import metadata
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from .io import atomic_path, staged_directory
+from .scene import SceneConfig
+
+__all__ = ["run_render_job", "write_json", "package_versions"]
+
+_PACKAGES = ("spectral_cam", "mitsuba", "drjit", "colour-science", "numpy", "OpenEXR", "rawpy",
+             "tifffile", "opencv-python-headless", "scikit-image")
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of the packages a result depends on (for meta.json)."""
+    out = {}
+    for name in _PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def _json_default(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    if callable(value):
+        return getattr(value, "__name__", type(value).__name__)
+    raise TypeError(f"cannot serialise {type(value).__name__}")
+
+
+def write_json(data: dict, path: str | Path) -> Path:
+    """Write JSON atomically (numpy values converted)."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(data, indent=2, default=_json_default, ensure_ascii=False) + "\n")
+    return path
+
+
+def _white_reference(config: SceneConfig) -> np.ndarray | None:
+    """The ColorChecker's white patch as the auto-exposure reference (else the sensor uses
+    the 99th percentile)."""
+    if config.scene.preset != "colorchecker" or config.scene.mitsuba_xml:
+        return None
+    from .presets import colorchecker_patches
+
+    mask = np.zeros((config.sensor.height_px, config.sensor.width_px), dtype=bool)
+    white = next(p for p in colorchecker_patches(config) if p.name.startswith("white"))
+    mask[white.interior(0.2)] = True
+    return mask if mask.any() else None
+
+
+def run_render_job(
+    config: SceneConfig,
+    output: str | Path,
+    *,
+    force: bool = False,
+    progress: Callable[[int, int, float], None] | None = None,
+    scene_file: str | Path | None = None,
+    spectral_output: bool = True,
+) -> dict:
+    """Render, expose, develop and write one result folder; returns its meta.json content.
+
+    Parameters
+    ----------
+    config
+        The validated scene.
+    output
+        Result folder; must not exist unless ``force``.
+    progress
+        Render progress callback (spp done, spp total, seconds).
+    scene_file
+        Recorded in meta.json.
+    spectral_output
+        Write radiance.exr (the spectral cube); off, only the RAW, image, depth and meta.
+    """
+    from .isp import develop
+    from .isp.encode import write_outputs
+    from .raw import write_dng
+    from .render import render
+    from .sensor import expose
+    from .spectral_exr import write_depth_exr, write_spectral_exr
+
+    started = time.perf_counter()
+    timings: dict[str, float] = {}
+    with staged_directory(output, force=force) as stage:
+        radiance = render(config, progress=progress)
+        timings.update({f"render_{k}": v for k, v in radiance.meta["timings_s"].items()})
+
+        t0 = time.perf_counter()
+        raw = expose(radiance, config, white_mask=_white_reference(config))
+        timings["sensor"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        developed = develop(raw, config.isp)
+        timings["isp"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        written = []
+        if spectral_output:
+            written.append(write_spectral_exr(radiance, stage / "radiance.exr"))
+        written.append(write_depth_exr(radiance.depth_m, stage / "depth.exr"))
+        written.append(write_dng(raw, stage / "raw.dng"))
+        written += write_outputs(developed, stage, config.isp.outputs, stem="image",
+                                 quality=config.isp.jpeg_quality)
+        timings["write"] = time.perf_counter() - t0
+        timings["total"] = time.perf_counter() - started
+
+        meta = {
+            "scene_file": str(Path(scene_file).resolve()) if scene_file else None,
+            "config": config.to_dict(),
+            "optics": radiance.meta["optics"],
+            "render": {k: v for k, v in radiance.meta.items()
+                       if k not in ("optics", "timings_s", "model_decisions")},
+            "sensor": raw.meta,
+            "isp": {"timings_s": developed.timings_s,
+                    **{k: v for k, v in developed.meta.items() if k != "config"}},
+            "model_decisions": radiance.meta.get("model_decisions", {}),
+            "files": sorted(p.name for p in written) + ["meta.json"],
+            "timings_s": timings,
+            "versions": package_versions(),
+        }
+        write_json(meta, stage / "meta.json")
+    return meta

@@ -1,0 +1,85 @@
+"""Spectral colour calibration: DNG matrix normalisation, fit quality, independent XYZ."""
+
+from __future__ import annotations
+
+import colour
+import numpy as np
+import pytest
+
+from spectral_cam import calibration as cal
+from spectral_cam import sensor as S
+from spectral_cam import spectra
+from spectral_cam.errors import ConfigError
+from spectral_cam.render import SpectralImage
+from spectral_cam.scene import scene_from_dict
+
+
+@pytest.mark.parametrize("camera", ["nikon_d850", "canon_eos_5d_mkiv", "sony_ilce_7m3"])
+def test_color_matrix_maps_d65_white_to_camera_neutral(camera):
+    matrix = cal.xyz_to_camera_matrix(camera, "D65")
+    neutral = matrix @ cal.illuminant_white_xyz("D65")
+    np.testing.assert_allclose(neutral, cal.as_shot_neutral(camera, "D65"), atol=1e-12)
+    assert neutral.max() == pytest.approx(1.0)
+
+
+def test_color_matrix_fit_residuals_small():
+    matrix = cal.xyz_to_camera_matrix("nikon_d850", "D65")
+    cam = cal.camera_responses("nikon_d850", "D65")
+    white = cal.camera_responses("nikon_d850", "D65", [1.0])[0]
+    predicted = cal.reflectance_xyz("D65") @ matrix.T
+    residual = predicted - cam / white.max()
+    assert np.sqrt(np.mean(residual ** 2)) < 0.01  # of a white at 1
+
+
+@pytest.mark.filterwarnings("ignore::colour.utilities.ColourRuntimeWarning")
+def test_reflectance_xyz_matches_colour_science_directly():
+    patches = spectra.colorchecker_reflectances()
+    name = "dark skin"
+    shape = colour.SpectralShape(360, 830, 1)
+    illuminant = colour.SDS_ILLUMINANTS["D65"].copy().align(shape)
+    expected = colour.sd_to_XYZ(patches[name].copy().align(shape), illuminant=illuminant, method="Integration") / 100
+    got = cal.reflectance_xyz("D65", [patches[name]])[0]
+    np.testing.assert_allclose(got, expected, rtol=2e-3)
+    np.testing.assert_allclose(cal.illuminant_white_xyz("D65"), [0.9505, 1.0, 1.089], atol=1e-3)
+
+
+@pytest.mark.parametrize("illuminant", ["D65", "A"])
+def test_camera_to_xyz_d65(illuminant):
+    cam = cal.camera_responses("nikon_d850", illuminant)
+    rgb = cam / cal.camera_responses("nikon_d850", illuminant, [1.0])[0]
+    white_d65 = cal.illuminant_white_xyz("D65")
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+        cal.illuminant_white_xyz(illuminant), white_d65, "Bradford")
+    reference = cal.reflectance_xyz(illuminant) @ np.asarray(cat).T
+    white_xy = colour.XYZ_to_xy(white_d65)
+    errors = {}
+    for method in cal.CORRECTION_METHODS:
+        fit = cal.camera_to_xyz_d65("nikon_d850", illuminant, method=method)
+        predicted = rgb @ fit.T if method == "linear" else fit(rgb)
+        errors[method] = colour.delta_E(colour.XYZ_to_Lab(predicted, white_xy),
+                                        colour.XYZ_to_Lab(reference, white_xy), method="CIE 2000").mean()
+    linear = cal.camera_to_xyz_d65("nikon_d850", illuminant)
+    np.testing.assert_allclose(linear @ np.ones(3), white_d65, atol=1e-12)  # white stays white
+    assert errors["linear"] < 2.0
+    assert errors["root_polynomial"] < errors["linear"]
+    with pytest.raises(ConfigError, match="linear, root_polynomial"):
+        cal.camera_to_xyz_d65("nikon_d850", illuminant, method="cubic")
+
+
+def test_as_shot_neutral_agrees_with_simulated_sensor():
+    bands = spectra.parse_bands("400:700:10")
+    wl, irradiance = spectra.absolute_irradiance("A", 100.0)
+    radiance = spectra.band_integrals(irradiance / np.pi, wl, bands)
+    cfg = scene_from_dict({"sensor": {"width_px": 16, "height_px": 16}, "illuminant": {"spd": "A"},
+                           "exposure": {"time_s": 0.001}})
+    image = SpectralImage(np.broadcast_to(radiance.astype(np.float32), (16, 16, 31)).copy(),
+                          np.asarray(bands.centres_nm), np.asarray(bands.edges_nm))
+    raw = S.expose(image, cfg)
+    np.testing.assert_allclose(raw.as_shot_neutral, cal.as_shot_neutral("nikon_d850", "A"), rtol=0.005)
+
+
+def test_ideal_camera_has_identical_channels():
+    responses = cal.camera_responses("ideal", "D65")
+    np.testing.assert_allclose(responses[:, 0], responses[:, 2])
+    with pytest.raises(ConfigError, match="three distinct"):
+        cal.xyz_to_camera_matrix("ideal", "D65")

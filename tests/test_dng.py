@@ -1,0 +1,123 @@
+"""DNG writing checked by an independent reader (LibRaw via rawpy, tags via tifffile)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rawpy
+import tifffile
+
+from spectral_cam import sensor as S
+from spectral_cam import spectra
+from spectral_cam.errors import RawFormatError
+from spectral_cam.raw import RawImage, read_raw, write_dng
+from spectral_cam.render import SpectralImage
+from spectral_cam.scene import scene_from_dict
+
+BANDS = spectra.parse_bands("400:700:10")
+
+
+def flat_field(illuminant, size=64, reflectance=0.5, lux=500.0):
+    """Radiance ρ·E/π of a spectrally flat Lambertian reflector, as band integrals."""
+    wl, irradiance = spectra.absolute_irradiance(illuminant, lux)
+    radiance = spectra.band_integrals(reflectance * irradiance / np.pi, wl, BANDS)
+    data = np.broadcast_to(radiance.astype(np.float32), (size, size, len(BANDS))).copy()
+    return SpectralImage(data, np.asarray(BANDS.centres_nm), np.asarray(BANDS.edges_nm))
+
+
+def exposed(cfa="RGGB", model="nikon_d850", illuminant="D65", size=64, **sensor):
+    cfg = scene_from_dict({"sensor": {"width_px": size, "height_px": size, "cfa": cfa, "model": model, **sensor},
+                           "illuminant": {"spd": illuminant, "illuminance_lux": 500.0}})
+    return S.expose(flat_field(illuminant, size), cfg, frame_seed=1)
+
+
+@pytest.mark.parametrize("cfa", ["RGGB", "BGGR", "GRBG", "GBRG"])
+def test_rawpy_reads_what_we_wrote(tmp_path, cfa):
+    raw = exposed(cfa)
+    path = write_dng(raw, tmp_path / "raw.dng")
+    with rawpy.imread(str(path)) as handle:
+        assert np.array_equal(handle.raw_image_visible, raw.mosaic)
+        assert list(handle.black_level_per_channel) == [256] * 4
+        assert handle.white_level == 4095
+        letters = handle.color_desc.decode()
+        assert "".join(letters[i] for i in handle.raw_pattern.ravel()) == cfa
+        multipliers = np.asarray(handle.camera_whitebalance[:3])
+        np.testing.assert_allclose(multipliers / multipliers[1],
+                                   (1 / raw.as_shot_neutral) / (1 / raw.as_shot_neutral[1]), rtol=1e-5)
+
+
+def test_dng_tags(tmp_path):
+    raw = exposed("GRBG")
+    path = write_dng(raw, tmp_path / "raw.dng")
+    with tifffile.TiffFile(path) as tif:
+        tags = {tag.code: tag.value for tag in tif.pages[0].tags}
+    assert tags[262] == 32803  # PhotometricInterpretation = CFA
+    assert tuple(tags[50706]) == (1, 4, 0, 0)
+    assert tuple(tags[33421]) == (2, 2) and tuple(tags[33422]) == (1, 0, 2, 1)  # G R B G
+    assert tags[50778] == 21  # CalibrationIlluminant1 = D65
+    matrix = np.asarray(tags[50721], dtype=float).reshape(9, 2)
+    np.testing.assert_allclose((matrix[:, 0] / matrix[:, 1]).reshape(3, 3), raw.color_matrix, atol=1e-6)
+    assert tags[50717] == 4095 and tags[50714] == 256
+    np.testing.assert_allclose(tags[51041], raw.noise_profile)
+    assert tags[50708] == raw.camera_model == "spectral_cam nikon_d850"
+    assert tags[271] == "spectral_cam" and tags[272] == raw.camera_model
+
+
+def test_read_raw_round_trip(tmp_path):
+    raw = exposed("BGGR", illuminant="A")
+    back = read_raw(write_dng(raw, tmp_path / "raw.dng"))
+    assert back.cfa == "BGGR" and back.black_level == 256 and back.white_level == 4095
+    assert np.array_equal(back.mosaic, raw.mosaic) and back.mosaic.dtype == np.uint16
+    np.testing.assert_allclose(back.as_shot_neutral, raw.as_shot_neutral, rtol=1e-5)
+    np.testing.assert_allclose(back.color_matrix, raw.color_matrix, atol=2e-4)  # via LibRaw's float32 matrix
+    assert back.noise_profile == pytest.approx(raw.noise_profile)
+    assert back.camera_model == raw.camera_model
+
+
+def test_monochrome_linear_raw(tmp_path):
+    raw = exposed("none", "ideal")
+    path = write_dng(raw, tmp_path / "mono.dng")
+    with tifffile.TiffFile(path) as tif:
+        assert tif.pages[0].tags[262].value == 34892  # LinearRaw
+    with rawpy.imread(str(path)) as handle:
+        assert handle.num_colors == 1
+        assert np.array_equal(handle.raw_image_visible, raw.mosaic)
+    back = read_raw(path)
+    assert back.cfa == "none" and back.color_matrix is None
+
+
+@pytest.mark.parametrize("illuminant", ["D65", "A"])
+def test_flat_field_develops_neutral_in_rawpy(tmp_path, illuminant):
+    raw = exposed("RGGB", illuminant=illuminant)
+    path = write_dng(raw, tmp_path / "flat.dng")
+    with rawpy.imread(str(path)) as handle:
+        for space in (rawpy.ColorSpace.raw, rawpy.ColorSpace.sRGB):
+            rgb = handle.postprocess(use_camera_wb=True, gamma=(1, 1), no_auto_bright=True, adjust_maximum_thr=0,
+                                     output_bps=16, output_color=space)
+            mean = rgb[8:-8, 8:-8].reshape(-1, 3).astype(float).mean(axis=0)
+            np.testing.assert_allclose(mean / mean[1], 1.0, atol=0.01)
+            assert 0.5 * 65535 < mean[1] < 0.95 * 65535  # auto exposure: 0.8 of saturation, not clipped
+
+
+def test_corrupt_missing_and_truncated_files(tmp_path):
+    with pytest.raises(RawFormatError, match="does not exist"):
+        read_raw(tmp_path / "missing.dng")
+    text = tmp_path / "notes.dng"
+    text.write_text("not a raw file")
+    with pytest.raises(RawFormatError, match="not a readable raw file"):
+        read_raw(text)
+    good = write_dng(exposed(size=128), tmp_path / "good.dng").read_bytes()
+    truncated = tmp_path / "truncated.dng"
+    truncated.write_bytes(good[: len(good) // 3])
+    with pytest.raises(RawFormatError, match="truncated"):
+        read_raw(truncated)
+
+
+def test_write_dng_rejects_bad_raw(tmp_path):
+    with pytest.raises(RawFormatError, match="mosaic"):
+        write_dng(RawImage(np.zeros((2, 2, 3), np.uint16), "RGGB", 0, 4095), tmp_path / "x.dng")
+    with pytest.raises(RawFormatError, match="cfa"):
+        write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGBW", 0, 4095), tmp_path / "x.dng")
+    with pytest.raises(RawFormatError, match="black"):
+        write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGGB", 5000, 4095), tmp_path / "x.dng")
+    assert not list(tmp_path.iterdir())  # nothing half-written
