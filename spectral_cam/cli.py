@@ -12,12 +12,23 @@ hidden staging folder that is renamed onto OUTDIR only when every file is comple
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from pathlib import Path
 
 from .errors import SpectralCamError
 
 __all__ = ["main"]
+
+#: Commands implemented in their own modules: each module defines
+#: ``configure_parser(parser)``, which adds its arguments and ``set_defaults(func=...)``
+#: with ``func(args) -> exit status``. They are imported only when their command runs.
+EXTENSIONS = {
+    "validate": ("spectral_cam.validate", "validate colour pipelines against spectral ground truth"),
+    "dataset": ("spectral_cam.dataset", "generate a randomised or swept synthetic dataset"),
+    "stress": ("spectral_cam.stress", "chart where methods break (stress scenes)"),
+    "bench": ("spectral_cam.bench", "speed-against-accuracy benchmarks (CSV + PNG charts)"),
+}
 
 
 class _Progress:
@@ -112,12 +123,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("cameras", help="list the measured camera sensors")
     p.set_defaults(func=cmd_cameras)
+    for name, (_, help_text) in EXTENSIONS.items():
+        sub.add_parser(name, help=help_text, add_help=False)
+    return parser
+
+
+def _extension_parser(name: str) -> argparse.ArgumentParser:
+    module, help_text = EXTENSIONS[name]
+    parser = argparse.ArgumentParser(prog=f"spectral-cam {name}", description=help_text)
+    importlib.import_module(module).configure_parser(parser)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] in EXTENSIONS:
+        args = _extension_parser(argv[0]).parse_args(argv[1:])
+    else:
+        args = build_parser().parse_args(argv)
     try:
         return args.func(args)
     except SpectralCamError as exc:
