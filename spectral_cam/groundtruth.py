@@ -106,6 +106,10 @@ def spectral_to_xyz(image) -> np.ndarray:
     ----------
     .. [1] CIE 15:2004, §7.1; K_m from CIE 18.2:1983 / SI (683 lm/W).
     """
+    channels = getattr(image, "channels", None)
+    if channels:  # a camera-film render carries the CMF channels themselves
+        index = [list(channels).index(name) for name in ("X", "Y", "Z")]
+        return np.asarray(image.data[..., index], dtype=np.float64) * spectra.K_M_LM_PER_W
     weights = band_cmfs(image.band_edges_nm) * spectra.K_M_LM_PER_W
     return np.asarray(image.data, dtype=np.float64) @ weights
 

@@ -61,19 +61,6 @@ def write_json(data: dict, path: str | Path) -> Path:
     return path
 
 
-def _white_reference(config: SceneConfig) -> np.ndarray | None:
-    """The ColorChecker's white patch as the auto-exposure reference (else the sensor uses
-    the 99th percentile)."""
-    if config.scene.preset != "colorchecker" or config.scene.mitsuba_xml:
-        return None
-    from .presets import colorchecker_patches
-
-    mask = np.zeros((config.sensor.height_px, config.sensor.width_px), dtype=bool)
-    white = next(p for p in colorchecker_patches(config) if p.name.startswith("white"))
-    mask[white.interior(0.2)] = True
-    return mask if mask.any() else None
-
-
 def run_render_job(
     config: SceneConfig,
     output: str | Path,
@@ -81,7 +68,7 @@ def run_render_job(
     force: bool = False,
     progress: Callable[[int, int, float], None] | None = None,
     scene_file: str | Path | None = None,
-    spectral_output: bool = True,
+    spectral_output: bool | None = None,
 ) -> dict:
     """Render, expose, develop and write one result folder; returns its meta.json content.
 
@@ -96,9 +83,11 @@ def run_render_job(
     scene_file
         Recorded in meta.json.
     spectral_output
-        Write radiance.exr (the spectral cube); off, only the RAW, image, depth and meta.
+        Write radiance.exr (the spectral cube); default ``render.spectral_output``. A
+        camera-film render (``render.bands = "camera"``) has no spectrum to write.
     """
     from .isp import develop
+    from .presets import white_reference_mask
     from .isp.encode import write_outputs
     from .raw import write_dng
     from .render import render
@@ -106,13 +95,14 @@ def run_render_job(
     from .spectral_exr import write_depth_exr, write_spectral_exr
 
     started = time.perf_counter()
+    spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
     timings: dict[str, float] = {}
     with staged_directory(output, force=force) as stage:
         radiance = render(config, progress=progress)
         timings.update({f"render_{k}": v for k, v in radiance.meta["timings_s"].items()})
 
         t0 = time.perf_counter()
-        raw = expose(radiance, config, white_mask=_white_reference(config))
+        raw = expose(radiance, config, white_mask=white_reference_mask(config))
         timings["sensor"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
@@ -121,7 +111,7 @@ def run_render_job(
 
         t0 = time.perf_counter()
         written = []
-        if spectral_output:
+        if spectral_output and radiance.channels is None:
             written.append(write_spectral_exr(radiance, stage / "radiance.exr"))
         written.append(write_depth_exr(radiance.depth_m, stage / "depth.exr"))
         written.append(write_dng(raw, stage / "raw.dng"))

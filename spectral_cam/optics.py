@@ -230,16 +230,33 @@ class ThinLens:
         return float(1.0 - defocus_mtf(self.nyquist_cyc_per_m, coc))
 
     def apply_diffraction(self, data: np.ndarray, wavelengths_nm) -> np.ndarray:
-        """Convolve each band of an (H, W, B) radiance cube with its pixel-integrated Airy
-        kernel (edges reflected), conserving each band's total."""
-        import cv2
+        """Blur each band of an (H, W, B) radiance cube by its diffraction OTF.
 
-        out = np.empty_like(data, dtype=np.float32)
+        The render's pixel values already integrate radiance over each pixel (box filter),
+        so the PSF must not be pixel-integrated a second time: the cube's spectrum is
+        multiplied by the diffraction-limited OTF (real and non-negative for an
+        aberration-free circular pupil) at each 2-D frequency up to Nyquist. Edges are
+        reflected before the FFT; each band's total is conserved (OTF(0) = 1).
+
+        References
+        ----------
+        .. [1] Goodman, Introduction to Fourier Optics, 3rd ed., §6.3 (incoherent imaging
+           as multiplication by the OTF).
+        """
+        height, width = data.shape[:2]
+        longest = float(np.max(wavelengths_nm))
+        reach = 3.0 * 1.22 * longest * 1e-9 * self.working_f_number / self.pixel_pitch_m  # 3 Airy radii, px
+        pad = int(min(max(8, np.ceil(reach)), max(height, width)))
+        padded = np.pad(data.astype(np.float32), ((pad, pad), (pad, pad), (0, 0)), mode="symmetric")
+        fy = np.fft.fftfreq(padded.shape[0])[:, None]
+        fx = np.fft.rfftfreq(padded.shape[1])[None, :]
+        radial = np.hypot(fx, fy) / self.pixel_pitch_m  # cycles per metre on the sensor
+        out = np.empty(data.shape, dtype=np.float32)
         for band, wavelength in enumerate(wavelengths_nm):
-            kernel = airy_kernel(float(wavelength), self.working_f_number, self.pixel_pitch_m)
-            out[..., band] = cv2.filter2D(data[..., band].astype(np.float32), -1, kernel,
-                                          borderType=cv2.BORDER_REFLECT)
-        # filter2D convolves large kernels by DFT, whose round-off leaves ~1e-9 negatives
+            otf = diffraction_mtf(radial, float(wavelength), self.working_f_number)
+            blurred = np.fft.irfft2(np.fft.rfft2(padded[..., band]) * otf, s=padded.shape[:2])
+            out[..., band] = blurred[pad:pad + height, pad:pad + width]
+        # the band-limited OTF rings slightly at hard edges; radiance cannot be negative
         return np.maximum(out, 0.0, out=out)
 
     def describe(self) -> dict:

@@ -26,7 +26,7 @@ from . import spectra
 from .optics import ThinLens
 from .scene import SceneConfig
 
-__all__ = ["build_objects", "colorchecker_patches", "Patch", "EDGE_REFLECTANCES"]
+__all__ = ["build_objects", "colorchecker_patches", "white_reference_mask", "Patch", "EDGE_REFLECTANCES"]
 
 #: ISO 12233:2017 low-contrast (4:1) edge: reflectances of the bright and dark sides.
 EDGE_REFLECTANCES = (0.8, 0.2)
@@ -122,6 +122,17 @@ def colorchecker_patches(config: SceneConfig) -> list[Patch]:
         column, image_row = lens.project(x, y, s.distance_m)
         patches.append(Patch(name, float(column), float(image_row), size / 2 * scale, size / 2 * scale))
     return patches
+
+
+def white_reference_mask(config: SceneConfig) -> np.ndarray | None:
+    """The ColorChecker's white patch (interior) as the auto-exposure reference, or None
+    for scenes without one (the sensor then uses the 99th percentile)."""
+    if config.scene.preset != "colorchecker" or config.scene.mitsuba_xml:
+        return None
+    mask = np.zeros((config.sensor.height_px, config.sensor.width_px), dtype=bool)
+    white = next(p for p in colorchecker_patches(config) if p.name.startswith("white"))
+    mask[white.interior(0.2)] = True
+    return mask if mask.any() else None
 
 
 def _colorchecker(config: SceneConfig, lens: ThinLens, mi) -> dict:

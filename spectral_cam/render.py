@@ -27,7 +27,7 @@ import numpy as np
 from . import spectra
 from .errors import ConfigError, RenderError
 from .optics import MTF_TOLERANCE, ThinLens
-from .scene import SceneConfig
+from .scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
 
 __all__ = ["SpectralImage", "render", "choose_variant", "band_film"]
 
@@ -37,6 +37,13 @@ LANES_PER_PASS = 1 << 22
 SCALAR_LANES_PER_PASS = 1 << 20
 #: Oldest libLLVM that drjit's LLVM backend works with (older ones abort the process).
 MIN_LLVM_MAJOR = 16
+#: spp = "auto": samples per pass, passes before judging, and the stopping rule.
+AUTO_SPP_PER_PASS = 8
+AUTO_SPP_MIN_PASSES = 4
+AUTO_SPP_TARGET_RATIO = 0.3
+AUTO_SPP_BRIGHT_FRACTION = 0.1
+#: Wavelength step (nm) of the camera film's tabulated curves.
+CAMERA_FILM_STEP_NM = 5.0
 
 
 @dataclass
@@ -55,6 +62,11 @@ class SpectralImage:
         (H, W) camera-space z in metres (inf where nothing was hit), or None.
     meta
         Provenance: variant, spp, seeds, timings, optics.
+    channels
+        None for spectral bands; for ``render.bands = "camera"`` the names of the six film
+        channels (:data:`spectral_cam.sensor.CAMERA_CHANNELS`): the photon-weighted camera
+        curves and the CIE 1931 CMFs, each value the integral of radiance against its curve
+        (``wavelengths_nm``/``band_edges_nm`` then give the film's spectral range).
     """
 
     data: np.ndarray
@@ -62,6 +74,7 @@ class SpectralImage:
     band_edges_nm: np.ndarray
     depth_m: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
+    channels: tuple[str, ...] | None = None
 
     @property
     def band_widths_nm(self) -> np.ndarray:
@@ -236,14 +249,9 @@ def render(
     variant = choose_variant(config.render.variant)
     mi.set_variant(variant)
     lens = ThinLens.from_config(config.lens, config.sensor)
-    bands = spectra.parse_bands(config.render.bands)
     width, height = config.sensor.width_px, config.sensor.height_px
-    pixels = width * height
-    total_spp = config.render.spp
-    lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
-    spp_per_pass = max(1, min(total_spp, lanes // pixels))
-
     decisions: dict[str, dict] = {}
+
     depth, depth_s = None, 0.0
     lens_model = config.lens.model
     if with_depth or lens_model == "auto":
@@ -253,26 +261,52 @@ def render(
     if lens_model == "auto":
         lens_model, decisions["lens_model"] = decide_lens_model(lens, depth)
 
+    spectral_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
+    bands = spectra.parse_bands(spectral_spec)
+    diffract, decisions["diffraction"] = decide_diffraction(lens, bands, config.render.diffraction)
+    use_camera, decisions["bands"] = decide_bands(config, diffract)
+    if use_camera:
+        from .sensor import CAMERA_CHANNELS
+
+        film, channels = camera_film(config, width, height), CAMERA_CHANNELS
+        wavelengths, edges = np.array([]), np.asarray(spectra.MITSUBA_RANGE_NM)
+    else:
+        film, channels = band_film(bands, width, height), None
+        wavelengths, edges = np.asarray(bands.centres_nm), np.asarray(bands.edges_nm)
+    n_channels = len(channels) if channels else len(bands)
+
+    auto_spp = config.render.spp == "auto"
+    target_spp = config.render.max_spp if auto_spp else config.render.spp
+    lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
+    spp_per_pass = max(1, min(AUTO_SPP_PER_PASS if auto_spp else target_spp, lanes // (width * height)))
+    monitor = NoiseMonitor(config, wavelengths, edges, channels) if auto_spp else None
+
     started = time.perf_counter()
-    camera = _camera(mi, lens, lens_model, band_film(bands, width, height), spp_per_pass)
+    camera = _camera(mi, lens, lens_model, film, spp_per_pass)
     integrator = {"type": "path", "max_depth": config.render.max_depth}
     scene, sensor, integrator = _build(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
 
-    accumulated = np.zeros((height, width, len(bands)), dtype=np.float64)
+    accumulated = np.zeros((height, width, n_channels), dtype=np.float64)
     done, index, seeds = 0, 0, []
-    while done < total_spp:
-        spp = min(spp_per_pass, total_spp - done)
+    while done < target_spp:
+        spp = min(spp_per_pass, target_spp - done)
         seed = _pass_seed(config.render.seed, index)
         image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, seed=seed, spp=spp),
-                           dtype=np.float64)
-        accumulated += image.reshape(height, width, len(bands)) * spp
+                           dtype=np.float64).reshape(height, width, n_channels)
+        accumulated += image * spp
         done += spp
         index += 1
         seeds.append(seed)
         if progress is not None:
-            progress(done, total_spp, time.perf_counter() - started)
-    data = accumulated / total_spp
+            progress(done, target_spp, time.perf_counter() - started)
+        if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated / done):
+            break
+    if monitor is not None:
+        decisions["spp"] = monitor.record(done, config.render.max_spp)
+        if progress is not None and done < target_spp:
+            progress(done, done, time.perf_counter() - started)
+    data = accumulated / done
     # Mitsuba's film can return values like −1e-19 where a pixel is black (floating-point
     # cancellation); anything clearly negative would be a bug, not rounding
     lowest, highest = float(data.min()), float(data.max())
@@ -282,25 +316,152 @@ def render(
     radiance_s = time.perf_counter() - started - load_s
 
     t0 = time.perf_counter()
-    apply, decisions["diffraction"] = decide_diffraction(lens, bands, config.render.diffraction)
-    if apply:
+    if diffract:
         data = lens.apply_diffraction(data, bands.centres_nm)
     diffraction_s = time.perf_counter() - t0
 
     meta = {
         "variant": variant,
         "lens_model": lens_model,
-        "spp": total_spp,
+        "spp": done,
         "spp_per_pass": spp_per_pass,
         "passes": index,
         "pass_seeds": seeds,
-        "bands_nm": list(bands.centres_nm),
+        "bands": "camera" if use_camera else spectral_spec,
+        "bands_nm": list(wavelengths),
+        "channels": list(channels) if channels else None,
         "optics": lens.describe(),
         "model_decisions": decisions,
         "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s,
                       "diffraction": diffraction_s},
     }
-    return SpectralImage(data, np.asarray(bands.centres_nm), np.asarray(bands.edges_nm), depth, meta)
+    return SpectralImage(data, wavelengths, edges, depth, meta, channels)
+
+
+def camera_film(config: SceneConfig, width: int, height: int) -> dict:
+    """A 6-channel ``specfilm``: the photon-weighted camera curves η_c(λ)·T(λ)·λ/λ_ref
+    (:func:`spectral_cam.sensor.film_curves`) and the CIE 1931 2° CMFs, so one render
+    integrates the camera's response exactly and gives the XYZ ground truth too."""
+    import colour
+
+    from .sensor import CAMERA_CHANNELS, film_curves
+
+    lo, hi = spectra.MITSUBA_RANGE_NM
+    wl = np.arange(lo, hi + 0.5, CAMERA_FILM_STEP_NM)
+    cmfs = spectra.sample(colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"], wl, outside=0.0)
+    curves = np.concatenate([film_curves(config, wl), cmfs], axis=1)
+    film = {"type": "specfilm", "width": width, "height": height, "component_format": "float32",
+            "rfilter": {"type": "box"}}
+    for index, name in enumerate(CAMERA_CHANNELS):  # names sort in channel order
+        film[f"ch{index}_{name}"] = {"type": "spectrum",
+                                     "value": [(float(w), float(v)) for w, v in zip(wl, curves[:, index])]}
+    return film
+
+
+def decide_bands(config: SceneConfig, diffraction: bool) -> tuple[bool, dict]:
+    """Camera-film channels instead of spectral bands when nothing needs the spectrum.
+
+    ``render.bands = "auto"`` picks the camera film when no spectral output is asked
+    (``render.spectral_output = false``) and diffraction (a per-band PSF) does not apply:
+    the film integrates the measured curves exactly, so it has no band-discretisation bias
+    and 6 channels instead of 31.
+    """
+    requested = config.render.bands
+    if requested == "camera":
+        if diffraction:
+            raise ConfigError("render.bands = 'camera' cannot carry the per-band diffraction PSF that applies "
+                              "here; use render.bands = 'auto' or a band grid, or render.diffraction = 'off'")
+        return True, {"choice": "camera", "reason": "render.bands = 'camera'"}
+    if requested != "auto":
+        return False, {"choice": requested, "reason": f"render.bands = {requested!r}"}
+    if config.render.spectral_output:
+        return False, {"choice": SPECTRAL_BANDS_DEFAULT, "reason": "a spectral output (radiance.exr) is asked"}
+    if diffraction:
+        return False, {"choice": SPECTRAL_BANDS_DEFAULT, "reason": "diffraction needs a per-band PSF"}
+    return True, {"choice": "camera", "reason": "one camera, no spectral output, no diffraction: the camera "
+                                                "curves go into the film (no band discretisation)"}
+
+
+class NoiseMonitor:
+    """Monte-Carlo noise against sensor noise, pass by pass (``render.spp = "auto"``).
+
+    Each pass's image is turned into noise-free photo-electrons per pixel (through the
+    CFA, at the configured exposure); the spread between passes estimates the Monte-Carlo
+    standard deviation of their mean, σ_MC² = var(pass)/n. The sensor's own noise is
+    σ_sensor² = μ_e + σ_d² (shot + dark noise, EMVA 1288). The render stops when, over the
+    pixels brighter than 10 % of the maximum, the 90th percentile of σ_MC/σ_sensor is ≤ 0.3.
+
+    References
+    ----------
+    .. [1] EMVA 1288 Release 4.0, §2.3 (temporal noise model).
+    .. [2] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §2.1.4 (Monte Carlo variance).
+    """
+
+    def __init__(self, config: SceneConfig, wavelengths_nm, edges_nm, channels):
+        from .presets import white_reference_mask
+
+        self.config, self.channels = config, channels
+        self.wavelengths, self.edges = np.asarray(wavelengths_nm), np.asarray(edges_nm)
+        self.white_mask = white_reference_mask(config)
+        self.count = 0
+        self.sum = self.sum_sq = None
+        self.ratio_p90 = np.inf
+        self.exposure_s = None
+        self.history: list[tuple[int, float]] = []
+
+    def _image(self, data):
+        return SpectralImage(np.asarray(data, dtype=np.float32), self.wavelengths, self.edges, None, {},
+                             self.channels)
+
+    def add(self, image: np.ndarray, spp: int) -> bool:
+        """Add one pass; returns True once enough passes exist to judge convergence."""
+        from .sensor import expected_electrons
+
+        rate, _ = expected_electrons(self._image(np.maximum(image, 0.0)), self.config, exposure_s=1.0)
+        rate = rate.astype(np.float64)
+        if self.sum is None:
+            self.sum, self.sum_sq = np.zeros_like(rate), np.zeros_like(rate)
+        self.sum += rate
+        self.sum_sq += rate * rate
+        self.count += 1
+        return self.count >= AUTO_SPP_MIN_PASSES
+
+    def converged(self, mean_image: np.ndarray) -> bool:
+        """Judge the passes so far; ``mean_image`` is their running mean (for the exposure
+        time when ``exposure.time_s = "auto"``)."""
+        from .sensor import dark_noise_electrons, expected_electrons
+
+        n = self.count
+        mean_rate = self.sum / n
+        if self.config.exposure.time_s == "auto":
+            _, exposure_s = expected_electrons(self._image(np.maximum(mean_image, 0.0)), self.config,
+                                               white_mask=self.white_mask)
+        else:
+            exposure_s = float(self.config.exposure.time_s)
+        self.exposure_s = exposure_s
+        mean_e = mean_rate * exposure_s
+        var_pass = np.maximum(self.sum_sq / n - mean_rate ** 2, 0.0) * n / (n - 1) * exposure_s ** 2
+        sigma_mc = np.sqrt(var_pass / n)
+        sigma_sensor = np.sqrt(mean_e + dark_noise_electrons(self.config.sensor, exposure_s) ** 2)
+        bright = mean_e > AUTO_SPP_BRIGHT_FRACTION * mean_e.max()
+        if not bright.any() or mean_e.max() <= 0:
+            self.ratio_p90 = 0.0
+        else:
+            self.ratio_p90 = float(np.percentile(sigma_mc[bright] / sigma_sensor[bright], 90))
+        self.history.append((n, self.ratio_p90))
+        return self.ratio_p90 <= AUTO_SPP_TARGET_RATIO
+
+    def record(self, spp: int, cap: int) -> dict:
+        """The decision record for meta.json."""
+        stopped = "converged" if self.ratio_p90 <= AUTO_SPP_TARGET_RATIO else f"reached render.max_spp = {cap}"
+        return {
+            "choice": spp,
+            "reason": f"{stopped}: 90th percentile of σ_MC/σ_sensor over pixels > "
+                      f"{AUTO_SPP_BRIGHT_FRACTION:g}·max is {self.ratio_p90:.3f} (target ≤ {AUTO_SPP_TARGET_RATIO})",
+            "ratio_p90": self.ratio_p90,
+            "exposure_s": self.exposure_s,
+            "history": [{"passes": n, "ratio_p90": r} for n, r in self.history],
+        }
 
 
 def decide_lens_model(lens: ThinLens, depth_m: np.ndarray) -> tuple[str, dict]:

@@ -44,6 +44,9 @@ CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG", "none")
 LENS_MODELS = ("auto", "thin", "pinhole")
 #: render.diffraction: "auto" applies the Airy PSF only where it costs > 0.03 MTF at Nyquist.
 DIFFRACTION_MODES = ("auto", "on", "off")
+#: render.bands besides "start:stop:step"; "auto" resolves to this grid or "camera".
+BAND_MODES = ("auto", "camera")
+SPECTRAL_BANDS_DEFAULT = "400:700:10"
 
 
 def _fail(key: str, value: Any, rule: str) -> None:
@@ -217,21 +220,33 @@ class ExposureSection:
 
 @dataclass(frozen=True)
 class RenderSection:
-    """Monte-Carlo rendering: samples per pixel, spectral bands, Mitsuba variant, seed."""
+    """Monte-Carlo rendering: samples per pixel, spectral bands, Mitsuba variant, seed.
 
-    spp: int = 64
-    bands: str = "400:700:10"
+    ``spp = "auto"`` renders passes of ≤ 8 spp until Monte-Carlo noise is ≤ 0.3 of the
+    sensor's own noise (at most ``max_spp``). ``bands = "auto"`` is the 31-band grid
+    ``400:700:10`` when a spectral output is wanted (``spectral_output``) or diffraction
+    applies, else ``"camera"``: a 6-channel film of the photon-weighted camera curves and
+    the CIE 1931 CMFs.
+    """
+
+    spp: int | str = 64
+    bands: str = "auto"
     variant: str = "auto"
     seed: int = 0
     max_depth: int = 8
     diffraction: str = "auto"
+    spectral_output: bool = True
+    max_spp: int = 1024
 
     def __post_init__(self) -> None:
         if self.diffraction not in DIFFRACTION_MODES:
             _fail("render.diffraction", self.diffraction, f"valid: {', '.join(DIFFRACTION_MODES)}")
-        if not isinstance(self.spp, int) or self.spp < 1:
-            _fail("render.spp", self.spp, "must be a whole number >= 1")
-        spectra.parse_bands(self.bands)
+        if self.spp != "auto" and (not isinstance(self.spp, int) or self.spp < 1):
+            _fail("render.spp", self.spp, "must be a whole number >= 1 or 'auto'")
+        if not isinstance(self.max_spp, int) or self.max_spp < 1:
+            _fail("render.max_spp", self.max_spp, "must be a whole number >= 1")
+        if self.bands not in BAND_MODES:
+            spectra.parse_bands(self.bands)
         if self.variant != "auto" and "spectral" not in self.variant:
             _fail("render.variant", self.variant,
                   "must be 'auto' or a spectral Mitsuba variant such as 'llvm_ad_spectral', "

@@ -40,6 +40,7 @@ import math
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -70,6 +71,12 @@ __all__ = [
     "auto_exposure_time",
     "simulate_frame",
     "validate_radiance",
+    "signal_model",
+    "SignalModel",
+    "film_curves",
+    "expected_electrons",
+    "CAMERA_CHANNELS",
+    "FILM_REFERENCE_NM",
     "CFA_LAYOUTS",
     "SHOT_NOISE_METHODS",
     "HYBRID_POISSON_BELOW_E",
@@ -410,7 +417,7 @@ def fixed_patterns(seed: int, shape: tuple[int, int]) -> tuple[np.ndarray, np.nd
 
 
 # ----------------------------------------------------------------------------- validation
-def validate_radiance(radiance: "SpectralImage", sensor: "SensorSection") -> None:
+def validate_radiance(radiance: "SpectralImage", sensor: "SensorSection") -> None:  # noqa: C901
     """Check a SpectralImage's shape against the sensor (cheap; values are checked while
     they are integrated).
 
@@ -436,6 +443,11 @@ def validate_radiance(radiance: "SpectralImage", sensor: "SensorSection") -> Non
         raise SensorError(
             f"radiance is {width}×{height} pixels but the sensor is {sensor.width_px}×{sensor.height_px}; "
             "set sensor.width_px / sensor.height_px to the radiance's size")
+    channels = getattr(radiance, "channels", None)
+    if channels:
+        if len(channels) != bands:
+            raise SensorError(f"radiance has {bands} channels but names {len(channels)}: {tuple(channels)}")
+        return
     wl = np.asarray(radiance.wavelengths_nm, dtype=float)
     if wl.shape != (bands,):
         raise SensorError(f"radiance has {bands} bands but {wl.size} wavelengths; they must match")
@@ -862,6 +874,154 @@ def _fitted_corrections(model: str, illuminant: str, specs: tuple) -> dict:
     return {"camera_to_xyz_d65": linear, "camera_to_xyz_d65_root_polynomial": root}
 
 
+# ----------------------------------------------------------------------------- signal model
+#: Reference wavelength of the photon-weighted camera film: a film value times
+#: λ_ref/(h·c) is photo-electrons per (s·m²·sr) before the camera equation's geometry.
+FILM_REFERENCE_NM = 555.0
+#: Channel names of a camera-channel SpectralImage (render.bands = "camera").
+CAMERA_CHANNELS = ("camera_r", "camera_g", "camera_b", "X", "Y", "Z")
+
+
+@dataclass(frozen=True)
+class SignalModel:
+    """How a radiance image becomes photo-electron rates on this sensor.
+
+    Attributes
+    ----------
+    weights
+        (B, C) e⁻·s⁻¹ per unit input value on axis (band radiance W·m⁻²·sr⁻¹, or camera
+        film value).
+    cos4
+        (H, W) natural vignetting, or None.
+    qe
+        (B, C) quantum efficiency at the band centres (ones for camera channels, whose
+        film already holds η).
+    camera_channels
+        True when the input holds the photon-weighted camera film channels.
+    """
+
+    weights: np.ndarray
+    cos4: np.ndarray | None
+    qe: np.ndarray
+    working_f_number: float
+    pixel_area_m2: float
+    transmission_specs: tuple
+    camera_channels: bool
+
+
+def film_curves(config: "SceneConfig", wavelengths_nm) -> np.ndarray:
+    """Photon-weighted camera curves for a ``specfilm``: η_c(λ)·T(λ)·λ/λ_ref.
+
+    Integrating radiance against them gives, times λ_ref·10⁻⁹/(h·c), the photon-weighted
+    channel signal, so a 3-channel render integrates the camera's response exactly (no
+    band discretisation); lens transmission and IR cut are inside.
+
+    Parameters
+    ----------
+    config : SceneConfig
+        Uses sensor.model, sensor.peak_qe, lens.transmission, sensor.ir_cut.
+    wavelengths_nm : array_like
+        Where to tabulate (nm).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 3) dimensionless curves.
+
+    References
+    ----------
+    .. [1] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §5.4.2 (sensor response
+       integrated against measured curves).
+    """
+    wl = np.asarray(wavelengths_nm, dtype=float)
+    qe = quantum_efficiency(config.sensor.model, wl, peak_qe=config.sensor.peak_qe)
+    transmission = _transmission_at((config.lens.transmission, config.sensor.ir_cut), tuple(wl.tolist()))
+    return qe * (transmission * wl / FILM_REFERENCE_NM)[:, None]
+
+
+def _illuminant_film_response(config: "SceneConfig") -> np.ndarray:
+    """Film response (relative) of the three camera channels to the illuminant's white."""
+    wl, irradiance = spectra.absolute_irradiance(config.illuminant.spd, 1.0)
+    return irradiance @ film_curves(config, wl)
+
+
+def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalModel:
+    """The :class:`SignalModel` of a radiance image (spectral bands or camera channels).
+
+    References
+    ----------
+    .. [1] EMVA 1288 Release 4.0, §2.1 (photons from irradiance, area and time).
+    """
+    from .optics import ThinLens
+
+    sensor, lens_cfg = config.sensor, config.lens
+    lens = ThinLens.from_config(lens_cfg, sensor)
+    n_w = lens.working_f_number
+    area = (sensor.pixel_pitch_um * 1e-6) ** 2
+    trans_specs = (lens_cfg.transmission, sensor.ir_cut)
+    cos4 = (_cos4(lens_cfg.focal_length_mm, lens_cfg.f_number, lens_cfg.focus_distance_m,
+                  sensor.pixel_pitch_um, sensor.width_px, sensor.height_px) if sensor.vignetting else None)
+    channels = getattr(radiance, "channels", None)
+    if channels:
+        if tuple(channels) != CAMERA_CHANNELS:
+            raise SensorError(f"radiance channels {tuple(channels)} are not the camera film's {CAMERA_CHANNELS}")
+        if sensor.cfa == "none":
+            raise SensorError("camera-channel radiance needs a colour sensor (sensor.cfa != 'none')")
+        geometry = float(camera_equation_irradiance(1.0, working_f_number=n_w)) * area
+        weights = np.zeros((len(CAMERA_CHANNELS), 3))
+        weights[:3, :3] = np.eye(3) * geometry * float(photons_per_joule(FILM_REFERENCE_NM))
+        qe = np.zeros_like(weights)
+        qe[:3, :3] = np.eye(3)
+        return SignalModel(weights, cos4, qe, n_w, area, trans_specs, True)
+    wavelengths = np.asarray(radiance.wavelengths_nm, dtype=float)
+    transmission = _transmission_at(trans_specs, tuple(wavelengths.tolist()))
+    qe = quantum_efficiency(sensor.model, wavelengths, peak_qe=sensor.peak_qe, monochrome=sensor.cfa == "none")
+    weights = band_weights(wavelengths, qe, working_f_number=n_w, pixel_area_m2=area, transmission=transmission)
+    return SignalModel(weights, cos4, qe, n_w, area, trans_specs, False)
+
+
+def expected_electrons(radiance: "SpectralImage", config: "SceneConfig", *, exposure_s: float | None = None,
+                       white_mask: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """Noise-free photo-electrons of every pixel through its CFA filter, and the exposure.
+
+    Parameters
+    ----------
+    radiance, config
+        As for :func:`expose`.
+    exposure_s
+        Exposure time (s); default the config's (``"auto"`` resolved as :func:`expose` does).
+    white_mask
+        Auto-exposure reference, as for :func:`expose`.
+
+    Returns
+    -------
+    (numpy.ndarray, float)
+        float32 (H, W) mean electrons (no dark current) and the exposure time (s).
+
+    References
+    ----------
+    .. [1] EMVA 1288 Release 4.0, §2.1 (μ_e = η·μ_p).
+    """
+    model = signal_model(radiance, config)
+    rate = electron_rates(radiance.data, model.weights, cfa=config.sensor.cfa, cos4=model.cos4)
+    if exposure_s is None:
+        exposure = config.exposure
+        if exposure.time_s != "auto":
+            exposure_s = float(exposure.time_s)
+        else:
+            saturation_e = saturation_electrons(config.sensor, system_gain(config.sensor, exposure.iso))
+            if white_mask is not None:
+                reference = max_channel_rates(radiance.data, model.weights, cos4=model.cos4, mask=white_mask)
+                percentile = None
+            else:
+                reference = max_channel_rates(radiance.data, model.weights, cos4=model.cos4)
+                percentile = 99.0
+            exposure_s, _ = auto_exposure_time(reference, saturation_e=saturation_e, fraction=exposure.auto_fraction,
+                                               dark_current_e_per_s=config.sensor.dark_current_e_per_s,
+                                               percentile=percentile)
+    return rate * np.float32(exposure_s), float(exposure_s)
+
+
 # ----------------------------------------------------------------------------- expose
 def expose(
     radiance: "SpectralImage",
@@ -925,16 +1085,9 @@ def expose(
     if shot_noise_method not in SHOT_NOISE_METHODS:
         raise SensorError(f"shot_noise_method {shot_noise_method!r}; valid: {', '.join(SHOT_NOISE_METHODS)}")
     monochrome = sensor.cfa == "none"
-    wavelengths = np.asarray(radiance.wavelengths_nm, dtype=float)
-    lens = ThinLens.from_config(lens_cfg, sensor)
-    n_w = lens.working_f_number
-    area = (sensor.pixel_pitch_um * 1e-6) ** 2
-    trans_specs = (lens_cfg.transmission, sensor.ir_cut)
-    transmission = _transmission_at(trans_specs, tuple(wavelengths.tolist()))
-    qe = quantum_efficiency(sensor.model, wavelengths, peak_qe=sensor.peak_qe, monochrome=monochrome)
-    weights = band_weights(wavelengths, qe, working_f_number=n_w, pixel_area_m2=area, transmission=transmission)
-    cos4 = (_cos4(lens_cfg.focal_length_mm, lens_cfg.f_number, lens_cfg.focus_distance_m,
-                  sensor.pixel_pitch_um, sensor.width_px, sensor.height_px) if sensor.vignetting else None)
+    model = signal_model(radiance, config)
+    weights, cos4, qe = model.weights, model.cos4, model.qe
+    n_w, area, trans_specs = model.working_f_number, model.pixel_area_m2, model.transmission_specs
     timings["setup"] = time.perf_counter() - started
 
     t0 = time.perf_counter()
@@ -975,8 +1128,11 @@ def expose(
     if monochrome:
         neutral, matrix = None, None
     else:
-        white_bands = _illuminant_bands(config.illuminant.spd, tuple(np.asarray(radiance.band_edges_nm, float).tolist()))
-        response = white_bands @ weights
+        if model.camera_channels:
+            response = _illuminant_film_response(config)
+        else:
+            edges = tuple(np.asarray(radiance.band_edges_nm, float).tolist())
+            response = _illuminant_bands(config.illuminant.spd, edges) @ weights
         neutral = response / response.max() if response.max() > 0 else None
         matrix = _colour_matrix(sensor.model, trans_specs) if sensor.model != "ideal" else None
     timings["colour"] = time.perf_counter() - t0
@@ -1000,6 +1156,8 @@ def expose(
         "prnu": sensor.prnu,
         "peak_qe": sensor.peak_qe,
         "peak_qe_per_channel": [float(v) for v in peak_per_channel],
+        "input": "camera channels (photon-weighted film)" if model.camera_channels else
+                 f"{len(radiance.wavelengths_nm)} spectral bands",
         "bit_depth": sensor.bit_depth,
         "working_f_number": n_w,
         "pixel_area_m2": area,

@@ -33,7 +33,8 @@ def source_scene(make_scene, depths, radius_m, model="thin", spp=1024, seed=0, s
         scene={"preset": "point_sources", "depths_m": list(depths), "source_radius_m": radius_m},
         lens={"focal_length_mm": FOCAL_M * 1e3, "f_number": F_NUMBER, "focus_distance_m": FOCUS_M, "model": model},
         sensor={"width_px": size_px, "height_px": size_px, "pixel_pitch_um": PITCH_M * 1e6},
-        render={"spp": spp, "seed": seed, "max_depth": 2},
+        # geometry only: diffraction (which "auto" applies at f/2 with 10 µm pixels) is off
+        render={"spp": spp, "seed": seed, "max_depth": 2, "diffraction": "off"},
     )
 
 
