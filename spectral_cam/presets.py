@@ -177,8 +177,8 @@ def _slanted_edge(config: SceneConfig, lens: ThinLens, mi) -> dict:
 
 
 def _dof_targets(config: SceneConfig, lens: ThinLens, mi) -> dict:
-    """Checkerboard planes at the configured depths, each filling a vertical stripe of the
-    view. The nearest plane takes the central stripe and farther ones alternate outwards,
+    """Checkerboard planes at the configured depths (squares ``checker_px`` wide on the
+    sensor when in focus), each filling a vertical stripe of the view. The nearest plane takes the central stripe and farther ones alternate outwards,
     so a nearer plane's shadow (cast straight back) always falls where it hides it."""
     depths = sorted(config.scene.depths_m)
     n = len(depths)
@@ -187,7 +187,7 @@ def _dof_targets(config: SceneConfig, lens: ThinLens, mi) -> dict:
     edges = np.linspace(-tan_x, tan_x, n + 1)
     stripes = sorted(zip(edges[:-1], edges[1:]), key=lambda e: abs(e[0] + e[1]))
     objects = {}
-    square_px = 8.0  # checker squares 8 pixels wide when in focus, at every depth
+    square_px = config.scene.checker_px  # the same apparent square size at every depth
     for index, (depth, (lo, hi)) in enumerate(zip(depths, stripes)):
         # extend inwards to the axis (hidden behind nearer planes) and outwards past the
         # frame at the outermost stripes, so defocus never shows a gap

@@ -69,7 +69,8 @@ class SceneSection:
 
     ``distance_m`` is the subject distance of ``colorchecker``, ``flat_field`` and
     ``slanted_edge``; ``depths_m`` the plane depths of ``dof_targets`` and the source depths
-    of ``point_sources``. ``fill`` is the fraction of the frame width the chart covers and
+    of ``point_sources``; ``checker_px`` the in-focus checker square size of ``dof_targets``
+    (pixels). ``fill`` is the fraction of the frame width the chart covers and
     ``gap`` the fraction of each patch pitch left as dark border. ``reflectance`` is the
     flat-field target (a number in [0, 1], a ColorChecker patch name or a CSV path).
     """
@@ -83,6 +84,7 @@ class SceneSection:
     reflectance: float | str = 0.18
     edge_angle_deg: float = 5.0
     source_radius_m: float = 0.002
+    checker_px: float = 16.0
 
     def __post_init__(self) -> None:
         if not self.mitsuba_xml and self.preset not in PRESETS:
@@ -104,6 +106,7 @@ class SceneSection:
         if not 0 <= self.edge_angle_deg < 45:
             _fail("scene.edge_angle_deg", self.edge_angle_deg, "must lie in [0, 45)")
         _positive("scene.source_radius_m", self.source_radius_m)
+        _positive("scene.checker_px", self.checker_px)
         spectra.reflectance(self.reflectance)
 
 
