@@ -236,12 +236,46 @@ def _point_sources(config: SceneConfig, lens: ThinLens, mi) -> dict:
     return objects
 
 
+def _cornell_box(config: SceneConfig, lens: ThinLens, mi) -> dict:
+    """Mitsuba's Cornell box with measured spectra: ColorChecker white, red and green patches
+    for its walls and boxes, and the configured illuminant in its ceiling light.
+
+    The box (2 units wide in Mitsuba's dict) is scaled so its back wall stands
+    ``distance_m`` in front of the camera, keeping Mitsuba's framing (its camera sits 3.9
+    units from the centre; a 39.3° field of view frames it). The light's radiance is set so
+    that the floor's centre receives about ``illuminance_lux`` (small-source approximation
+    E ≈ L·A/h²).
+    """
+    reference = mi.cornell_box()
+    scale = config.scene.distance_m / 4.9  # camera to back wall: 3.9 + 1 units
+    camera = np.asarray(reference["sensor"]["to_world"].matrix, dtype=float).reshape(4, 4, -1)[..., 0]
+    to_camera = np.diag([scale, scale, scale, 1.0]) @ np.linalg.inv(camera)
+    patches = spectra.colorchecker_reflectances()
+    materials = {"white": _diffuse(patches["white 9.5 (.05 D)"]), "red": _diffuse(patches["red"]),
+                 "green": _diffuse(patches["green"])}
+    objects = {}
+    for name, shape in reference.items():
+        if not isinstance(shape, dict) or shape.get("type") not in ("rectangle", "cube"):
+            continue
+        matrix = to_camera @ np.asarray(shape["to_world"].matrix, dtype=float).reshape(4, 4, -1)[..., 0]
+        item = {"type": shape["type"], "to_world": mi.ScalarTransform4f(matrix),
+                "bsdf": materials[shape["bsdf"]["id"]]}
+        if "emitter" in shape:
+            area = 4.0 * np.linalg.norm(matrix[:3, 0]) * np.linalg.norm(matrix[:3, 1])
+            height = 2.0 * scale  # ceiling to floor
+            wavelengths, irradiance = _irradiance(config)
+            item["emitter"] = {"type": "area", "radiance": _spectrum((wavelengths, irradiance * height ** 2 / area))}
+        objects[name.replace("-", "_")] = item
+    return objects
+
+
 _BUILDERS = {
     "colorchecker": _colorchecker,
     "flat_field": _flat_field,
     "slanted_edge": _slanted_edge,
     "dof_targets": _dof_targets,
     "point_sources": _point_sources,
+    "cornell_box": _cornell_box,
 }
 
 
@@ -249,6 +283,6 @@ def build_objects(config: SceneConfig, lens: ThinLens, mi) -> dict:
     """Shapes and emitters of the configured preset as Mitsuba scene-dict entries
     (``mi`` must have a spectral variant set)."""
     objects = _BUILDERS[config.scene.preset](config, lens, mi)
-    if config.scene.preset != "point_sources":
+    if config.scene.preset not in ("point_sources", "cornell_box"):  # these carry their own light
         objects["light"] = _sun(config)
     return objects

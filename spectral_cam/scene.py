@@ -38,7 +38,7 @@ __all__ = [
 ]
 
 #: Scene presets (geometry in :mod:`spectral_cam.presets`).
-PRESETS = ("colorchecker", "dof_targets", "slanted_edge", "flat_field", "point_sources")
+PRESETS = ("colorchecker", "dof_targets", "slanted_edge", "flat_field", "point_sources", "cornell_box")
 #: Bayer tiles, read row by row from the top-left pixel; "none" = monochrome.
 CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG", "none")
 LENS_MODELS = ("auto", "thin", "pinhole")

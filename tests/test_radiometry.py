@@ -94,3 +94,19 @@ def test_mitsuba_xml_scene_keeps_its_pose_and_gets_our_camera(tmp_path, make_sce
     assert np.allclose(bands, 10.0, rtol=0.02)
     # the XML camera sits at z = −3 looking along +z; the plane is at z = 2
     assert np.allclose(image.depth_m, 5.0, rtol=1e-5)
+
+
+@pytest.mark.timeout(120)
+def test_cornell_box_has_its_red_wall_left_and_green_wall_right(make_scene):
+    config = make_scene(
+        scene={"preset": "cornell_box", "distance_m": 4.9},
+        lens={"focal_length_mm": 2.7, "model": "pinhole"},
+        sensor={"width_px": 32, "height_px": 32},
+        render={"spp": 32, "diffraction": "off"},
+    )
+    image = render(config)
+    left, right = image.data[12:20, 1:4].mean(axis=(0, 1)), image.data[12:20, -4:-1].mean(axis=(0, 1))
+    red, green = list(image.wavelengths_nm).index(650), list(image.wavelengths_nm).index(530)
+    # the ColorChecker red reflects ~5× more at 650 nm than at 530 nm; green the reverse
+    assert left[red] > 2 * left[green] and right[green] > 2 * right[red]
+    assert np.isfinite(image.depth_m).all()  # a closed box: every ray hits a wall
