@@ -44,6 +44,7 @@ __all__ = [
     "camera_sensitivities",
     "camera_names",
     "transmission",
+    "ir_cut_filter",
     "load_spectrum_csv",
     "sample",
     "band_integrals",
@@ -308,12 +309,35 @@ def camera_sensitivities(name: str) -> "colour.MultiSpectralDistributions":  # n
 
 
 # ----------------------------------------------------------------------------- filters
+def ir_cut_filter(cutoff_nm: float, *, width_nm: float = 8.0) -> "colour.SpectralDistribution":  # noqa: F821
+    """An idealised IR-cut (hot-mirror) filter: T(λ) = 1 / (1 + exp((λ − λ_c)/w)), 50 % at
+    ``cutoff_nm``, falling from 90 % to 10 % over 4.4·w nm (typical camera filters cut at
+    630–670 nm with a 20–40 nm slope)."""
+    import colour
+
+    wavelengths = np.arange(MITSUBA_RANGE_NM[0], MITSUBA_RANGE_NM[1] + 1.0)
+    values = 1.0 / (1.0 + np.exp((wavelengths - cutoff_nm) / width_nm))
+    return colour.SpectralDistribution(dict(zip(wavelengths, values)), name=f"ir_cut:{cutoff_nm:g}")
+
+
 def transmission(spec: float | str | None) -> "colour.SpectralDistribution | None":  # noqa: F821
-    """A filter/lens transmission: ``None``/``1`` (none), a number in (0, 1], or a CSV path."""
+    """A filter/lens transmission: ``None``/``1`` (none), a number in (0, 1], a CSV path, or
+    ``"ir_cut:<nm>"`` (an idealised IR-cut filter, see :func:`ir_cut_filter`)."""
     if spec is None or (isinstance(spec, (int, float)) and float(spec) == 1.0):
         return None
     if isinstance(spec, str) and spec.strip().lower() in ("", "none", "1"):
         return None
+    if isinstance(spec, str) and spec.strip().lower().startswith("ir_cut:"):
+        try:
+            cutoff = float(spec.split(":", 1)[1])
+        except ValueError:
+            cutoff = -1.0
+        if not 500 <= cutoff <= 800:
+            raise ConfigError(f"transmission {spec!r}: use 'ir_cut:<cut-off nm>' with 500 <= nm <= 800")
+        return ir_cut_filter(cutoff)
+    if isinstance(spec, str) and not (spec.lower().endswith(".csv") or "/" in spec):
+        raise ConfigError(f"unknown transmission {spec!r}; valid: a number in (0, 1], a CSV path, "
+                          "or 'ir_cut:<cut-off nm>' (e.g. 'ir_cut:650')")
     sd = reflectance(spec) if isinstance(spec, (int, float)) else load_spectrum_csv(spec)
     if np.max(sd.values) > 1.0 + 1e-9:
         raise ConfigError(f"transmission {spec!r} exceeds 1; give a fraction in [0, 1]")

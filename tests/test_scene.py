@@ -110,3 +110,20 @@ def test_corrupt_toml_is_a_clear_error(tmp_path):
         load_scene(path)
     with pytest.raises(ConfigError, match="does not exist"):
         load_scene(tmp_path / "missing.toml")
+
+
+def test_ir_cut_filter_halves_at_its_cut_off_and_dims_the_red_channel():
+    import numpy as np
+
+    from spectral_cam.sensor import film_curves
+    from spectral_cam.spectra import sample, transmission
+
+    sd = transmission("ir_cut:650")
+    assert sample(sd, [650.0])[0] == pytest.approx(0.5)
+    assert sample(sd, [500.0])[0] > 0.99 and sample(sd, [720.0])[0] < 0.01
+    wl = np.arange(400.0, 711.0)
+    plain = film_curves(scene_from_dict({}), wl).sum(axis=0)
+    filtered = film_curves(scene_from_dict({"sensor": {"ir_cut": "ir_cut:650"}}), wl).sum(axis=0)
+    assert filtered[0] / plain[0] < filtered[2] / plain[2]  # red loses most
+    with pytest.raises(ConfigError, match="ir_cut:<cut-off nm>"):
+        scene_from_dict({"sensor": {"ir_cut": "hot mirror"}})
