@@ -1,0 +1,402 @@
+"""Validation report: a self-contained HTML page and CSV files of every number.
+
+:func:`write_report` writes, into a report folder,
+
+- ``report.html``: one page, no scripts, images inline as base64 PNG (matplotlib, Agg):
+  the pass/fail summary, ΔE2000 heatmaps (illuminant × camera, one panel per pipeline, for
+  every reflectance set and exposure), and per cell the patch swatches — ground truth and
+  pipeline side by side — with each patch's ΔE2000;
+- ``cells.csv``: one row per cell (set, illuminant, camera, exposure, pipeline) with the
+  status, ΔE2000 mean / 95th percentile / max, white-balance angular error, SNR summary,
+  exposure, gain and run time;
+- ``patches.csv``: one row per cell and patch with the ground-truth and pipeline linear
+  sRGB, their CIELAB (D65), ΔE2000 and SNR.
+
+Swatches are shown sRGB-encoded (IEC 61966-2-1 OETF) and clipped to the display range;
+the numbers in the CSVs are unclipped linear values.
+
+References
+----------
+.. [1] IEC 61966-2-1:1999, sRGB.
+.. [2] Sharma, G., Wu, W., & Dalal, E. N. (2005). The CIEDE2000 color-difference formula.
+   Color Research & Application 30(1), 21–30.
+.. [3] WHATWG HTML Living Standard (data: URLs for inline images, RFC 2397).
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+import math
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .io import atomic_path
+
+__all__ = ["write_report", "write_cells_csv", "write_patches_csv", "heatmap_png", "swatches_png", "render_html"]
+
+CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "n_patches",
+                "delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
+                "exposure_scale", "exposure_s", "iso", "K_dn_per_e", "runtime_s", "dng")
+PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_index", "patch", "role",
+                 "reference_r", "reference_g", "reference_b", "test_r", "test_g", "test_b",
+                 "reference_L", "reference_a", "reference_b_star", "test_L", "test_a", "test_b_star",
+                 "delta_e2000", "snr", "snr_db")
+
+
+def _number(value) -> str:
+    """CSV text of a number: full precision (repr) so nothing is lost; '' for missing."""
+    if value is None:
+        return ""
+    value = float(value)
+    if math.isnan(value):
+        return "nan"
+    return repr(value)
+
+
+def _role(cell, index: int) -> str:
+    if index < cell.n_set:
+        return "patch" if index != cell.white_index else "patch, white reference"
+    return "white reference"
+
+
+def write_cells_csv(result, path: str | Path) -> Path:
+    """One row per cell (see :data:`CELL_COLUMNS`), written atomically."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with tmp.open("w", newline="", encoding="utf-8") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(CELL_COLUMNS)
+            for c in result.cells:
+                s = c.stats
+                writer.writerow([c.set_name, c.illuminant, c.camera, c.exposure, c.pipeline, c.status,
+                                 "; ".join(c.failures), c.n_set,
+                                 *(_number(s.get(k)) for k in ("delta_e_mean", "delta_e_p95", "delta_e_max",
+                                                               "wb_angular_error_deg", "snr_median", "snr_min",
+                                                               "exposure_scale")),
+                                 _number(c.exposure_s), _number(c.iso), _number(c.gain_dn_per_e),
+                                 f"{c.runtime_s:.4f}", c.dng])
+    return path
+
+
+def write_patches_csv(result, path: str | Path) -> Path:
+    """One row per cell and patch (see :data:`PATCH_COLUMNS`), written atomically."""
+    from .metrics.image_quality import linear_srgb_to_lab
+
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with tmp.open("w", newline="", encoding="utf-8") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(PATCH_COLUMNS)
+            for c in result.cells:
+                if c.test is None:
+                    continue
+                ref_lab = linear_srgb_to_lab(c.reference)
+                test_lab = linear_srgb_to_lab(c.test)
+                for i, name in enumerate(c.patch_names):
+                    snr = float(c.snr[i])
+                    snr_db = 20 * math.log10(snr) if snr > 0 and math.isfinite(snr) else (math.inf if snr > 0 else math.nan)
+                    writer.writerow([c.set_name, c.illuminant, c.camera, c.exposure, c.pipeline, i, name,
+                                     _role(c, i), *map(_number, c.reference[i]), *map(_number, c.test[i]),
+                                     *map(_number, ref_lab[i]), *map(_number, test_lab[i]),
+                                     _number(c.delta_e[i]), _number(snr), _number(snr_db)])
+    return path
+
+
+# ----------------------------------------------------------------------------- figures
+def _figure_png(fig) -> str:
+    """A matplotlib figure as a base64 PNG string (Agg canvas; pyplot's state untouched)."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=fig.dpi, bbox_inches="tight")
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _figure(**kwargs):
+    """A stand-alone matplotlib Figure (no pyplot, so no GUI backend is involved)."""
+    from matplotlib.figure import Figure
+
+    return Figure(**kwargs)
+
+
+def heatmap_png(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str], columns: Sequence[str],
+                titles: Sequence[str], vmax: float, suptitle: str) -> str:
+    """Heatmaps of mean ΔE2000, one panel per pipeline, as a base64 PNG.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        (P, R, C) mean ΔE2000 (NaN where a pipeline failed to run).
+    failed : numpy.ndarray
+        (P, R, C) bool, cells that did not pass (outlined and marked).
+    rows, columns : sequence of str
+        Illuminant and camera labels.
+    titles : sequence of str
+        Pipeline names.
+    vmax : float
+        Top of the colour scale (ΔE2000).
+    suptitle : str
+        Figure title.
+
+    Returns
+    -------
+    str
+        Base64 PNG.
+    """
+    import matplotlib
+    from matplotlib.patches import Rectangle
+
+    count = values.shape[0]
+    width = max(2.6, 1.15 * len(columns) + 1.6)
+    height = max(2.0, 0.55 * len(rows) + 1.4)
+    fig = _figure(figsize=(width * count + 0.8, height), dpi=90, layout="constrained")
+    axes = fig.subplots(1, count, squeeze=False)
+    cmap = matplotlib.colormaps["RdYlGn_r"].with_extremes(bad="#bbbbbb")
+    image = None
+    for p, ax in enumerate(axes[0]):
+        image = ax.imshow(np.ma.masked_invalid(values[p]), cmap=cmap, vmin=0.0, vmax=vmax, aspect="auto")
+        for r in range(len(rows)):
+            for c in range(len(columns)):
+                value = values[p, r, c]
+                text = "error" if not np.isfinite(value) else f"{value:.2f}" + ("\nFAIL" if failed[p, r, c] else "")
+                ax.text(c, r, text, ha="center", va="center", fontsize=8,
+                        color="black" if not np.isfinite(value) or value < 0.75 * vmax else "white")
+                if failed[p, r, c]:
+                    ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1, 1, fill=False, edgecolor="black", linewidth=2))
+        ax.set_xticks(range(len(columns)), labels=columns, rotation=30, ha="right", fontsize=8)
+        ax.set_yticks(range(len(rows)), labels=rows, fontsize=8)
+        ax.set_title(titles[p], fontsize=9)
+    fig.colorbar(image, ax=axes[0].tolist(), label="mean ΔE2000", shrink=0.9)
+    fig.suptitle(suptitle, fontsize=10)
+    return _figure_png(fig)
+
+
+def _display(linear: np.ndarray) -> np.ndarray:
+    """Linear sRGB → sRGB-encoded, clipped to [0, 1] for display."""
+    import colour
+
+    return np.clip(np.asarray(colour.cctf_encoding(np.clip(linear, 0.0, None), function="sRGB")), 0.0, 1.0)
+
+
+def swatches_png(cell, *, title: str) -> str:
+    """Patch swatches of one cell: ground truth (left half) vs pipeline (right half).
+
+    Parameters
+    ----------
+    cell : CellResult
+        With ``reference``, ``test`` (exposure-matched linear sRGB) and ``delta_e``.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    str
+        Base64 PNG; each swatch is labelled with its ΔE2000 (the white reference of a set
+        that is not a ColorChecker is marked "ref").
+    """
+    count = len(cell.patch_names)
+    columns = 6 if count <= 25 else int(math.ceil(math.sqrt(1.5 * count)))
+    rows = int(math.ceil(count / columns))
+    size, gap = 21, 5  # pixels of the swatch raster: two 10-px halves and a 1-px hairline
+    canvas = np.full((rows * (size + gap) + gap, columns * (size + gap) + gap, 3), 0.12)
+    reference, test = _display(cell.reference), _display(cell.test)
+    for i in range(count):
+        r, c = divmod(i, columns)
+        top, left = gap + r * (size + gap), gap + c * (size + gap)
+        canvas[top:top + size, left:left + size // 2] = reference[i]
+        canvas[top:top + size, left + size // 2 + 1:left + size] = test[i]
+    scale = 0.5 if count <= 25 else 0.36
+    fig = _figure(figsize=(columns * scale * 2.0 + 0.4, rows * scale * 2.0 + 0.6), dpi=80)
+    ax = fig.subplots()
+    ax.imshow(canvas, interpolation="nearest")
+    font = 8 if count <= 25 else 6
+    for i in range(count):
+        r, c = divmod(i, columns)
+        label = "ref" if i >= cell.n_set else f"{cell.delta_e[i]:.1f}"
+        ax.text(gap + c * (size + gap) + size / 2, gap + r * (size + gap) + size + gap / 2, label,
+                ha="center", va="center", fontsize=font, color="white")
+    ax.set_axis_off()
+    ax.set_title(title, fontsize=8)
+    return _figure_png(fig)
+
+
+# ----------------------------------------------------------------------------- HTML
+_CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:1.5em auto;max-width:1200px;color:#222;padding:0 1em}
+h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ddd}h3{font-size:1em}
+table{border-collapse:collapse;font-size:.85em;margin:.5em 0}td,th{border:1px solid #ccc;padding:.25em .5em;text-align:left}
+th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}
+.pass{background:#d9f2d9}.fail{background:#f9d4d4}.error{background:#f2e1a5}
+.badge{display:inline-block;padding:.2em .6em;border-radius:.3em;font-weight:bold}
+img{max-width:100%;height:auto}details{margin:.4em 0}summary{cursor:pointer}
+.small{font-size:.85em;color:#555}code,pre{background:#f6f6f6}pre{padding:.6em;overflow-x:auto;font-size:.8em}
+"""
+
+
+def _status_class(status: str) -> str:
+    return {"pass": "pass", "fail": "fail"}.get(status, "error")
+
+
+def _fmt(value, digits: int = 2) -> str:
+    if value is None:
+        return ""
+    value = float(value)
+    if math.isnan(value):
+        return "–"
+    if math.isinf(value):
+        return "∞"
+    return f"{value:.{digits}f}"
+
+
+def _heatmaps(result) -> list[tuple[str, str]]:
+    """(caption, base64 PNG) per reflectance set × exposure."""
+    plan = result.plan
+    thresholds = plan.thresholds
+    out = []
+    names = [p.name for p in plan.pipelines]
+    by_key = {c.key: c for c in result.cells}
+    finite = [c.stats["delta_e_mean"] for c in result.cells if c.stats]
+    top = max([2 * thresholds.mean_delta_e if math.isfinite(thresholds.mean_delta_e) else 0.0, *finite, 1.0])
+    top = min(top, max(2 * thresholds.mean_delta_e, 10.0)) if math.isfinite(thresholds.mean_delta_e) else top
+    for refset in plan.reflectance_sets:
+        for exposure in plan.exposures:
+            values = np.full((len(names), len(plan.illuminants), len(plan.cameras)), np.nan)
+            failed = np.zeros(values.shape, dtype=bool)
+            for p, pipeline in enumerate(names):
+                for r, illuminant in enumerate(plan.illuminants):
+                    for c, camera in enumerate(plan.cameras):
+                        cell = by_key.get((refset.name, illuminant, camera, exposure.name, pipeline))
+                        if cell is None:
+                            continue
+                        if cell.stats:
+                            values[p, r, c] = cell.stats["delta_e_mean"]
+                        failed[p, r, c] = cell.status != "pass"
+            caption = f"{refset.name} ({len(refset)} patches), exposure {exposure.name}"
+            png = heatmap_png(values, failed, rows=[_short(i) for i in plan.illuminants], columns=list(plan.cameras),
+                              titles=names, vmax=top, suptitle=f"mean ΔE2000 — {caption}")
+            out.append((caption, png))
+    return out
+
+
+def _short(text: str) -> str:
+    return Path(text).name if "/" in text else text
+
+
+def render_html(result, *, generated: str | None = None) -> str:
+    """The report page as an HTML string (no scripts; images as data: URLs).
+
+    Parameters
+    ----------
+    result : ValidationResult
+    generated : str, optional
+        Timestamp text (default now, UTC).
+
+    Returns
+    -------
+    str
+    """
+    plan = result.plan
+    t = plan.thresholds
+    esc = html.escape
+    cells = result.cells
+    passed = sum(c.status == "pass" for c in cells)
+    failed = sum(c.status == "fail" for c in cells)
+    errors = sum(c.status == "error" for c in cells)
+    verdict = "pass" if passed == len(cells) else "fail"
+    generated = generated or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        '<link rel="icon" href="data:,">',
+        f"<title>spectral_cam colour validation — {esc(Path(plan.source).name)}</title>",
+        f"<style>{_CSS}</style></head><body>",
+        f"<h1>Colour-pipeline validation: {esc(Path(plan.source).name)}</h1>",
+        f'<p><span class="badge {verdict}">{passed}/{len(cells)} cells pass</span> '
+        f"({failed} fail, {errors} error); the cells ran in {result.elapsed_s:.1f} s; generated {esc(generated)}.</p>",
+        '<p class="small">Versions: ' + ", ".join(f"{esc(k)} {esc(str(v))}" for k, v in result.versions.items())
+        + ". Numbers: <a href=\"cells.csv\">cells.csv</a>, <a href=\"patches.csv\">patches.csv</a>; "
+        "RAW files in <code>raw/</code>; the resolved plan in <a href=\"plan.json\">plan.json</a>.</p>",
+        "<h2>Method</h2><ul>",
+        "<li><b>Ground truth</b>: CIE 1931 2° XYZ of each reflectance under the scene illuminant "
+        "(colour-science integration, 1-nm CMFs, perfect diffuser Y = 1) → <b>Bradford</b> chromatic adaptation "
+        "(von Kries) from the illuminant's white to D65 → linear sRGB, unclipped.</li>",
+        f"<li><b>Chart</b>: {esc(plan.chart)}"
+        + (f" — patches of {plan.patch_px} px, band radiance ρ·E/π on {esc(plan.bands)} nm band centres, "
+           f"{plan.illuminance_lux:g} lx" if plan.chart == "synthetic" else " — Mitsuba render of the ColorChecker preset")
+        + ". Sets other than the ColorChecker carry its white 9.5 patch as white reference.</li>",
+        "<li><b>ΔE2000</b> per patch on patch means (interior, 20 % margin), after scaling the pipeline's image "
+        "so the white reference has the ground truth's luminance; mean, 95th percentile, max over the set.</li>",
+        "<li><b>White balance</b>: angle between the pipeline's and the ground truth's white reference in linear "
+        "sRGB (degrees). <b>SNR</b>: mean / σ of luminance over each patch interior.</li>",
+        f"<li><b>Pass</b> when mean ΔE ≤ {t.mean_delta_e:g}, p95 ≤ {t.p95_delta_e:g}, max ≤ {t.max_delta_e:g} "
+        f"and WB error ≤ {t.wb_angular_error_deg:g}°.</li></ul>",
+        "<h2>Pipelines</h2><ul>",
+        *(f"<li><b>{esc(p.name)}</b>: {esc(p.describe())}</li>" for p in plan.pipelines),
+        "</ul>",
+        "<h2>Summary</h2>",
+        "<table><tr><th>set</th><th>illuminant</th><th>camera</th><th>exposure</th><th>pipeline</th>"
+        "<th>status</th><th>ΔE mean</th><th>ΔE p95</th><th>ΔE max</th><th>WB error (°)</th>"
+        "<th>SNR median</th><th>exposure (s)</th><th>ISO</th><th>time (s)</th><th>why</th></tr>",
+    ]
+    order = {"error": 0, "fail": 1, "pass": 2}
+    for c in sorted(cells, key=lambda c: (order.get(c.status, 0),)):
+        s = c.stats
+        parts.append(
+            f'<tr class="{_status_class(c.status)}"><td>{esc(c.set_name)}</td><td>{esc(_short(c.illuminant))}</td>'
+            f"<td>{esc(c.camera)}</td><td>{esc(c.exposure)}</td><td>{esc(c.pipeline)}</td>"
+            f"<td>{esc(c.status.upper())}</td>"
+            f'<td class="num">{_fmt(s.get("delta_e_mean"))}</td><td class="num">{_fmt(s.get("delta_e_p95"))}</td>'
+            f'<td class="num">{_fmt(s.get("delta_e_max"))}</td>'
+            f'<td class="num">{_fmt(s.get("wb_angular_error_deg"))}</td>'
+            f'<td class="num">{_fmt(s.get("snr_median"), 1)}</td><td class="num">{c.exposure_s:.4g}</td>'
+            f'<td class="num">{c.iso:g}</td><td class="num">{c.runtime_s:.2f}</td>'
+            f"<td>{esc('; '.join(c.failures))}</td></tr>")
+    parts.append("</table>")
+    parts.append("<h2>ΔE2000 across illuminant × camera</h2>")
+    for caption, png in _heatmaps(result):
+        parts.append(f'<figure><img alt="heatmap of mean ΔE2000, {esc(caption)}" '
+                     f'src="data:image/png;base64,{png}"><figcaption class="small">{esc(caption)}; '
+                     "outlined cells do not pass.</figcaption></figure>")
+    if plan.swatches != "none":
+        parts.append("<h2>Patches: ground truth (left) vs pipeline (right)</h2>")
+        parts.append('<p class="small">Display sRGB, clipped; each swatch labelled with its ΔE2000.</p>')
+        for c in cells:
+            if c.test is None or (plan.swatches == "failing" and c.status == "pass"):
+                continue
+            title = (f"{c.set_name} · {_short(c.illuminant)} · {c.camera} · {c.exposure} · {c.pipeline}: "
+                     f"mean ΔE {c.stats['delta_e_mean']:.2f}")
+            png = swatches_png(c, title=title)
+            opened = " open" if c.status != "pass" else ""
+            parts.append(f'<details{opened}><summary class="{_status_class(c.status)}">{esc(title)} — '
+                         f"{esc(c.status.upper())}</summary>"
+                         f'<img alt="patch swatches, {esc(title)}" src="data:image/png;base64,{png}"></details>')
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def write_report(result, folder: str | Path) -> dict[str, Path]:
+    """Write ``report.html``, ``cells.csv`` and ``patches.csv`` into a folder (atomically).
+
+    Parameters
+    ----------
+    result : ValidationResult
+    folder : str or path-like
+
+    Returns
+    -------
+    dict
+        ``{"html": path, "cells_csv": path, "patches_csv": path}``.
+    """
+    folder = Path(folder)
+    paths = {"cells_csv": write_cells_csv(result, folder / "cells.csv"),
+             "patches_csv": write_patches_csv(result, folder / "patches.csv")}
+    page = render_html(result)
+    with atomic_path(folder / "report.html") as tmp:
+        tmp.write_text(page, encoding="utf-8")
+    paths["html"] = folder / "report.html"
+    return paths
