@@ -146,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
     except SpectralCamError as exc:
         print(f"spectral-cam: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # e.g. an output path under a file, a read-only folder
+        print(f"spectral-cam: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("spectral-cam: interrupted; no partial output was kept", file=sys.stderr)
         return 130

@@ -270,6 +270,41 @@ def _tiff_extras(path: Path) -> dict:
     return extras
 
 
+#: LibRaw refuses raw images smaller than this on either side.
+LIBRAW_MIN_SIDE_PX = 22
+
+
+def _raw_ifds(path: Path):
+    """The TIFF pages of a TIFF-based raw holding a CFA image (empty for other formats)."""
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            pages = list(tif.pages)
+            return [(page.tags.get(262).value if page.tags.get(262) else None,
+                     {code: page.tags.get(code) is not None for code in (33421, 33422)},
+                     page.shape) for page in pages]
+    except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
+        return []
+
+
+def _check_tiff_cfa(path: Path) -> None:
+    """Refuse a CFA image (PhotometricInterpretation 32803) without CFARepeatPatternDim or
+    CFAPattern: LibRaw would decode it with a stale pattern left from the previous file."""
+    for photometric, has, _ in _raw_ifds(path):
+        if photometric == 32803 and not all(has.values()):
+            raise RawFormatError(f"{path}: a CFA raw image needs the CFARepeatPatternDim (33421) and "
+                                 "CFAPattern (33422) tags; this one lacks them")
+
+
+def _size_hint(path: Path) -> str:
+    for photometric, _, shape in _raw_ifds(path):
+        if photometric in (32803, 34892) and len(shape) >= 2 and min(shape[:2]) < LIBRAW_MIN_SIDE_PX:
+            return (f" (its raw image is {shape[1]}×{shape[0]} px; LibRaw reads no side under "
+                    f"{LIBRAW_MIN_SIDE_PX} px)")
+    return ""
+
+
 def read_raw(path) -> RawImage:
     """Read any raw file LibRaw supports (DNG or a camera's format) into a RawImage.
 
@@ -306,6 +341,7 @@ def read_raw(path) -> RawImage:
     path = Path(path)
     if not path.is_file():
         raise RawFormatError(f"raw file {str(path)!r} does not exist")
+    _check_tiff_cfa(path)
     try:
         with rawpy.imread(str(path)) as handle:
             mosaic = np.array(handle.raw_image_visible, dtype=np.uint16, copy=True)
@@ -319,9 +355,10 @@ def read_raw(path) -> RawImage:
             raw_type = str(handle.raw_type)
     except RawFormatError:
         raise
-    except (rawpy.LibRawError, OSError, ValueError) as exc:
+    except (rawpy.LibRawError, OSError, ValueError, NotImplementedError) as exc:
+        # rawpy raises NotImplementedError ("filters: N") for CFA layouts it cannot map
         raise RawFormatError(
-            f"{path} is not a readable raw file (missing data, truncated or corrupt): "
+            f"{path} is not a readable raw file (missing data, truncated or corrupt){_size_hint(path)}: "
             f"{type(exc).__name__}: {exc}") from None
     if mosaic.ndim != 2 or mosaic.size == 0:
         raise RawFormatError(f"{path}: no single-plane raw mosaic (LibRaw raw type {raw_type})")

@@ -467,9 +467,16 @@ def _bad_value_message(block: np.ndarray, row0: int) -> str:
         y, x, b = np.argwhere(~finite)[0]
         return (f"radiance has a non-finite value ({block[y, x, b]}) at pixel (row {row0 + y}, "
                 f"column {x}), band {b}; band radiances must be finite numbers >= 0 W·m⁻²·sr⁻¹")
-    y, x, b = np.argwhere(block < 0)[0]
-    return (f"radiance is negative ({block[y, x, b]:g}) at pixel (row {row0 + y}, column {x}), band {b}; "
-            "band radiances must be finite numbers >= 0 W·m⁻²·sr⁻¹")
+    negative = np.argwhere(block < 0)
+    if len(negative):
+        y, x, b = negative[0]
+        return (f"radiance is negative ({block[y, x, b]:g}) at pixel (row {row0 + y}, column {x}), band {b}; "
+                "band radiances must be finite numbers >= 0 W·m⁻²·sr⁻¹")
+    # every value is finite and >= 0, yet the electron rate overflowed float32
+    y, x, b = np.unravel_index(np.argmax(block), block.shape)
+    return (f"radiance {block[y, x, b]:g} W·m⁻²·sr⁻¹ at pixel (row {row0 + y}, column {x}), band {b} is so "
+            "large that the electron rate overflows float32; physical scenes stay many orders of magnitude "
+            "below this")
 
 
 # ----------------------------------------------------------------------------- integration
@@ -769,7 +776,8 @@ def simulate_frame(
             if read_sd > 0:
                 e += read_sd * rng.standard_normal(e.size, dtype=np.float32)
         elif exact:
-            e = rng.poisson(lam).astype(np.float32)
+            # numpy's Poisson sampler refuses λ ≳ 1e19; anything that large clips at full well anyway
+            e = rng.poisson(np.minimum(lam, np.float32(4 * sensor.full_well_e + 1e6))).astype(np.float32)
             if dsnu is not None:
                 e += dsnu
             np.minimum(e, full_well, out=e)

@@ -49,6 +49,14 @@ def normalise(mosaic: np.ndarray, *, black_level, white_level: float) -> np.ndar
     mosaic = np.asarray(mosaic)
     if mosaic.ndim != 2:
         raise ConfigError(f"a raw mosaic must be 2-D (H, W); got shape {mosaic.shape}")
+    if not (np.issubdtype(mosaic.dtype, np.integer) or np.issubdtype(mosaic.dtype, np.floating)):
+        raise ConfigError(f"a raw mosaic must hold integer or floating-point numbers (DN); got dtype {mosaic.dtype}")
+    if mosaic.size == 0:
+        raise ConfigError("the raw mosaic is empty; it needs at least 2×2 pixels")
+    if np.issubdtype(mosaic.dtype, np.floating) and not np.isfinite(mosaic).all():
+        bad = np.argwhere(~np.isfinite(mosaic))
+        raise ConfigError(f"the raw mosaic holds {len(bad)} NaN or infinite values (first at row {bad[0][0]}, "
+                          f"column {bad[0][1]}); raw values must be finite DN")
     black = np.asarray(black_level, dtype=np.float32)
     if black.ndim == 2:
         reps = (-(-mosaic.shape[0] // black.shape[0]), -(-mosaic.shape[1] // black.shape[1]))
