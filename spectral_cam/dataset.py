@@ -1036,9 +1036,8 @@ def _write_item(config: SceneConfig, target: Path, task: Mapping[str, Any]) -> d
     """Render and write one item folder atomically; returns its meta.json content."""
     from .isp import develop
     from .isp.encode import write_outputs
-    from .job import package_versions, write_json
+    from .job import result_meta, simulate, write_json
     from .optics import ThinLens
-    from .presets import white_reference_mask
     from .raw import write_dng
     from .render import render
     from .sensor import expose
@@ -1046,19 +1045,12 @@ def _write_item(config: SceneConfig, target: Path, task: Mapping[str, Any]) -> d
 
     outputs = set(task["outputs"])
     started = time.perf_counter()
-    timings: dict[str, float] = {}
     with staged_directory(target, force=True) as stage:
-        radiance = render(config)
-        timings.update({f"render_{k}": v for k, v in radiance.meta["timings_s"].items()})
+        sim = simulate(config)
+        radiance, raw, developed = sim.radiance, sim.raw, sim.developed
+        timings = dict(sim.timings_s)
         _test_kill_hook(target)
-
-        t0 = time.perf_counter()
-        raw = expose(radiance, config, white_mask=white_reference_mask(config))
         exposure_s = float(raw.meta["exposure_s"])
-        timings["sensor"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        developed = develop(raw, config.isp)
-        timings["isp"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         lens = ThinLens.from_config(config.lens, config.sensor)
@@ -1111,18 +1103,10 @@ def _write_item(config: SceneConfig, target: Path, task: Mapping[str, Any]) -> d
                 timings["blur_measurement"] = time.perf_counter() - t0
         timings["total"] = time.perf_counter() - started
 
-        meta = {
-            "dataset": {"index": task["index"], "id": task["id"], "seed": task["seed"],
-                        "spec_hash": task["spec_hash"], "params": task["params"],
-                        "outputs": list(task["outputs"])},
-            "config": config.to_dict(),
-            "optics": radiance.meta["optics"],
-            "render": {k: v for k, v in radiance.meta.items()
-                       if k not in ("optics", "timings_s", "model_decisions")},
-            "sensor": raw.meta,
-            "isp": {"timings_s": developed.timings_s,
-                    **{k: v for k, v in developed.meta.items() if k != "config"}},
-            "model_decisions": radiance.meta.get("model_decisions", {}),
+        meta = result_meta(config, sim, written, timings, dataset={
+            "index": task["index"], "id": task["id"], "seed": task["seed"], "spec_hash": task["spec_hash"],
+            "params": task["params"], "outputs": list(task["outputs"])})
+        meta.update({
             "defocus": {"file": "defocus.exr", "channel": "CoC", "units": "px",
                         "formula": "A*f*(z - z_f)/(z*(z_f - f))/pixel_pitch, A = f/N",
                         "sign": "+ behind the focus plane, - in front"} if "defocus" in outputs else None,
@@ -1134,10 +1118,7 @@ def _write_item(config: SceneConfig, target: Path, task: Mapping[str, Any]) -> d
                                       "quantisation"} if "clean_rgb" in outputs else None,
             "all_in_focus": aif_meta,
             "blur": blur,
-            "files": sorted(p.name for p in written) + ["meta.json"],
-            "timings_s": timings,
-            "versions": package_versions(),
-        }
+        })
         write_json(meta, stage / "meta.json")
     return meta
 

@@ -1080,11 +1080,9 @@ def expose(
     .. [1] EMVA 1288 Release 4.0, §2–3.
     .. [2] Adobe (2023). DNG Specification 1.7.1.0 (ColorMatrix1, AsShotNeutral, NoiseProfile).
     """
-    from .optics import ThinLens
-
     started = time.perf_counter()
     timings: dict[str, float] = {}
-    sensor, lens_cfg, exposure = config.sensor, config.lens, config.exposure
+    sensor, exposure = config.sensor, config.exposure
     _check_sensor(sensor)
     validate_radiance(radiance, sensor)
     frame_seed = config.render.seed if frame_seed is None else frame_seed
