@@ -311,8 +311,6 @@ def _coerce(key: str, value: Any, default: Any, annotation: str) -> Any:
         return int(value)
     elif isinstance(value, str) and "str" in kinds:
         return value
-    elif isinstance(value, str) and key in ("exposure.time_s",) and value == "auto":
-        return value
     elif isinstance(value, (list, tuple)) and any(k.startswith("tuple") for k in kinds):
         inner = "float" if "float" in annotation else "str"
         items = []
