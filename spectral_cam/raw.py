@@ -278,14 +278,18 @@ def _raw_ifds(path: Path):
     """The TIFF pages of a TIFF-based raw holding a CFA image (empty for other formats)."""
     import tifffile
 
+    found = []
     try:
         with tifffile.TiffFile(path) as tif:
-            pages = list(tif.pages)
-            return [(page.tags.get(262).value if page.tags.get(262) else None,
-                     {code: page.tags.get(code) is not None for code in (33421, 33422)},
-                     page.shape) for page in pages]
+            for page in tif.pages:
+                tag = page.tags.get(262)
+                photometric = tag.value if tag is not None and isinstance(tag.value, int) else None
+                shape = tuple(int(n) for n in page.shape if isinstance(n, (int, np.integer)))
+                found.append((photometric, {code: page.tags.get(code) is not None for code in (33421, 33422)},
+                              shape))
     except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
         return []
+    return found
 
 
 def _check_tiff_cfa(path: Path) -> None:

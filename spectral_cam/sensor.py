@@ -314,19 +314,24 @@ def dark_noise_electrons(sensor: "SensorSection", exposure_s: float) -> float:
     return math.sqrt(sensor.read_noise_e ** 2 + sensor.dark_current_e_per_s * exposure_s)
 
 
-def noise_profile(gain: float, sigma_d_e: float, black_level: float, white_level: float
+def noise_profile(gain: float, sigma_read_e: float, black_level: float, white_level: float
                   ) -> tuple[float, float]:
     """DNG NoiseProfile (S, O) for the signal x = (DN − B)/(W − B) ∈ [0, 1].
 
     ``var(x) = S·x + O`` with ``S = K/(W − B)`` (shot noise) and
-    ``O = (K²·σ_d² + 1/12)/(W − B)²`` (dark noise plus quantisation).
+    ``O = (K²·σ_read² + 1/12)/(W − B)²`` (read noise plus quantisation).
+
+    Only the black level B is subtracted, so x still holds the dark signal K·I_d·t, whose
+    shot noise S·x already counts: O takes the read noise alone. (DESIGN.md's
+    O = (K²σ_d² + 1/12)/(W − B)² with σ_d² = σ_read² + I_d·t counts the dark-current shot
+    noise twice; the difference is K²·I_d·t/(W − B)².)
 
     Parameters
     ----------
     gain : float
         K (DN/e⁻).
-    sigma_d_e : float
-        Temporal dark noise σ_d (e⁻).
+    sigma_read_e : float
+        Read noise σ_read (e⁻).
     black_level, white_level : float
         B and W (DN).
 
@@ -336,7 +341,7 @@ def noise_profile(gain: float, sigma_d_e: float, black_level: float, white_level
     .. [2] EMVA 1288 Release 4.0, §2.3 eq. (6) (σ_y² = K²(σ_d² + μ_e) + σ_q²).
     """
     span = float(white_level) - float(black_level)
-    return gain / span, (gain ** 2 * sigma_d_e ** 2 + 1.0 / 12.0) / span ** 2
+    return gain / span, (gain ** 2 * sigma_read_e ** 2 + 1.0 / 12.0) / span ** 2
 
 
 def _check_sensor(sensor: "SensorSection") -> None:
@@ -1184,7 +1189,7 @@ def expose(
         white_level=int(white),
         color_matrix=matrix,
         as_shot_neutral=neutral,
-        noise_profile=noise_profile(gain, sigma_d, black, white),
+        noise_profile=noise_profile(gain, sensor.read_noise_e, black, white),
         camera_model=f"spectral_cam {sensor.model}",
         meta=meta,
     )

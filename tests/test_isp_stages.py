@@ -485,3 +485,22 @@ def test_fitted_and_root_polynomial_transforms_from_raw_meta():
         out = develop(raw, ISPConfig(colour_matrix=method, demosaic="bilinear", tone="linear"))
         assert out.meta["colour_transform"] == ("fitted" if method == "auto" else method)
         np.testing.assert_allclose(out.linear, reference, atol=2e-5)
+
+
+@pytest.mark.parametrize("method", ["grey_world", "white_patch"])
+def test_automatic_white_balance_ignores_blown_pixels_that_read_just_under_white(method):
+    # a tungsten-like neutral (true gains 2.222, 1, 1.667), 30 % of the frame clipped at full
+    # well before read noise, so blown pixels scatter just below 1.0 (K = 0.27 DN/e⁻, σ_read 3 e⁻)
+    from spectral_cam.isp.white_balance import white_balance_gains
+
+    rng = np.random.default_rng(3)
+    neutral = np.array([0.45, 1.0, 0.6])
+    height, width = 120, 160
+    index = np.zeros((height, width), int)
+    index[0::2, 1::2] = index[1::2, 0::2] = 1
+    index[1::2, 1::2] = 2
+    level = np.where(np.arange(width)[None, :] < 0.7 * width, 0.5, 4.0)  # right 30 %: far over white
+    mosaic = np.minimum(level * neutral[index], 1.0)
+    mosaic = mosaic + rng.normal(0.0, 3.0 * 0.27 / 4031, mosaic.shape)
+    gains = white_balance_gains(mosaic.astype(np.float32), "RGGB", method=method)
+    assert gains == pytest.approx([1 / 0.45, 1.0, 1 / 0.6], rel=0.02)

@@ -177,7 +177,8 @@ def test_gain_saturation_and_noise_profile(iso):
     assert raw.meta["sigma_dark_e"] == pytest.approx(sigma_d)
     scale, offset = raw.noise_profile
     assert scale == pytest.approx(k / (4095 - 200))
-    assert offset == pytest.approx((k * k * sigma_d ** 2 + 1 / 12) / (4095 - 200) ** 2)
+    # x = (DN − B)/(W − B) keeps the dark signal, whose shot noise S·x counts: O is read noise only
+    assert offset == pytest.approx((k * k * 3.0 ** 2 + 1 / 12) / (4095 - 200) ** 2)
     assert raw.white_level == 4095 and raw.black_level == 200
     for key in ("exposure_s", "iso", "seeds", "timings_s", "peak_qe"):
         assert key in raw.meta
@@ -280,3 +281,21 @@ def test_bad_sensor_values_in_plain_functions():
 def test_auto_exposure_needs_light():
     with pytest.raises(SensorError, match="no light"):
         S.expose(image((64, 64), np.zeros(31)), config(exposure={"time_s": "auto"}))
+
+
+def test_noise_profile_predicts_the_temporal_variance_with_strong_dark_current():
+    # 100 e⁻ of dark signal plus ~400 e⁻ of photo-signal: var(x) must equal S·x + O of the DNG
+    # NoiseProfile, measured from the difference of two frames (temporal noise only)
+    cfg = config({"width_px": 256, "height_px": 256, "bit_depth": 16, "black_level_dn": 1000,
+                  "full_well_e": 60000.0, "read_noise_e": 4.0,
+                  "dark_current_e_per_s": 2000.0, "dsnu_e": 0.0, "prnu": 0.0, "vignetting": False},
+                 {"time_s": 0.05})
+    scene = narrow_band((256, 256), 0.02)
+    a, b = S.expose(scene, cfg, frame_seed=1), S.expose(scene, cfg, frame_seed=2)
+    span = a.white_level - a.black_level
+    xa = (a.mosaic.astype(float) - a.black_level) / span
+    xb = (b.mosaic.astype(float) - b.black_level) / span
+    measured = np.var(xa - xb) / 2
+    scale, offset = a.noise_profile
+    predicted = scale * np.mean((xa + xb) / 2) + offset
+    assert measured == pytest.approx(predicted, rel=0.02)

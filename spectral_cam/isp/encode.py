@@ -57,7 +57,12 @@ def quantise(image: np.ndarray, *, bits: int = 8) -> np.ndarray:
     if bits not in (8, 16):
         raise ConfigError(f"bit depth {bits!r} is not supported; valid: 8, 16")
     top = 2 ** bits - 1
-    values = np.rint(np.clip(np.nan_to_num(np.asarray(image, dtype=np.float64)), 0.0, 1.0) * top)
+    image = np.asarray(image, dtype=np.float64)
+    if not np.isfinite(image).all():
+        bad = np.argwhere(~np.isfinite(image))
+        raise ConfigError(f"the image holds {len(bad)} NaN or infinite values (first at {tuple(bad[0])}); "
+                          "an encoder needs finite values")
+    values = np.rint(np.clip(image, 0.0, 1.0) * top)
     return values.astype(np.uint8 if bits == 8 else np.uint16)
 
 

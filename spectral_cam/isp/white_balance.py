@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .cfa import channel_index, tile_gain_map
+from .highlights import clipped_mask
 
 __all__ = ["WHITE_BALANCE", "white_balance_gains", "apply_white_balance"]
 
@@ -31,8 +32,11 @@ def _normalised(gains) -> np.ndarray:
 
 
 def _usable(mosaic: np.ndarray, cfa: str, saturation: float):
+    """CFA channel index per pixel and the samples an estimator may use: the unclipped ones.
+    A sensor clips at full well before read noise, so a blown pixel reads just under the
+    white level about half the time: the highlight stage's 0.995 threshold catches it."""
     index = channel_index(mosaic.shape, cfa)
-    ok = mosaic < saturation
+    ok = ~clipped_mask(mosaic, saturation=saturation, radius_px=0)
     return index, ok
 
 
