@@ -210,7 +210,7 @@ def bench_bands(out: Path, *, quick: bool) -> list[dict]:
 
     spp_bias = 1 << (16 if quick else 18)
     width, height = (72, 48) if quick else (144, 96)
-    modes = [("camera", "camera"), ("8 bands", "400:700:40"), ("16 bands", "400:700:20"),
+    modes = [("camera", "camera"), ("8 bands", "410:690:40"), ("16 bands", "400:700:20"),
              ("31 bands", "400:700:10")]
     rows = []
     for illuminant in ("D65", "FL11"):

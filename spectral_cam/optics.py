@@ -236,7 +236,9 @@ class ThinLens:
         so the PSF must not be pixel-integrated a second time: the cube's spectrum is
         multiplied by the diffraction-limited OTF (real and non-negative for an
         aberration-free circular pupil) at each 2-D frequency up to Nyquist. Edges are
-        reflected before the FFT; each band's total is conserved (OTF(0) = 1).
+        reflected before the FFT. The band-limited OTF rings slightly below zero next to
+        point-like features; those values are clipped and each band rescaled to its total
+        before the blur (OTF(0) = 1: diffraction moves light, it does not make any).
 
         References
         ----------
@@ -255,9 +257,11 @@ class ThinLens:
         for band, wavelength in enumerate(wavelengths_nm):
             otf = diffraction_mtf(radial, float(wavelength), self.working_f_number)
             blurred = np.fft.irfft2(np.fft.rfft2(padded[..., band]) * otf, s=padded.shape[:2])
-            out[..., band] = blurred[pad:pad + height, pad:pad + width]
-        # the band-limited OTF rings slightly at hard edges; radiance cannot be negative
-        return np.maximum(out, 0.0, out=out)
+            clipped = np.maximum(blurred[pad:pad + height, pad:pad + width], 0.0)
+            total_before = float(data[..., band].sum(dtype=np.float64))
+            total_after = float(clipped.sum(dtype=np.float64))
+            out[..., band] = clipped * (total_before / total_after) if total_after > 0 else clipped
+        return out
 
     def describe(self) -> dict:
         """Derived quantities for meta.json."""

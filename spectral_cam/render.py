@@ -136,6 +136,9 @@ def choose_variant(requested: str = "auto") -> str:
     import mitsuba as mi
 
     requested = os.environ.get("SPECTRAL_CAM_VARIANT", requested) if requested == "auto" else requested
+    if requested != "auto" and "spectral" not in requested:
+        raise ConfigError(f"Mitsuba variant {requested!r} (render.variant or SPECTRAL_CAM_VARIANT) must be "
+                          "a spectral one, e.g. 'llvm_ad_spectral' or 'scalar_spectral'")
     available = mi.variants()
     if requested != "auto":
         if requested not in available:
@@ -367,6 +370,12 @@ def decide_bands(config: SceneConfig, diffraction: bool) -> tuple[bool, dict]:
     and 6 channels instead of 31.
     """
     requested = config.render.bands
+    if config.sensor.cfa == "none":
+        if requested == "camera":
+            raise ConfigError("render.bands = 'camera' needs a colour sensor; a monochrome sensor "
+                              "(sensor.cfa = 'none') integrates spectral bands")
+        choice = requested if requested != "auto" else SPECTRAL_BANDS_DEFAULT
+        return False, {"choice": choice, "reason": "monochrome sensor: flat-QE spectral bands"}
     if requested == "camera":
         if diffraction:
             raise ConfigError("render.bands = 'camera' cannot carry the per-band diffraction PSF that applies "

@@ -193,6 +193,8 @@ class SensorSection:
             _fail("sensor.black_level_dn", self.black_level_dn,
                   f"must be a whole number in 0..{2 ** self.bit_depth - 2}")
         _positive("sensor.base_iso", self.base_iso)
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
+            _fail("sensor.seed", self.seed, "must be a whole number >= 0")
         spectra.transmission(self.ir_cut)
 
     @property
@@ -250,6 +252,9 @@ class RenderSection:
             _fail("render.max_spp", self.max_spp, "must be a whole number >= 1")
         if self.bands not in BAND_MODES:
             spectra.parse_bands(self.bands)
+        if self.bands == "camera" and self.spectral_output:
+            _fail("render.bands", self.bands, "a camera film has no spectrum to write: set "
+                  "render.spectral_output = false, or use 'auto' or a band grid")
         if self.variant != "auto" and "spectral" not in self.variant:
             _fail("render.variant", self.variant,
                   "must be 'auto' or a spectral Mitsuba variant such as 'llvm_ad_spectral', "

@@ -54,6 +54,8 @@ __all__ = [
 
 #: Wavelength range Mitsuba 3's spectral variants sample (nm).
 MITSUBA_RANGE_NM = (360.0, 830.0)
+#: Most bands a render may ask for (one per 0.5 nm over Mitsuba's range).
+MAX_BANDS = 941
 #: Maximum luminous efficacy of photopic vision (lm/W), CIE 15:2004.
 K_M_LM_PER_W = 683.0
 COLORCHECKER_SET = "BabelColor Average"
@@ -99,7 +101,14 @@ def parse_bands(spec: str) -> BandGrid:
     start, stop, step = (float(g) for g in match.groups())
     if step <= 0 or stop < start:
         raise ConfigError(f"render.bands = {spec!r}: need step > 0 and stop >= start")
-    count = int(round((stop - start) / step)) + 1
+    steps = (stop - start) / step
+    if abs(steps - round(steps)) > 1e-6:
+        raise ConfigError(f"render.bands = {spec!r}: stop − start must be a whole number of steps "
+                          f"(e.g. '{start:g}:{start + step * int(steps):g}:{step:g}')")
+    count = int(round(steps)) + 1
+    if count > MAX_BANDS:
+        raise ConfigError(f"render.bands = {spec!r} asks for {count} bands; at most {MAX_BANDS} "
+                          "(use a larger step)")
     centres = start + step * np.arange(count)
     edges = np.concatenate([centres - step / 2, [centres[-1] + step / 2]])
     lo, hi = MITSUBA_RANGE_NM
@@ -112,6 +121,10 @@ def parse_bands(spec: str) -> BandGrid:
 
 
 # ----------------------------------------------------------------------------- CSV
+def _looks_like_path(spec: str) -> bool:
+    return spec.lower().endswith(".csv") or Path(spec).is_file()
+
+
 def load_spectrum_csv(path: str | Path) -> "colour.SpectralDistribution":  # noqa: F821
     """Read a two-column CSV ``wavelength_nm,value`` (a header line is optional)."""
     import colour
@@ -177,12 +190,12 @@ def illuminant(spec: str) -> "colour.SpectralDistribution":  # noqa: F821
         if not 500 <= kelvin <= 50000:
             raise ConfigError(f"illuminant {spec!r}: use 'blackbody:<K>' with 500 <= K <= 50000")
         return colour.sd_blackbody(kelvin, colour.SpectralShape(360, 830, 1))
-    if spec.lower().endswith(".csv") or "/" in spec:
-        return load_spectrum_csv(spec)
     table = _illuminant_table()
     by_fold = {name.casefold(): name for name in table}
-    if spec.casefold() in by_fold:
+    if spec.casefold() in by_fold:  # before paths: names like "F40/DX (Broadband FL)" hold a "/"
         return table[by_fold[spec.casefold()]].copy()
+    if _looks_like_path(spec):
+        return load_spectrum_csv(spec)
     raise ConfigError(
         f"unknown illuminant {spec!r}; valid: 'blackbody:<K>', a CSV path, or one of "
         + ", ".join(illuminant_names())
@@ -232,9 +245,9 @@ def reflectance(spec: float | str) -> "colour.SpectralDistribution":  # noqa: F8
             raise ConfigError(f"reflectance {value!r} must lie in [0, 1]")
         return colour.SpectralDistribution({360.0: value, 830.0: value}, name=f"flat {value:g}")
     spec = str(spec)
-    if spec.lower().endswith(".csv") or "/" in spec:
-        return load_spectrum_csv(spec)
     patches = colorchecker_reflectances()
+    if spec.casefold() not in {name.casefold() for name in patches} and _looks_like_path(spec):
+        return load_spectrum_csv(spec)
     by_fold = {name.casefold(): name for name in patches}
     if spec.casefold() in by_fold:
         return patches[by_fold[spec.casefold()]]
@@ -335,9 +348,11 @@ def transmission(spec: float | str | None) -> "colour.SpectralDistribution | Non
         if not 500 <= cutoff <= 800:
             raise ConfigError(f"transmission {spec!r}: use 'ir_cut:<cut-off nm>' with 500 <= nm <= 800")
         return ir_cut_filter(cutoff)
-    if isinstance(spec, str) and not (spec.lower().endswith(".csv") or "/" in spec):
+    if isinstance(spec, str) and not _looks_like_path(spec):
         raise ConfigError(f"unknown transmission {spec!r}; valid: a number in (0, 1], a CSV path, "
                           "or 'ir_cut:<cut-off nm>' (e.g. 'ir_cut:650')")
+    if isinstance(spec, (int, float)) and not 0.0 < float(spec) <= 1.0:
+        raise ConfigError(f"transmission {spec!r} must lie in (0, 1] (0 would let no light through)")
     sd = reflectance(spec) if isinstance(spec, (int, float)) else load_spectrum_csv(spec)
     if np.max(sd.values) > 1.0 + 1e-9:
         raise ConfigError(f"transmission {spec!r} exceeds 1; give a fraction in [0, 1]")

@@ -91,3 +91,13 @@ def test_diffraction_blurs_the_render_and_conserves_energy(make_scene):
     assert on.data.sum() == pytest.approx(off.data.sum(), rel=0.02)  # reflected borders
     # the edge spreads: fewer pixels sit at the plateaus' extremes
     assert np.abs(np.diff(on.data[..., -1], axis=1)).max() < 0.6 * np.abs(np.diff(off.data[..., -1], axis=1)).max()
+
+
+def test_diffraction_conserves_each_bands_total_even_for_a_point_source():
+    lens = ThinLens(0.008, 2.8, 2.0, 64 * 6e-6, 64 * 6e-6, 64, 64)
+    cube = np.zeros((64, 64, 2), np.float32)
+    cube[32, 32] = 1.0  # a one-pixel source: the band-limited OTF rings below zero around it
+    blurred = lens.apply_diffraction(cube, [550.0, 700.0])
+    assert blurred.min() >= 0
+    assert blurred.sum(axis=(0, 1)) == pytest.approx([1.0, 1.0], rel=1e-5)
+    assert blurred[32, 32, 1] < blurred[32, 32, 0] < 1.0  # longer waves spread more

@@ -127,3 +127,25 @@ def test_ir_cut_filter_halves_at_its_cut_off_and_dims_the_red_channel():
     assert filtered[0] / plain[0] < filtered[2] / plain[2]  # red loses most
     with pytest.raises(ConfigError, match="ir_cut:<cut-off nm>"):
         scene_from_dict({"sensor": {"ir_cut": "hot mirror"}})
+
+
+def test_review_findings_on_names_seeds_bands_and_transmissions():
+    # colour-science light-source names may hold a "/" and are names, not paths
+    assert scene_from_dict({"illuminant": {"spd": "F40/DX (Broadband FL)"}}).illuminant.spd == "F40/DX (Broadband FL)"
+    with pytest.raises(ConfigError, match="sensor.seed"):
+        scene_from_dict({"sensor": {"seed": -1}})
+    with pytest.raises(ConfigError, match="whole number of steps"):
+        scene_from_dict({"render": {"bands": "400:706:10"}})
+    with pytest.raises(ConfigError, match="at most"):
+        scene_from_dict({"render": {"bands": "400:700:0.001"}})
+    with pytest.raises(ConfigError, match=r"must lie in \(0, 1\]"):
+        scene_from_dict({"lens": {"transmission": 0}})
+    with pytest.raises(ConfigError, match="no spectrum to write"):
+        scene_from_dict({"render": {"bands": "camera"}})
+
+
+def test_monochrome_sensor_never_gets_the_camera_film():
+    from spectral_cam.render import decide_bands
+
+    mono = scene_from_dict({"sensor": {"model": "ideal", "cfa": "none"}, "render": {"spectral_output": False}})
+    assert decide_bands(mono, False)[0] is False
