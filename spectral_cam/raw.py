@@ -51,15 +51,18 @@ DNG_TAGS = {
     "BlackLevel": 50714,
     "WhiteLevel": 50717,
     "ColorMatrix1": 50721,
+    "ColorMatrix2": 50722,
     "AsShotNeutral": 50728,
     "CalibrationIlluminant1": 50778,
+    "CalibrationIlluminant2": 50779,
     "NoiseProfile": 51041,
 }
 #: PhotometricInterpretation values.
 PHOTOMETRIC_CFA = 32803
 PHOTOMETRIC_LINEAR_RAW = 34892
-#: EXIF LightSource code of CIE D65 (DNG CalibrationIlluminant).
+#: EXIF LightSource codes of CIE D65 and Standard Illuminant A (DNG CalibrationIlluminant).
 ILLUMINANT_D65 = 21
+ILLUMINANT_A = 17
 _CFA_CODES = {"R": 0, "G": 1, "B": 2}
 _TIFF_BYTE, _TIFF_ASCII, _TIFF_SHORT, _TIFF_LONG, _TIFF_RATIONAL, _TIFF_SRATIONAL, _TIFF_DOUBLE = 1, 2, 3, 4, 5, 10, 12
 _RATIONAL_DENOMINATOR = 1_000_000
@@ -96,6 +99,10 @@ class RawImage:
         DNG UniqueCameraModel.
     meta
         Everything else (gain K in DN/e⁻, exposure, ISO, seeds, ...).
+    color_matrix_2
+        (3, 3) XYZ → camera RGB calibrated under Standard Illuminant A (DNG ColorMatrix2,
+        CalibrationIlluminant2 = 17), or None. With both matrices an ISP interpolates
+        between them by the scene white's correlated colour temperature (DNG ch. 6).
     """
 
     mosaic: np.ndarray
@@ -107,6 +114,7 @@ class RawImage:
     noise_profile: tuple[float, float] | None = None
     camera_model: str = ""
     meta: dict = field(default_factory=dict)
+    color_matrix_2: np.ndarray | None = None
 
 
 # ----------------------------------------------------------------------------- writing
@@ -198,13 +206,16 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
             (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, 3, (0, 1, 2), True),
             (DNG_TAGS["CFALayout"], _TIFF_SHORT, 1, (1,), True),
         ]
-        if raw.color_matrix is not None:
-            matrix = np.asarray(raw.color_matrix, dtype=float)
+        for number, matrix, illuminant in ((1, raw.color_matrix, ILLUMINANT_D65),
+                                           (2, raw.color_matrix_2, ILLUMINANT_A)):
+            if matrix is None or (number == 2 and raw.color_matrix is None):
+                continue
+            matrix = np.asarray(matrix, dtype=float)
             if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-                raise RawFormatError(f"color_matrix must be a finite 3×3 array; got {matrix.shape}")
+                raise RawFormatError(f"color matrix {number} must be a finite 3×3 array; got {matrix.shape}")
             tags += [
-                (DNG_TAGS["ColorMatrix1"], _TIFF_SRATIONAL, 9, _rationals(matrix, signed=True), True),
-                (DNG_TAGS["CalibrationIlluminant1"], _TIFF_SHORT, 1, (ILLUMINANT_D65,), True),
+                (DNG_TAGS[f"ColorMatrix{number}"], _TIFF_SRATIONAL, 9, _rationals(matrix, signed=True), True),
+                (DNG_TAGS[f"CalibrationIlluminant{number}"], _TIFF_SHORT, 1, (illuminant,), True),
             ]
         if raw.as_shot_neutral is not None:
             neutral = np.asarray(raw.as_shot_neutral, dtype=float)
@@ -261,7 +272,8 @@ def _tiff_extras(path: Path) -> dict:
         with tifffile.TiffFile(path) as tif:
             for page in tif.pages:
                 tags = page.tags
-                for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model"):
+                for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model", "ColorMatrix1",
+                             "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2"):
                     tag = tags.get(DNG_TAGS[name])
                     if tag is not None and name not in extras:
                         extras[name] = tag.value
@@ -307,6 +319,31 @@ def _size_hint(path: Path) -> str:
             return (f" (its raw image is {shape[1]}×{shape[0]} px; LibRaw reads no side under "
                     f"{LIBRAW_MIN_SIDE_PX} px)")
     return ""
+
+
+#: EXIF LightSource codes treated as Standard Illuminant A (≈ 2856 K) for interpolation.
+_TUNGSTEN_CODES = (ILLUMINANT_A, 3)
+
+
+def _rational_matrix(value) -> np.ndarray | None:
+    """A 3×3 matrix from a TIFF (S)RATIONAL tag as tifffile returns it (values or num/den pairs)."""
+    flat = np.asarray(value, dtype=float).reshape(-1)
+    if flat.size == 18:
+        den = flat[1::2]
+        if np.any(den == 0):
+            return None
+        flat = flat[0::2] / den
+    return flat.reshape(3, 3) if flat.size == 9 and np.all(np.isfinite(flat)) else None
+
+
+def _tungsten_matrix(extras: dict) -> np.ndarray | None:
+    """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
+    for number in (1, 2):
+        code = extras.get(f"CalibrationIlluminant{number}")
+        if code is not None and int(np.asarray(code).reshape(-1)[0]) in _TUNGSTEN_CODES:
+            value = extras.get(f"ColorMatrix{number}")
+            return None if value is None else _rational_matrix(value)
+    return None
 
 
 def read_raw(path) -> RawImage:
@@ -382,6 +419,7 @@ def read_raw(path) -> RawImage:
         black_level=black,
         white_level=white,
         color_matrix=matrix,
+        color_matrix_2=_tungsten_matrix(extras) if matrix is not None else None,
         as_shot_neutral=neutral,
         noise_profile=noise_profile,
         camera_model=str(extras.get("UniqueCameraModel", "")).strip(),

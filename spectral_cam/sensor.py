@@ -861,11 +861,11 @@ def _illuminant_bands(spd: str, edges: tuple) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=32)
-def _colour_matrix(model: str, specs: tuple) -> np.ndarray | None:
+def _colour_matrix(model: str, specs: tuple, illuminant: str = "D65") -> np.ndarray | None:
     from . import calibration
 
     try:
-        return calibration.xyz_to_camera_matrix(model, "D65", transmission=list(specs))
+        return calibration.xyz_to_camera_matrix(model, illuminant, transmission=list(specs))
     except ConfigError:
         return None  # channels without three distinct spectral sensitivities ("ideal")
 
@@ -1137,7 +1137,7 @@ def expose(
     black, white = sensor.black_level_dn, 2 ** sensor.bit_depth - 1
     sigma_d = dark_noise_electrons(sensor, exposure_s)
     if monochrome:
-        neutral, matrix = None, None
+        neutral = matrix = matrix_a = None
     else:
         if model.camera_channels:
             response = _illuminant_film_response(config)
@@ -1146,6 +1146,7 @@ def expose(
             response = _illuminant_bands(config.illuminant.spd, edges) @ weights
         neutral = response / response.max() if response.max() > 0 else None
         matrix = _colour_matrix(sensor.model, trans_specs) if sensor.model != "ideal" else None
+        matrix_a = _colour_matrix(sensor.model, trans_specs, "A") if matrix is not None else None
     timings["colour"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - started
 
@@ -1192,4 +1193,5 @@ def expose(
         noise_profile=noise_profile(gain, sensor.read_noise_e, black, white),
         camera_model=f"spectral_cam {sensor.model}",
         meta=meta,
+        color_matrix_2=matrix_a,
     )

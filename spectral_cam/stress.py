@@ -1916,7 +1916,7 @@ def chart_radiance(illuminant: str, *, patch_px: int, lux: float = 1000.0):
 
 #: White-balance choices and colour-matrix sources of the illuminant study.
 STUDY_WHITE_BALANCE = ("as_shot", "grey_world", "white_patch")
-STUDY_COLOUR_MATRICES = ("dng", "fitted")
+STUDY_COLOUR_MATRICES = ("dng_d65", "dng", "fitted")
 
 
 def illuminant_study(settings: StressSettings, *, directory: Path | None = None, illuminants=None) -> dict:
@@ -1925,9 +1925,10 @@ def illuminant_study(settings: StressSettings, *, directory: Path | None = None,
     The synthetic chart (:func:`chart_radiance`) is exposed by the ``nikon_d850`` sensor
     (ISO 100, all noise terms on, white patch at 0.8 of saturation), developed with each
     white balance of :data:`STUDY_WHITE_BALANCE` and each colour matrix of
-    :data:`STUDY_COLOUR_MATRICES` — ``"dng"``: the D65-calibrated ColorMatrix1 with a
-    Bradford adaptation from the white-balance neutral; ``"fitted"``: the 3×3 matrix fitted
-    under the scene illuminant — tone curve off, and compared per patch with the analytic
+    :data:`STUDY_COLOUR_MATRICES` — ``"dng_d65"``: the D65-calibrated ColorMatrix1 alone
+    (what LibRaw uses) with a Bradford adaptation from the white-balance neutral; ``"dng"``:
+    ColorMatrix1 and ColorMatrix2 (Standard A) interpolated by the white's CCT;
+    ``"fitted"``: the 3×3 matrix fitted under the scene illuminant — tone curve off, and compared per patch with the analytic
     ground truth (:func:`spectral_cam.groundtruth.patch_linear_srgb`), exposure matched on
     the white patch.
 
@@ -1979,10 +1980,12 @@ def illuminant_study(settings: StressSettings, *, directory: Path | None = None,
         raw = S.expose(image, config, white_mask=white, frame_seed=_seed(settings, 10, i_index))
         reference = groundtruth.patch_linear_srgb(illuminant)
         entry: dict = {"label": labels[illuminant], "results": {}}
+        d65_only = dataclasses.replace(raw, color_matrix_2=None)
         for matrix in STUDY_COLOUR_MATRICES:
+            source = d65_only if matrix == "dng_d65" else raw
             for balance in STUDY_WHITE_BALANCE:
-                developed = develop(raw, ISPConfig(white_balance=balance, colour_matrix=matrix, tone="linear",
-                                                   highlights="none"))
+                developed = develop(source, ISPConfig(white_balance=balance, colour_matrix=matrix.replace("_d65", ""),
+                                                      tone="linear", highlights="none"))
                 means = np.array([developed.linear[s].reshape(-1, 3).astype(float).mean(axis=0) for s in interiors])
                 delta = delta_e2000(means, reference, exposure_match_index=WHITE_INDEX)
                 entry["results"][f"{matrix}/{balance}"] = {

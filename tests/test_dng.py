@@ -121,3 +121,41 @@ def test_write_dng_rejects_bad_raw(tmp_path):
     with pytest.raises(RawFormatError, match="black"):
         write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGGB", 5000, 4095), tmp_path / "x.dng")
     assert not list(tmp_path.iterdir())  # nothing half-written
+
+
+def test_colour_matrix_2_under_illuminant_a_is_written_read_and_interpolated(tmp_path):
+    """A tungsten scene developed from the DNG alone: with ColorMatrix2 (Standard A,
+    CalibrationIlluminant2 = 17) interpolated by the white's CCT (DNG spec ch. 6) the colour
+    error is that of a matrix fitted under A; with the D65 matrix alone it doubles.
+    Ground truth: colour-science XYZ of the patches under A, Bradford to D65."""
+    import tifffile
+
+    from spectral_cam import expose, scene_from_dict
+    from spectral_cam.groundtruth import patch_linear_srgb
+    from spectral_cam.isp import ISPConfig, develop
+    from spectral_cam.metrics import colorchecker_delta_e
+    from spectral_cam.raw import read_raw, write_dng
+    from spectral_cam.validate import reflectance_set, synthetic_chart
+
+    chart = synthetic_chart(reflectance_set("colorchecker"), "A", patch_px=16, gap_px=4)
+    height, width = chart.radiance.data.shape[:2]
+    quiet = {"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, "dsnu_e": 0.0, "prnu": 0.0}
+    config = scene_from_dict({"scene": {"preset": "flat_field"}, "illuminant": {"spd": "A"},
+                              "sensor": {"width_px": width, "height_px": height, "vignetting": False, **quiet}})
+    mask = np.zeros((height, width), bool)
+    mask[chart.patches[chart.white_index].interior(0.2)] = True
+    path = tmp_path / "tungsten.dng"
+    write_dng(expose(chart.radiance, config, white_mask=mask), path)
+    with tifffile.TiffFile(path) as tif:
+        assert tif.pages[0].tags[50779].value == 17  # CalibrationIlluminant2 = Standard A
+    raw = read_raw(path)
+    assert raw.color_matrix_2 is not None
+    truth = patch_linear_srgb("A")
+
+    def mean_delta_e(image):
+        linear = develop(image, ISPConfig(colour_matrix="dng", tone="linear")).linear
+        return colorchecker_delta_e(linear, truth, chart.patches[:24])["mean"]
+
+    both = mean_delta_e(raw)
+    d65_only = mean_delta_e(type(raw)(**{**raw.__dict__, "color_matrix_2": None}))
+    assert both < 1.3 and d65_only > both + 1.0

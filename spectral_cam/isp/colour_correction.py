@@ -58,8 +58,59 @@ def xyz_d65_white() -> np.ndarray:
     return colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
 
 
-def dng_camera_to_xyz_d65(color_matrix, neutral, *, adaptation: str = "Bradford") -> np.ndarray:
-    """White-balanced camera RGB → XYZ(D65) from the DNG ColorMatrix1 and a neutral.
+#: Correlated colour temperatures (K) of the DNG calibration illuminants D65 and A.
+CCT_D65_K, CCT_A_K = 6504.0, 2856.0
+
+
+def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, iterations: int = 20) -> np.ndarray:
+    """The XYZ → camera matrix for the scene white, interpolated between the D65 and A
+    calibrations linearly in inverse correlated colour temperature (DNG ch. 6).
+
+    The white's CCT depends on the matrix and the matrix on the CCT, so both are iterated:
+    XYZ_white = M(T)⁻¹·neutral → xy → CCT (McCamy 1992), clamped to [2856, 6504] K.
+
+    Parameters
+    ----------
+    color_matrix_d65, color_matrix_a
+        (3, 3) XYZ → camera under D65 (ColorMatrix1) and Standard Illuminant A.
+    neutral
+        (3,) camera RGB of the scene white.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3, 3) interpolated XYZ → camera matrix.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 "Mapping Camera Color Space to CIE
+       XYZ Space" (interpolation by inverse CCT).
+    .. [2] McCamy, C. S. (1992). Correlated color temperature as an explicit function of
+       chromaticity coordinates. Color Res. Appl. 17(2), 142–144.
+    """
+    import colour
+
+    d65 = np.asarray(color_matrix_d65, dtype=np.float64).reshape(3, 3)
+    tungsten = np.asarray(color_matrix_a, dtype=np.float64).reshape(3, 3)
+    n = np.asarray(neutral, dtype=np.float64).reshape(3)
+    weight = 0.5  # of the D65 matrix
+    for _ in range(iterations):
+        matrix = weight * d65 + (1 - weight) * tungsten
+        xyz = np.linalg.solve(matrix, n)
+        if not np.all(np.isfinite(xyz)) or xyz.sum() <= 0:
+            break
+        cct = float(colour.xy_to_CCT(colour.XYZ_to_xy(xyz), method="McCamy 1992"))
+        cct = min(max(cct, CCT_A_K), CCT_D65_K) if np.isfinite(cct) else CCT_D65_K
+        new = (1 / cct - 1 / CCT_A_K) / (1 / CCT_D65_K - 1 / CCT_A_K)
+        if abs(new - weight) < 1e-6:
+            weight = new
+            break
+        weight = new
+    return weight * d65 + (1 - weight) * tungsten
+
+
+def dng_camera_to_xyz_d65(color_matrix, neutral, *, color_matrix_2=None, adaptation: str = "Bradford") -> np.ndarray:
+    """White-balanced camera RGB → XYZ(D65) from the DNG colour matrices and a neutral.
 
     Parameters
     ----------
@@ -67,6 +118,10 @@ def dng_camera_to_xyz_d65(color_matrix, neutral, *, adaptation: str = "Bradford"
         (3, 3) DNG ColorMatrix1: XYZ → camera RGB, calibrated under D65.
     neutral
         (3,) camera RGB of the white the white balance assumes (AsShotNeutral, or 1/gains).
+    color_matrix_2
+        Optional (3, 3) XYZ → camera calibrated under Standard Illuminant A; with it the
+        matrix is interpolated for the white's colour temperature
+        (:func:`interpolate_color_matrix`).
     adaptation
         colour-science chromatic adaptation transform (``"Bradford"``, ``"CAT02"``, ...)
         from that white to D65.
@@ -93,6 +148,11 @@ def dng_camera_to_xyz_d65(color_matrix, neutral, *, adaptation: str = "Bradford"
     n = np.asarray(neutral, dtype=np.float64).reshape(3)
     if not np.all(np.isfinite(n)) or np.any(n <= 0):
         raise ConfigError(f"the white-balance neutral must be three numbers > 0; got {n.tolist()}")
+    if color_matrix_2 is not None:
+        try:
+            cm = interpolate_color_matrix(cm, color_matrix_2, n)
+        except np.linalg.LinAlgError:
+            raise ConfigError("the DNG colour matrices are singular") from None
     try:
         cam_to_xyz = np.linalg.inv(cm)
     except np.linalg.LinAlgError:

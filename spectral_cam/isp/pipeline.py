@@ -136,7 +136,8 @@ def _colour_transform(raw, config: ISPConfig, gains: np.ndarray, camera_to_xyz_a
         if raw.color_matrix is None:
             raise ConfigError("isp.colour_matrix = 'dng' needs the RAW's ColorMatrix1; this RAW has none "
                               "(use 'fitted' with a supplied matrix, or 'none')")
-        return dng_camera_to_xyz_d65(raw.color_matrix, 1.0 / gains), "dng"
+        return dng_camera_to_xyz_d65(raw.color_matrix, 1.0 / gains,
+                                     color_matrix_2=getattr(raw, "color_matrix_2", None)), "dng"
     key = META_CAMERA_TO_XYZ if method == "fitted" else META_CAMERA_TO_XYZ_ROOT_POLY
     transform = camera_to_xyz_arg if camera_to_xyz_arg is not None else meta.get(key)
     if transform is None:
