@@ -84,7 +84,8 @@ class RawImage:
         Bayer tile read row by row from the top-left pixel ("RGGB", "BGGR", "GRBG",
         "GBRG"), or "none" for a monochrome sensor.
     black_level
-        DN added by the ADC offset (DNG BlackLevel).
+        DN added by the ADC offset (DNG BlackLevel): a number, or a (2, 2) array per CFA site
+        (BlackLevelRepeatDim 2×2) when a camera's channels differ.
     white_level
         Largest DN the ADC can return (DNG WhiteLevel), 2**bits − 1.
     color_matrix
@@ -107,7 +108,7 @@ class RawImage:
 
     mosaic: np.ndarray
     cfa: str
-    black_level: float
+    black_level: float | np.ndarray
     white_level: int
     color_matrix: np.ndarray | None = None
     as_shot_neutral: np.ndarray | None = None
@@ -143,7 +144,10 @@ def _check_raw(raw: RawImage) -> np.ndarray:
         mosaic = mosaic.astype(np.uint16)
     if raw.cfa != "none" and (len(raw.cfa) != 4 or set(raw.cfa) - set("RGB") or raw.cfa.count("G") != 2):
         raise RawFormatError(f"RawImage.cfa = {raw.cfa!r}; valid: RGGB, BGGR, GRBG, GBRG, none")
-    if not 0 < int(raw.white_level) <= 65535 or not 0 <= float(raw.black_level) < int(raw.white_level):
+    black = np.asarray(raw.black_level, dtype=float)
+    if black.ndim not in (0, 2) or (black.ndim == 2 and black.shape != (2, 2)):
+        raise RawFormatError(f"black_level must be a number or a 2×2 array per CFA site; got shape {black.shape}")
+    if not 0 < int(raw.white_level) <= 65535 or not (0 <= black.min() and black.max() < int(raw.white_level)):
         raise RawFormatError(f"levels black = {raw.black_level!r}, white = {raw.white_level!r}: need "
                              "0 <= black < white <= 65535")
     return np.ascontiguousarray(mosaic)
@@ -185,7 +189,12 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     mosaic = _check_raw(raw)
     path = Path(path)
     model = _ascii(raw.camera_model or "spectral_cam")
-    black = float(raw.black_level)
+    black = np.asarray(raw.black_level, dtype=float)
+    if black.ndim == 0 or np.all(black == black.flat[0]):
+        black_dim, black_values = (1, 1), [float(black.flat[0])]
+    else:
+        black_dim, black_values = (2, 2), [float(v) for v in black.reshape(-1)]
+    integral = all(v.is_integer() for v in black_values)
     tags = [
         (DNG_TAGS["DNGVersion"], _TIFF_BYTE, 4, (1, 4, 0, 0), True),
         (DNG_TAGS["DNGBackwardVersion"], _TIFF_BYTE, 4, (1, 1, 0, 0), True),
@@ -193,9 +202,10 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
         (DNG_TAGS["Make"], _TIFF_ASCII, 0, _ascii(make), True),
         (DNG_TAGS["Model"], _TIFF_ASCII, 0, model, True),
         (DNG_TAGS["Orientation"], _TIFF_SHORT, 1, (1,), True),
-        (DNG_TAGS["BlackLevelRepeatDim"], _TIFF_SHORT, 2, (1, 1), True),
-        ((DNG_TAGS["BlackLevel"], _TIFF_LONG, 1, (int(black),), True) if black.is_integer()
-         else (DNG_TAGS["BlackLevel"], _TIFF_RATIONAL, 1, _rationals([black], signed=False), True)),
+        (DNG_TAGS["BlackLevelRepeatDim"], _TIFF_SHORT, 2, black_dim, True),
+        ((DNG_TAGS["BlackLevel"], _TIFF_LONG, len(black_values), tuple(int(v) for v in black_values), True)
+         if integral else
+         (DNG_TAGS["BlackLevel"], _TIFF_RATIONAL, len(black_values), _rationals(black_values, signed=False), True)),
         (DNG_TAGS["WhiteLevel"], _TIFF_LONG, 1, (int(raw.white_level),), True),
     ]
     monochrome = raw.cfa == "none"
@@ -358,8 +368,8 @@ def read_raw(path) -> RawImage:
     -------
     RawImage
         ``mosaic``: the visible raw area (uint16); ``cfa`` from LibRaw's pattern and colour
-        description; ``black_level`` (mean of the per-channel levels, each in
-        ``meta["black_level_per_channel"]``); ``white_level``; ``as_shot_neutral`` =
+        description; ``black_level`` (a number, or a 2×2 array per CFA site when the
+        channels' levels differ; LibRaw's list in ``meta["black_level_per_channel"]``); ``white_level``; ``as_shot_neutral`` =
         1 / camera white-balance multipliers (max 1); ``color_matrix`` = XYZ(D65) → camera
         recovered from LibRaw's ``color_matrix`` (camera → sRGB) and daylight multipliers,
         normalised so D65's white maps to a neutral of max 1; ``noise_profile`` and
@@ -389,6 +399,7 @@ def read_raw(path) -> RawImage:
             colors = int(handle.num_colors)
             cfa = _cfa_string(handle.raw_pattern, bytes(handle.color_desc), colors)
             black_levels = [float(v) for v in handle.black_level_per_channel]
+            pattern = np.asarray(handle.raw_pattern)
             white = int(handle.white_level)
             camera_wb = np.asarray(handle.camera_whitebalance, dtype=float)
             daylight = np.asarray(handle.daylight_whitebalance, dtype=float)
@@ -412,7 +423,11 @@ def read_raw(path) -> RawImage:
     extras = _tiff_extras(path)
     noise = extras.get("NoiseProfile")
     noise_profile = (float(noise[0]), float(noise[1])) if noise is not None and len(noise) >= 2 else None
-    black = float(np.mean(black_levels[: 1 if cfa == "none" else 4]))
+    # LibRaw orders black_level_per_channel by colour index; raw_pattern maps sites to it
+    if cfa == "none" or len(set(black_levels[:4])) == 1 or pattern.shape != (2, 2):
+        black = float(black_levels[0])
+    else:
+        black = np.asarray(black_levels, dtype=float)[pattern]
     return RawImage(
         mosaic=mosaic,
         cfa=cfa,

@@ -159,3 +159,22 @@ def test_colour_matrix_2_under_illuminant_a_is_written_read_and_interpolated(tmp
     both = mean_delta_e(raw)
     d65_only = mean_delta_e(type(raw)(**{**raw.__dict__, "color_matrix_2": None}))
     assert both < 1.3 and d65_only > both + 1.0
+
+
+def test_per_site_black_levels_round_trip_through_libraw_and_normalise_per_site(tmp_path):
+    """A camera-style DNG with a different black level per CFA site (BlackLevelRepeatDim
+    2×2): LibRaw reports them by colour index, read_raw maps them back to the sites, and
+    the ISP normalises each site by (DN − black_site)/(white − black_site) (DNG spec ch. 5)."""
+    from spectral_cam.isp.normalise import normalise
+    from spectral_cam.raw import RawImage, read_raw, write_dng
+
+    black = np.array([[512.0, 500.0], [520.0, 508.0]])  # R, Gr / Gb, B sites of RGGB
+    white, level = 4095, 0.25
+    tiles = np.tile(black, (16, 20))
+    mosaic = np.rint(tiles + level * (white - tiles)).astype(np.uint16)
+    path = tmp_path / "per_site.dng"
+    write_dng(RawImage(mosaic, "RGGB", black, white), path)
+    raw = read_raw(path)
+    assert np.array_equal(np.asarray(raw.black_level), black)
+    normalised = normalise(raw.mosaic, black_level=raw.black_level, white_level=raw.white_level)
+    assert np.allclose(normalised, level, atol=0.5 / (white - black.max()))

@@ -63,9 +63,9 @@ def normalise(mosaic: np.ndarray, *, black_level, white_level: float) -> np.ndar
         black = np.tile(black, reps)[: mosaic.shape[0], : mosaic.shape[1]]
     elif black.ndim != 0:
         raise ConfigError(f"black_level must be a number or a 2-D repeat pattern; got shape {black.shape}")
-    scale = float(white_level) - float(np.max(black))
-    if not scale > 0:
+    if not float(white_level) > float(np.max(black)):
         raise ConfigError(f"white_level {white_level!r} must exceed the black level {float(np.max(black))!r}")
+    # per site, as the DNG spec maps raw values: (DN − black_site) / (white − black_site)
     out = mosaic.astype(np.float32) - black
-    out *= np.float32(1.0 / scale)
+    out /= np.float32(white_level) - black
     return out
