@@ -225,7 +225,7 @@ def illuminant_white_xyz(illuminant_spd) -> np.ndarray:
 # ----------------------------------------------------------------------------- fitting
 def _white_preserving_fit(source: np.ndarray, target: np.ndarray, white_source: np.ndarray,
                           white_target: np.ndarray) -> np.ndarray:
-    """3×3 M minimising ‖source·Mᵀ − target‖² subject to M·white_source = white_target.
+    """M (3 × terms) minimising ‖source·Mᵀ − target‖² subject to M·white_source = white_target.
 
     Row by row: m = m_ls − G·w·(wᵀm_ls − t)/(wᵀG·w), G = (XᵀX)⁻¹ (Lagrange multiplier).
     """
@@ -353,8 +353,9 @@ def camera_to_xyz_d65(
         The scene illuminant.
     method : {"linear", "root_polynomial"}
         ``"linear"``: a 3×3 least-squares matrix constrained to map (1, 1, 1) onto the D65
-        white exactly; ``"root_polynomial"``: colour-science's Finlayson 2015
-        root-polynomial regression of ``degree`` (exposure invariant).
+        white exactly; ``"root_polynomial"``: the Finlayson 2015 root-polynomial terms of
+        ``degree`` (colour-science's expansion; exposure invariant), fitted under the same
+        white-preserving constraint.
     reflectances : optional
         Training reflectances; default the 24 ColorChecker patches.
     transmission : optional
@@ -390,6 +391,13 @@ def camera_to_xyz_d65(
         return _white_preserving_fit(rgb, xyz_d65, np.ones(3), white_d65)
     if not 1 <= int(degree) <= 4:
         raise ConfigError(f"root-polynomial degree {degree!r}; valid: 1, 2, 3, 4")
-    ccm = colour.characterisation.matrix_colour_correction(
-        rgb, xyz_d65, method="Finlayson 2015", degree=int(degree), root_polynomial_expansion=True)
+    # the same white-preserving least squares on the root-polynomial terms, so the white
+    # (1, 1, 1) still maps exactly onto D65's white (an unconstrained fit misses it by ~0.8 ΔE)
+    from colour.characterisation import polynomial_expansion_Finlayson2015
+
+    def expand(values):
+        return np.asarray(polynomial_expansion_Finlayson2015(values, degree=int(degree),
+                                                             root_polynomial_expansion=True))
+
+    ccm = _white_preserving_fit(expand(rgb), xyz_d65, expand(np.ones(3)), white_d65)
     return RootPolynomialCorrection(ccm, int(degree))

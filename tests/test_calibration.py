@@ -83,3 +83,14 @@ def test_ideal_camera_has_identical_channels():
     np.testing.assert_allclose(responses[:, 0], responses[:, 2])
     with pytest.raises(ConfigError, match="three distinct"):
         cal.xyz_to_camera_matrix("ideal", "D65")
+
+
+@pytest.mark.parametrize("illuminant", ["D65", "A"])
+def test_root_polynomial_correction_keeps_white_neutral(illuminant):
+    # the white-balanced white (1, 1, 1) must land on D65's white, as the 3×3 fit does
+    import colour
+
+    correction = cal.camera_to_xyz_d65("nikon_d850", illuminant, method="root_polynomial")
+    xyz = correction(np.ones((1, 3)))[0]
+    d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
+    assert colour.delta_E(colour.XYZ_to_Lab(xyz, colour.XYZ_to_xy(d65)), [100, 0, 0], method="CIE 2000") < 0.05
