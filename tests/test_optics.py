@@ -119,3 +119,33 @@ def test_thin_lens_quantities_follow_the_gaussian_lens_equation():
     assert lens.working_f_number == pytest.approx(F_NUMBER * v / FOCAL_M)
     assert lens.fov_x_deg == pytest.approx(math.degrees(2 * math.atan(0.018 / v)))
     assert lens.coc_diameter_px(3.0) == pytest.approx(coc_px(3.0) * PITCH_M / 10e-6)
+
+
+def test_depth_of_field_limits_put_the_circle_of_confusion_at_its_limit():
+    from spectral_cam.optics import ThinLens
+
+    lens = ThinLens(FOCAL_M, 5.6, 3.0, 0.036, 0.024, 3600, 2400)
+    c = 30e-6  # the classic full-frame acceptable CoC
+    near, far = lens.depth_of_field_m(c)
+    assert coc_for(lens, near) == pytest.approx(c, rel=1e-9)
+    assert coc_for(lens, far) == pytest.approx(c, rel=1e-9)
+    hyper = lens.hyperfocal_distance_m(c)
+    at_hyper = ThinLens(FOCAL_M, 5.6, hyper, 0.036, 0.024, 3600, 2400)
+    assert at_hyper.depth_of_field_m(c)[1] == math.inf  # focused at H, sharp to infinity
+    assert at_hyper.depth_of_field_m(c)[0] == pytest.approx(hyper / 2, rel=0.01)  # near limit ≈ H/2
+
+
+def coc_for(lens, depth):
+    """c = A·f·|z − z_f| / (z·(z_f − f)), A = f/N, written out independently of optics.py."""
+    f, zf = lens.focal_length_m, lens.focus_distance_m
+    return (f / lens.f_number) * f * abs(depth - zf) / (depth * (zf - f))
+
+
+def test_project_and_unproject_are_inverse():
+    from spectral_cam.optics import ThinLens
+
+    lens = ThinLens(FOCAL_M, 2.0, 2.0, 64 * PITCH_M, 48 * PITCH_M, 64, 48)
+    column, row = lens.project(0.01, -0.02, 2.5)
+    x, y = lens.unproject(column, row, 2.5)
+    assert (x, y) == pytest.approx((0.01, -0.02))
+    assert lens.project(0.0, 0.0, 7.0) == pytest.approx((32.0, 24.0))  # the axis hits the centre
