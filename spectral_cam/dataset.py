@@ -726,15 +726,10 @@ def load_spec(
     ConfigError
         When the file is missing or invalid, saying what would be valid.
     """
+    from .scene import read_toml
+
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"cannot read dataset spec {str(path)!r}: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path} is not a valid TOML dataset spec: {exc}") from None
+    data = read_toml(path, "dataset spec")
     return spec_from_dict(data, base_dir=path.parent, sweeps=sweeps, overrides=overrides,
                           source=str(path.resolve()))
 

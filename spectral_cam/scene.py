@@ -33,6 +33,7 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "parse_override",
+    "read_toml",
     "PRESETS",
     "CFA_PATTERNS",
 ]
@@ -414,6 +415,30 @@ def scene_from_dict(
     return SceneConfig(**sections)
 
 
+def read_toml(path: str | Path, what: str) -> dict:
+    """Read a TOML file (a scene file, validation plan, dataset spec, ...) into a dict.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``what`` when the file is missing, unreadable (or its path holds a NUL byte),
+        not UTF-8, or not valid TOML.
+    """
+    try:
+        path = Path(path)
+        if not path.is_file():
+            raise ConfigError(f"{what} {str(path)!r} does not exist or is not a file")
+        text = path.read_text(encoding="utf-8")
+    except (OSError, ValueError) as exc:  # unreadable, not UTF-8, or a path with a NUL byte
+        if isinstance(exc, ConfigError):
+            raise
+        raise ConfigError(f"cannot read {what} {str(path)!r}: {exc}") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path} is not a valid TOML {what}: {exc}") from None
+
+
 def load_scene(path: str | Path, overrides: Mapping[str, Any] | list[str] | None = None) -> SceneConfig:
     """Read a TOML scene file, apply overrides and validate.
 
@@ -424,19 +449,8 @@ def load_scene(path: str | Path, overrides: Mapping[str, Any] | list[str] | None
     overrides
         ``{"lens.f_number": 2.8}`` or a list of ``"section.key=value"`` strings.
     """
-    try:
-        path = Path(path)
-        if not path.is_file():
-            raise ConfigError(f"scene file {str(path)!r} does not exist or is not a file")
-        text = path.read_text(encoding="utf-8")
-    except (OSError, ValueError) as exc:  # unreadable, or a path with a NUL byte
-        if isinstance(exc, ConfigError):
-            raise
-        raise ConfigError(f"cannot read scene file {str(path)!r}: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path} is not a valid TOML scene file: {exc}") from None
+    path = Path(path)
+    data = read_toml(path, "scene file")
     if isinstance(overrides, (list, tuple)):
         overrides = dict(parse_override(item) for item in overrides)
     return scene_from_dict(data, overrides=overrides, base_dir=path.parent)

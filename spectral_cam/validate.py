@@ -112,7 +112,6 @@ import subprocess
 import sys
 import tempfile
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
@@ -1197,17 +1196,10 @@ def load_plan(path: str | Path, overrides: Mapping[str, Any] | Sequence[str] | N
     ConfigError
         If the file is missing, not TOML, or invalid (see :func:`plan_from_dict`).
     """
-    from .scene import parse_override
+    from .scene import parse_override, read_toml
 
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, ValueError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read plan file {str(path)!r}: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path} is not a valid TOML plan: {exc}") from None
+    data = read_toml(path, "plan file")
     if isinstance(overrides, (list, tuple)):
         overrides = dict(parse_override(item) for item in overrides)
     return plan_from_dict(data, base_dir=path.resolve().parent, source=str(path), overrides=overrides)
