@@ -282,7 +282,10 @@ def render(
     target_spp = config.render.max_spp if auto_spp else config.render.spp
     lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
     spp_per_pass = max(1, min(AUTO_SPP_PER_PASS if auto_spp else target_spp, lanes // (width * height)))
-    monitor = NoiseMonitor(config, wavelengths, edges, channels) if auto_spp else None
+    monitor = None
+    if auto_spp:  # equal passes: the pass-to-pass spread estimates the Monte-Carlo noise
+        target_spp = -(-target_spp // spp_per_pass) * spp_per_pass
+        monitor = NoiseMonitor(config, wavelengths, edges, channels)
 
     started = time.perf_counter()
     camera = _camera(mi, lens, lens_model, film, spp_per_pass)
@@ -303,7 +306,7 @@ def render(
         seeds.append(seed)
         if progress is not None:
             progress(done, target_spp, time.perf_counter() - started)
-        if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated / done):
+        if monitor is not None and monitor.add(image) and monitor.converged(accumulated / done):
             break
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
@@ -422,8 +425,9 @@ class NoiseMonitor:
         return SpectralImage(np.asarray(data, dtype=np.float32), self.wavelengths, self.edges, None, {},
                              self.channels)
 
-    def add(self, image: np.ndarray, spp: int) -> bool:
-        """Add one pass; returns True once enough passes exist to judge convergence."""
+    def add(self, image: np.ndarray) -> bool:
+        """Add one pass (all passes have the same spp); returns True once enough passes
+        exist to judge convergence."""
         from .sensor import expected_electrons
 
         rate, _ = expected_electrons(self._image(np.maximum(image, 0.0)), self.config, exposure_s=1.0)
