@@ -7,6 +7,7 @@ This is what ``spectral-cam render`` runs and what dataset generation runs per i
     OUTDIR/raw.dng        the simulated RAW
     OUTDIR/image.png      the developed sRGB image (plus any other isp.outputs)
     OUTDIR/meta.json      resolved config, optics, sensor gain, seeds, timings, model decisions
+    OUTDIR/scene.toml     the resolved scene, every key written out (render it again to reproduce)
 
 The folder appears in one rename when every file is complete (:func:`io.staged_directory`).
 """
@@ -154,6 +155,9 @@ def run_render_job(
                                  quality=config.isp.jpeg_quality)
         timings["write"] = time.perf_counter() - t0
         timings["total"] = time.perf_counter() - started
+        with atomic_path(stage / "scene.toml") as tmp:  # the resolved scene: re-render with it
+            tmp.write_text(config.to_toml(), encoding="utf-8")
+        written.append(stage / "scene.toml")
         scene = str(Path(scene_file).resolve()) if scene_file else None
         meta = result_meta(config, sim, written, timings, scene_file=scene)
         write_json(meta, stage / "meta.json")

@@ -297,9 +297,32 @@ class SceneConfig:
             out[name] = {k: list(v) if isinstance(v, tuple) else v for k, v in section.items()}
         return out
 
+    def to_toml(self) -> str:
+        """The whole resolved scene as a TOML scene file (``load_scene`` reads it back equal)."""
+        lines = ["# spectral_cam scene, every key resolved"]
+        for name, table in self.to_dict().items():
+            lines.append(f"\n[{name}]")
+            lines += [f"{key} = {_toml_value(value)}" for key, value in table.items()]
+        return "\n".join(lines) + "\n"
+
     def replace(self, **overrides: Any) -> "SceneConfig":
         """A copy with ``"section.key": value`` overrides applied and validated."""
         return scene_from_dict(self.to_dict(), overrides=overrides)
+
+
+def _toml_value(value: Any) -> str:
+    """A TOML literal for the value types scene sections hold."""
+    import json
+
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)  # a JSON string is a valid TOML basic string
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(item) for item in value) + "]"
+    raise ConfigError(f"cannot write {value!r} ({type(value).__name__}) to TOML")
 
 
 # ----------------------------------------------------------------------------- coercion

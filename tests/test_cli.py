@@ -53,7 +53,11 @@ def test_render_writes_radiance_depth_and_meta(tmp_path, scene_file):
     assert set(meta["timings_s"]) >= {"render_radiance", "render_depth", "sensor", "isp", "total"}
     assert meta["sensor"]["K_dn_per_e"] == pytest.approx((2 ** 12 - 1 - 256) / 20000)
     assert meta["sensor"]["saturation_e"] == pytest.approx(20000)
-    assert {"raw.dng", "image.png", "radiance.exr", "depth.exr", "meta.json"} <= set(p.name for p in out.iterdir())
+    assert {"raw.dng", "image.png", "radiance.exr", "depth.exr", "meta.json", "scene.toml"} <= set(
+        p.name for p in out.iterdir())
+    from spectral_cam import load_scene, scene_from_dict
+
+    assert load_scene(out / "scene.toml") == scene_from_dict(meta["config"])  # reproducible as a scene file
     import rawpy
 
     with rawpy.imread(str(out / "raw.dng")) as raw:

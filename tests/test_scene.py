@@ -149,3 +149,12 @@ def test_monochrome_sensor_never_gets_the_camera_film():
 
     mono = scene_from_dict({"sensor": {"model": "ideal", "cfa": "none"}, "render": {"spectral_output": False}})
     assert decide_bands(mono, False)[0] is False
+
+
+def test_resolved_scene_round_trips_through_toml(tmp_path):
+    config = scene_from_dict({"scene": {"preset": "dof_targets", "depths_m": [0.5, 1, 3]},
+                              "illuminant": {"spd": 'F40/DX (Broadband FL)'},
+                              "render": {"spp": "auto", "seed": 7}, "sensor": {"shot_noise": False}})
+    path = tmp_path / "resolved.toml"
+    path.write_text(config.to_toml())
+    assert load_scene(path) == config
