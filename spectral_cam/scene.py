@@ -181,6 +181,9 @@ class SensorSection:
             spectra.camera_sensitivities(self.model)
         if self.cfa not in CFA_PATTERNS:
             _fail("sensor.cfa", self.cfa, f"valid: {', '.join(CFA_PATTERNS)}")
+        if self.cfa != "none" and min(self.width_px, self.height_px) < 2:
+            _fail("sensor.width_px" if self.width_px < 2 else "sensor.height_px",
+                  min(self.width_px, self.height_px), f"a {self.cfa} Bayer sensor needs at least 2×2 pixels")
         if self.cfa == "none" and self.model != "ideal":
             _fail("sensor.cfa", self.cfa, "a monochrome sensor needs sensor.model = 'ideal'")
         if not (isinstance(self.peak_qe, (int, float)) and 0 < self.peak_qe <= 1):

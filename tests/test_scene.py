@@ -53,6 +53,7 @@ def test_bands_are_centres():
         ({"sensor.width_px": 0}, "sensor.width_px = 0: must be a whole number of pixels"),
         ({"sensor.height_px": -5}, "sensor.height_px = -5: must be a whole number of pixels"),
         ({"sensor.pixel_pitch_um": 0}, "sensor.pixel_pitch_um = 0.0: must be a finite number > 0"),
+        ({"sensor.width_px": 1}, "Bayer sensor needs at least 2×2 pixels"),
         ({"sensor.width_px": 2.5}, "sensor.width_px = 2.5: has the wrong type"),
         ({"lens.model": "fisheye"}, "valid: auto, thin, pinhole"),
         ({"scene.preset": "teapot"}, "unknown preset; valid: colorchecker"),
