@@ -10,6 +10,10 @@ This is what ``spectral-cam render`` runs and what dataset generation runs per i
     OUTDIR/scene.toml     the resolved scene, every key written out (render it again to reproduce)
 
 The folder appears in one rename when every file is complete (:func:`io.staged_directory`).
+
+References
+----------
+.. [1] ../shared/DESIGN.md, "The scene file and the CLI" (the result folder is a contract).
 """
 
 from __future__ import annotations

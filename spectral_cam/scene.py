@@ -6,6 +6,11 @@ Every section is a frozen dataclass; :meth:`SceneConfig.to_dict` round-trips thr
 :func:`scene_from_dict`, so each output's ``meta.json`` can reproduce its render.
 
 The geometry of the presets lives in :mod:`spectral_cam.presets`.
+
+References
+----------
+.. [1] TOML v1.0.0, https://toml.io/en/v1.0.0 (read with the standard library's tomllib).
+.. [2] ../shared/DESIGN.md, "The scene file and the CLI" (the key names are a contract).
 """
 
 from __future__ import annotations
