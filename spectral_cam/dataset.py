@@ -60,10 +60,12 @@ images. Items are independent tasks:
 - seeds: item *i* draws its parameters from ``SeedSequence(spec hash, (i, 0))`` and renders
   with ``render.seed`` = the first word of ``SeedSequence(spec hash, (i, 1))`` unless the
   spec sets ``render.seed``; the same spec gives the same items on any machine, in any
-  order, and ``-n`` can grow a dataset without changing its first items;
+  order, and ``-n`` can grow a random dataset without changing its first items (in a sweep
+  the items per grid point set which index gets which point, so a different ``-n`` re-plans
+  them and resume renders the changed ones again);
 - resume: an item whose folder is complete (its meta.json lists files that all exist, made
-  from the same spec hash, holding the outputs asked for) is skipped; anything else is
-  rendered again and replaces the folder atomically;
+  from the same spec hash with the same seed and parameters, holding the outputs asked
+  for) is skipped; anything else is rendered again and replaces the folder atomically;
 - a worker that dies mid-item (killed, out of memory) loses only that item, which is
   submitted again (``--retries``, default 2); an item that raises (an impossible value, a
   broken scene file) is recorded as failed with its error and the run goes on;
@@ -1254,7 +1256,11 @@ def local_cluster(workers: int | None = None, **worker_kwargs) -> Iterator[Any]:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                scheduler_kwargs={"allowed_failures": 0, "dashboard": False},
                                **worker_kwargs)
-        client = Client(cluster)
+        try:
+            client = Client(cluster)
+        except BaseException:  # never leave spawned workers behind
+            cluster.close()
+            raise
     try:
         yield client
     finally:
@@ -1399,12 +1405,15 @@ def _read_meta(item_dir: Path) -> dict | None:
         return None
 
 
-def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str]) -> dict | None:
-    """The item's meta when its folder is complete for this spec and these outputs."""
+def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], plan) -> dict | None:
+    """The item's meta when its folder is complete for this spec, this item's planned seed
+    and parameters (a sweep re-plans items when ``-n`` changes), and these outputs."""
     meta = _read_meta(item_dir)
     if not meta or not isinstance(meta.get("dataset"), dict):
         return None
     if meta["dataset"].get("spec_hash") != spec_hash or not set(outputs) <= set(meta["dataset"].get("outputs", [])):
+        return None
+    if meta["dataset"].get("seed") != plan.seed or meta["dataset"].get("params") != _jsonable(plan.params):
         return None
     if not all((item_dir / name).is_file() for name in meta.get("files", [])):
         return None
@@ -1535,7 +1544,7 @@ def generate_dataset(
             if plan.scene is None:
                 rows[index] = {**base, "status": "failed", "resumed": False, "files": [], "error": plan.error}
                 continue
-            meta = None if force else _finished(item_dir, spec.hash, spec.outputs)
+            meta = None if force else _finished(item_dir, spec.hash, spec.outputs, plan)
             if meta is not None:
                 rows[index] = {**base, "status": "done", "resumed": True,
                                "files": [f"items/{plan.id}/{name}" for name in meta["files"]],

@@ -56,13 +56,28 @@ def staged_directory(target: str | Path, *, force: bool = False) -> Iterator[Pat
         os.umask(umask)
         os.chmod(stage, 0o777 & ~umask)  # mkdtemp makes 0700
         yield stage
-        if target.exists():
-            trash = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
-            os.replace(target, trash / target.name)
-            os.replace(stage, target)
-            shutil.rmtree(trash, ignore_errors=True)
-        else:
-            os.replace(stage, target)
+        _publish(stage, target, force=force)
     finally:
         if stage.exists():
             shutil.rmtree(stage, ignore_errors=True)
+
+
+def _publish(stage: Path, target: Path, *, force: bool) -> None:
+    """Move a finished staging folder onto ``target``. ``force`` is checked again here, since
+    ``target`` may have appeared while the work ran; a replaced result is restored if the
+    final rename fails, so one of the two always survives."""
+    if not target.exists():
+        os.rename(stage, target)  # an empty folder created meanwhile would be replaced, not merged
+        return
+    if not force:
+        raise ConfigError(f"{target} appeared while this result was being made; pass --force to replace it")
+    trash = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
+    try:
+        os.replace(target, trash / target.name)
+        try:
+            os.replace(stage, target)
+        except BaseException:
+            os.replace(trash / target.name, target)
+            raise
+    finally:
+        shutil.rmtree(trash, ignore_errors=True)

@@ -1502,8 +1502,11 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
                             config = plan.scene_config(illuminant, camera, exposure, chart)
                             mask = _exposure_mask(chart, camera, illuminant, _transmissions(config))
                             raw = expose(chart.radiance, config, white_mask=mask)
-                            dng_name = (f"{_slug(refset.name)}__{_slug(illuminant)}__{_slug(camera)}"
-                                        f"__{_slug(exposure.name)}.dng")
+                            # positions keep names unique (two CSVs may share a file name)
+                            dng_name = (f"{plan.reflectance_sets.index(refset):02d}-{_slug(refset.name)}__"
+                                        f"{plan.illuminants.index(illuminant):02d}-{_slug(illuminant)}__"
+                                        f"{_slug(camera)}__{plan.exposures.index(exposure):02d}-"
+                                        f"{_slug(exposure.name)}.dng")
                             dng_path = write_dng(raw, raw_dir / dng_name)
                             for pipeline in plan.pipelines:
                                 cell = _run_cell(pipeline, raw, dng_path, work_dir, chart, reference, plan,
@@ -2049,6 +2052,8 @@ def run(args: argparse.Namespace) -> int:
     if args.self_check:
         if args.plan or args.output or args.set:
             raise ConfigError("--self takes no plan, -o or --set; run it on its own (optionally with --csv PATH)")
+        if args.csv and Path(args.csv).exists() and not args.force:
+            raise ConfigError(f"{args.csv} exists; pass --force to overwrite it")
         started = time.perf_counter()
         results = self_checks()
         print(format_checks(results))

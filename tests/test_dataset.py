@@ -294,6 +294,16 @@ f_number = 8.0
     # a bad sweep is a user error: one message, exit 2
     assert cli.main(["dataset", str(spec), "-o", str(out), "--sweep", "lens.nope=1:2:2"]) == 2
     assert "unknown key 'lens.nope'" in capsys.readouterr().err
+    # two items per grid point re-plans which index gets which focus: resume must re-render
+    # the items whose planned parameters changed, never relabel an old folder
+    status = cli.main(["dataset", str(spec), "-o", str(out), "-n", "2", "--sweep", "lens.focus_distance_m=1:2:2",
+                       "--scheduler", cluster.client.scheduler.address])
+    assert status == 0, capsys.readouterr().err
+    for row in _manifest(out):
+        meta = json.loads((out / row["path"] / "meta.json").read_text())
+        assert meta["config"]["lens"]["focus_distance_m"] == row["params"]["lens.focus_distance_m"]
+    # items 0 and 1 held f = 1 m and 2 m; now 0 and 1 are 1 m, 2 and 3 are 2 m
+    assert [r["resumed"] for r in _manifest(out)] == [True, False, False, False]
 
 
 # ----------------------------------------------------------------------------- units
