@@ -374,6 +374,8 @@ def _parse_distribution(key: str, table: Mapping[str, Any]) -> Distribution:
         raise ConfigError(f"{key}: {kind} needs low <= high; got [{spec[0]!r}, {spec[1]!r}]")
     if kind == "log_uniform" and np.any(lows <= 0):
         raise ConfigError(f"{key}: log_uniform bounds must be > 0; got [{spec[0]!r}, {spec[1]!r}]")
+    if whole and max(np.abs(np.atleast_1d(low)).max(), np.abs(np.atleast_1d(high)).max()) >= 2 ** 53:
+        raise ConfigError(f"{key}: whole-number bounds must stay below 2**53; got [{spec[0]!r}, {spec[1]!r}]")
     return Distribution(key, kind, low=low, high=high, whole=whole)
 
 
@@ -1533,6 +1535,10 @@ def generate_dataset(
         _write_json(info_path, {"spec_hash": spec.hash, "items": total, "per_grid_point": per_point,
                                 "spec": spec.to_dict()})
         _remove_partials(items_dir)
+        if force and items_dir.is_dir():  # items of an earlier, larger run are not this dataset's
+            for stale in items_dir.iterdir():
+                if stale.is_dir() and stale.name.isdigit() and int(stale.name) >= total:
+                    shutil.rmtree(stale, ignore_errors=True)
 
         rows: dict[int, dict] = {}
         tasks = []

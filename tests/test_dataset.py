@@ -429,3 +429,8 @@ def test_progress_bar_shows_rate_and_eta():
     assert lines[-1].startswith("dataset [") and "6/10 items" in lines[-1]
     assert "2 resumed" in lines[-1] and "1 failed" in lines[-1]
     assert "4.0 items/min" in lines[-1] and "ETA 1 min 00 s" in lines[-1]
+
+
+def test_whole_number_bounds_beyond_float_precision_are_refused():
+    with pytest.raises(ConfigError, match="below 2\\*\\*53"):
+        ds.spec_from_dict({"sensor": {"width_px": {"uniform": [1e30, 2e30]}}})
