@@ -33,12 +33,17 @@ from .scene import SceneConfig
 __all__ = ["run_render_job", "simulate", "Simulation", "result_meta", "write_json", "package_versions"]
 
 _PACKAGES = ("spectral_cam", "mitsuba", "drjit", "colour-science", "numpy", "OpenEXR", "rawpy",
-             "tifffile", "opencv-python-headless", "scikit-image")
+             "tifffile", "opencv-python-headless", "scikit-image", "matplotlib")
 
 
 def package_versions() -> dict[str, str]:
-    """Versions of the packages a result depends on (for meta.json)."""
-    out = {}
+    """Versions of Python, LibRaw and the packages a result depends on (provenance for
+    meta.json, validation reports and stress results)."""
+    import platform
+
+    import rawpy
+
+    out = {"python": platform.python_version(), "LibRaw": ".".join(map(str, rawpy.libraw_version))}
     for name in _PACKAGES:
         try:
             out[name] = metadata.version(name)

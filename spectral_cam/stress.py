@@ -2134,25 +2134,15 @@ def run_studies(directory: Path, settings: StressSettings, *, only=None, log=Non
         if log is not None:
             log(f"{name}: {seconds:.1f} s, {len(files)} charts")
     results["files"] += write_summary(rows, directory)
-    results["versions"] = _versions()
+    from .job import package_versions
+
+    results["versions"] = package_versions()
     from .io import atomic_path
 
     with atomic_path(directory / "results.json") as tmp:
         tmp.write_text(json.dumps(_json_ready(results), indent=1, ensure_ascii=False), encoding="utf-8")
     results["files"].append("results.json")
     return results
-
-
-def _versions() -> dict:
-    from importlib import metadata
-
-    out = {}
-    for package in ("spectral_cam", "mitsuba", "numpy", "colour-science", "opencv-python-headless", "matplotlib"):
-        try:
-            out[package] = metadata.version(package)
-        except metadata.PackageNotFoundError:
-            out[package] = None
-    return out
 
 
 def configure_parser(parser: argparse.ArgumentParser) -> None:

@@ -1367,7 +1367,7 @@ class ValidationResult:
     output_dir : pathlib.Path or None
         Where the report, CSVs and DNGs were written.
     versions : dict
-        Package versions (spectral_cam, colour-science, numpy, rawpy/LibRaw).
+        Python, LibRaw and package versions (:func:`spectral_cam.job.package_versions`).
     """
 
     plan: Plan
@@ -1391,23 +1391,6 @@ class ValidationResult:
 def _slug(text: str) -> str:
     text = Path(text).stem if str(text).lower().endswith(".csv") else str(text)
     return re.sub(r"[^A-Za-z0-9.+-]+", "_", text).strip("_") or "x"
-
-
-def _versions() -> dict:
-    import colour
-
-    from . import __version__
-
-    versions = {"spectral_cam": __version__, "colour-science": colour.__version__, "numpy": np.__version__,
-                "python": sys.version.split()[0]}
-    try:
-        import rawpy
-
-        versions["rawpy"] = rawpy.__version__
-        versions["LibRaw"] = ".".join(map(str, rawpy.libraw_version))
-    except ImportError:  # pragma: no cover - rawpy is a dependency
-        pass
-    return versions
 
 
 def _exposure_mask(chart: Chart, camera: str, illuminant: str, transmission) -> np.ndarray:
@@ -1466,7 +1449,9 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
     from .sensor import expose
 
     started = time.perf_counter()
-    versions = _versions()
+    from .job import package_versions
+
+    versions = package_versions()
     cells: list[CellResult] = []
     if output_dir is None:
         holder = tempfile.TemporaryDirectory(prefix="spectral-cam-validate-")
