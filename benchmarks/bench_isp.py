@@ -52,7 +52,7 @@ def main() -> None:
     import rawpy
 
     from spectral_cam import expose, scene_from_dict
-    from spectral_cam.groundtruth import patch_linear_srgb
+    from spectral_cam.colorimetry import patch_linear_srgb
     from spectral_cam.isp import ISPConfig, develop
     from spectral_cam.metrics import colorchecker_delta_e
     from spectral_cam.raw import read_raw, write_dng

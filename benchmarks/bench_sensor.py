@@ -37,7 +37,7 @@ def build_cube(width: int, height: int, seed: int = 0):
     """A 31-band radiance cube: D65-lit ColorChecker-like spectra, randomly placed, with a
     smooth illumination gradient (float32, W·m⁻²·sr⁻¹ per band)."""
     from spectral_cam import spectra
-    from spectral_cam.render import SpectralImage
+    from spectral_cam.image import SpectralImage
 
     bands = spectra.parse_bands("400:700:10")
     wl, irradiance = spectra.absolute_irradiance("D65", 1000.0)

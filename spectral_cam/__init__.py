@@ -1,9 +1,9 @@
 """spectral_cam — a spectral, path-traced scene-to-sensor camera simulator.
 
-The chain, one module per stage::
+The chain, one package per stage (docs/design.md, "Architecture")::
 
-    load_scene (scene.py) -> render (render.py, Mitsuba 3) -> expose (sensor.py)
-        -> write_dng / read_raw (raw.py) -> develop (isp/)
+    load_scene (scene.py, presets/) -> render (render/, Mitsuba 3) -> expose (sensor/)
+        -> write_dng / read_raw (raw/) -> develop (isp/) -> metrics/
 
 Heavy modules (Mitsuba, OpenEXR) are imported on first use.
 """
@@ -15,9 +15,11 @@ import importlib
 from .errors import ConfigError, RawFormatError, RenderError, SensorError, SpectralCamError
 from .scene import SceneConfig, load_scene, scene_from_dict
 
-# imported eagerly so that the function, not the submodule of the same name, is
-# ``spectral_cam.render`` (render.py imports Mitsuba only when it renders)
-from .render import SpectralImage, render
+from .image import SpectralImage
+
+# imported eagerly so that the function, not the subpackage of the same name, is
+# ``spectral_cam.render`` (render/ imports Mitsuba only when it renders)
+from .render import render
 
 __version__ = "0.1.0"
 

@@ -120,7 +120,7 @@ def _chart_scene(width: int, height: int, **overrides) -> SceneConfig:
 
 def _develop_delta_e(radiance, config: SceneConfig, isp_overrides: dict | None = None) -> float:
     """Mean ΔE2000 of the developed, noise-free ColorChecker against the analytic ground truth."""
-    from .groundtruth import patch_linear_srgb
+    from .colorimetry import patch_linear_srgb
     from .isp import develop
     from .metrics import colorchecker_delta_e
     from .presets import colorchecker_patches, white_reference_mask
@@ -181,7 +181,7 @@ def _reference_electrons(config: SceneConfig) -> np.ndarray:
     """Electrons per patch and channel from a 1-nm integration of ρ(λ)E(λ)/π (the sensor's
     camera equation on a synthetic 1-nm-band image)."""
     from . import spectra
-    from .render import SpectralImage
+    from .image import SpectralImage
     from .sensor import signal_model
 
     grid = spectra.BandGrid(tuple(np.arange(380.5, 730.0, 1.0)), tuple(np.arange(380.0, 730.5, 1.0)))
@@ -203,8 +203,8 @@ def _patch_electrons(radiance, config: SceneConfig) -> np.ndarray:
 
 def bench_bands(out: Path, *, quick: bool) -> list[dict]:
     """Camera film vs 8/16/31 bands against a 1-nm reference: time vs ΔE2000 and bias."""
-    from .calibration import camera_to_xyz_d65
-    from .groundtruth import xyz_to_linear_srgb
+    from .sensor.calibration import camera_to_xyz_d65
+    from .colorimetry import xyz_to_linear_srgb
     from .metrics import delta_e2000
     from .render import render
 
@@ -264,7 +264,7 @@ def bench_bands(out: Path, *, quick: bool) -> list[dict]:
 
 def _isp_fixture(quick: bool):
     """A rendered ColorChecker exposed with and without noise, and its ground truth."""
-    from .groundtruth import groundtruth_linear_srgb
+    from .colorimetry import groundtruth_linear_srgb
     from .presets import colorchecker_patches, white_reference_mask
     from .render import render
     from .sensor import expose
@@ -284,7 +284,7 @@ def _isp_fixture(quick: bool):
 
 
 def _score(linear, truth, white, config) -> tuple[float, float]:
-    from .groundtruth import match_exposure
+    from .colorimetry import match_exposure
     from .metrics import colorchecker_delta_e, psnr
     from .presets import colorchecker_patches
 

@@ -16,15 +16,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .scene import LensSection, SensorSection
+if TYPE_CHECKING:  # pragma: no cover
+    from .scene import LensSection, SensorSection
 
 __all__ = [
     "ThinLens",
     "diffraction_mtf",
     "defocus_mtf",
+    "defocus_otf",
     "pixel_mtf",
     "airy_kernel",
     "MTF_TOLERANCE",
@@ -54,14 +57,28 @@ def diffraction_mtf(frequency_cyc_per_m, wavelength_nm, working_f_number):
     return (2.0 / np.pi) * (np.arccos(s) - s * np.sqrt(1.0 - s * s))
 
 
-def defocus_mtf(frequency_cyc_per_m, coc_diameter_m):
-    """Geometric-optics MTF of a uniform blur disc of diameter c: |2·J₁(πcν)/(πcν)|
-    [Smith, Modern Optical Engineering, 4th ed., §11.10]."""
+def defocus_otf(frequency_cyc_per_m, coc_diameter_m):
+    """Geometric-optics OTF of a uniform blur disc of diameter c, signed: 2·J₁(πcν)/(πcν)
+    (it turns negative past the first zero at cν ≈ 1.22: contrast reversal). Any length
+    unit works if ν is in cycles per that unit (e.g. pixels and cycles per pixel).
+
+    References
+    ----------
+    .. [1] Goodman, J. W. (2005). Introduction to Fourier Optics, 3rd ed., §2.1 (the
+       Fourier transform of a circle function, jinc).
+    .. [2] Smith, W. J. (2008). Modern Optical Engineering, 4th ed., §11.10.
+    """
     from scipy.special import j1
 
     x = np.pi * np.asarray(coc_diameter_m, dtype=float) * np.abs(np.asarray(frequency_cyc_per_m, dtype=float))
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(x < 1e-9, 1.0, np.abs(2.0 * j1(x) / np.where(x < 1e-9, 1.0, x)))
+        return np.where(x < 1e-9, 1.0, 2.0 * j1(x) / np.where(x < 1e-9, 1.0, x))
+
+
+def defocus_mtf(frequency_cyc_per_m, coc_diameter_m):
+    """Geometric-optics MTF of a uniform blur disc of diameter c: |2·J₁(πcν)/(πcν)|, the
+    modulus of :func:`defocus_otf` [Smith, Modern Optical Engineering, 4th ed., §11.10]."""
+    return np.abs(defocus_otf(frequency_cyc_per_m, coc_diameter_m))
 
 
 def pixel_mtf(frequency_cyc_per_m, pixel_pitch_m):

@@ -23,6 +23,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from . import spectra
+from .cfa import CFA_PATTERNS
+from .presets import PRESETS
 from .errors import ConfigError
 from .isp.config import ISPConfig as ISPSection
 
@@ -43,11 +45,8 @@ __all__ = [
     "CFA_PATTERNS",
 ]
 
-#: Scene presets (geometry in :mod:`spectral_cam.presets`).
-PRESETS = ("colorchecker", "dof_targets", "slanted_edge", "flat_field", "point_sources", "cornell_box")
 #: Bayer tiles, read row by row from the top-left pixel; "none" = monochrome.
-CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG", "none")
-LENS_MODELS = ("auto", "thin", "pinhole")
+LENS_MODELS = ("auto", "thin", "pinhole", "layered")
 #: render.diffraction: "auto" applies the Airy PSF only where it costs > 0.03 MTF at Nyquist.
 DIFFRACTION_MODES = ("auto", "on", "off")
 #: render.bands besides "start:stop:step"; "auto" resolves to this grid or "camera".
@@ -132,7 +131,10 @@ class IlluminantSection:
 @dataclass(frozen=True)
 class LensSection:
     """A thin lens (or a pinhole with the same field of view). ``model = "auto"`` renders
-    through a pinhole when defocus costs ≤ 0.03 of MTF at Nyquist over the scene's depths."""
+    through a pinhole when defocus costs ≤ 0.03 of MTF at Nyquist over the scene's depths,
+    and with the depth-layered model (``"layered"``: a pinhole render defocused per depth
+    layer, :mod:`spectral_cam.render.defocus`) where that is exact and thin-lens path tracing
+    would be noisy (docs/design.md, "Model decisions")."""
 
     focal_length_mm: float = 8.0
     f_number: float = 2.8

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import RawFormatError
-from .render import SpectralImage
+from .image import SpectralImage
 from .io import atomic_path
 
 __all__ = ["write_spectral_exr", "read_spectral_exr", "write_depth_exr", "read_depth_exr", "channel_name"]

@@ -9,7 +9,7 @@ patch by patch, with the colorimetric ground truth computed from the spectra.
     spectral-cam validate PLAN.toml -o REPORT_DIR [--set section.key=value]... [--force]
     spectral-cam validate --self [--csv PATH]
 
-Ground truth (one definition everywhere, :mod:`spectral_cam.groundtruth`): CIE 1931 2° XYZ
+Ground truth (one definition everywhere, :mod:`spectral_cam.colorimetry`): CIE 1931 2° XYZ
 of each reflectance under the scene illuminant (colour-science integration on the CMFs'
 1-nm grid, the perfect diffuser at Y = 1) → Bradford chromatic adaptation (von Kries) from
 the illuminant's white to D65 → linear sRGB, unclipped. A pipeline's patch means are first
@@ -118,6 +118,14 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from .charts import (
+    REFLECTANCE_SETS,
+    Chart,
+    ReflectanceSet,
+    reflectance_set,
+    synthetic_chart,
+)
+from .colorimetry import white_patch_index
 from .errors import ConfigError, SpectralCamError
 
 __all__ = [
@@ -173,281 +181,9 @@ SWATCH_MODES = ("all", "failing", "none")
 #: Fraction of each patch's size left out on every side when averaging (edges, demosaicing).
 PATCH_MARGIN = 0.2
 #: The ColorChecker patch used as white reference (exposure matching, WB error).
-WHITE_REFERENCE = "white 9.5 (.05 D)"
 #: Reflectance of the synthetic chart's frame (the ColorChecker preset's black frame).
-FRAME_REFLECTANCE = 0.03
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
 _SCENE_SECTIONS = ("scene", "lens", "sensor", "render", "illuminant")
-
-
-# ============================================================================ reflectance sets
-@dataclass(frozen=True)
-class ReflectanceSet:
-    """Named reflectance spectra (fractions, per wavelength in nm).
-
-    Attributes
-    ----------
-    name : str
-        Set name as the plan gives it.
-    description : str
-        Provenance.
-    names : tuple of str
-        Patch names.
-    sds : tuple of colour.SpectralDistribution
-        The reflectances.
-    """
-
-    name: str
-    description: str
-    names: tuple[str, ...]
-    sds: tuple
-
-    def __len__(self) -> int:
-        return len(self.sds)
-
-
-def _colorchecker():
-    from . import spectra
-
-    patches = spectra.colorchecker_reflectances()
-    return list(patches.keys()), list(patches.values())
-
-
-def _rawtoaces():
-    import colour
-
-    msds = colour.characterisation.read_training_data_rawtoaces_v1()
-    sds = msds.to_sds()
-    return [sd.name for sd in sds], sds
-
-
-def _cie2017():
-    from colour.quality import cfi2017
-
-    msds = cfi2017.load_TCS_CIE2017(cfi2017.SPECTRAL_SHAPE_CIE2017)
-    sds = msds.to_sds()
-    return [sd.name for sd in sds], sds
-
-
-def _named_mapping(mapping, key: str):
-    table = mapping[key] if key in mapping else mapping  # colour-science < 0.4.5 had a flat table
-    return list(table.keys()), [sd.copy() for sd in table.values()]
-
-
-def _cri():
-    import colour
-
-    return _named_mapping(colour.quality.SDS_TCS, "CIE 1995")
-
-
-def _cqs():
-    import colour
-
-    return _named_mapping(colour.quality.SDS_VS, "NIST CQS 9.0")
-
-
-#: Built-in reflectance sets: name -> (description, loader).
-REFLECTANCE_SETS: dict[str, tuple[str, Callable]] = {
-    "colorchecker": ("24 ColorChecker patches, BabelColor average of 30 charts (Pascale 2006)", _colorchecker),
-    "rawtoaces": ("190 training reflectances of AMPAS rawtoaces (colour-science)", _rawtoaces),
-    "cie2017": ("99 colour samples of the CIE 2017 colour fidelity index (CIE 224:2017)", _cie2017),
-    "cri": ("14 test colour samples of CIE 13.3-1995 (colour rendering index)", _cri),
-    "cqs": ("15 samples of the NIST colour quality scale 9.0 (Davis & Ohno 2010)", _cqs),
-}
-
-
-def _csv_set(path: Path) -> tuple[list[str], list]:
-    """A reflectance table: ``wavelength_nm, name1, name2, ...`` with a header row."""
-    import colour
-
-    if not path.is_file():
-        raise ConfigError(f"reflectance set {str(path)!r}: file does not exist")
-    try:
-        with path.open(newline="", encoding="utf-8") as handle:
-            rows = [row for row in csv.reader(handle) if row and not row[0].strip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"reflectance set {path}: cannot read it as a text CSV ({exc})") from None
-    if len(rows) < 3 or len(rows[0]) < 2:
-        raise ConfigError(f"reflectance set {path}: need a header 'wavelength_nm,name1,...' and >= 2 rows")
-    header = [cell.strip() for cell in rows[0]]
-    try:
-        body = np.array([[float(cell) for cell in row] for row in rows[1:]], dtype=float)
-    except ValueError as exc:
-        raise ConfigError(f"reflectance set {path}: non-numeric value ({exc})") from None
-    if body.shape[1] != len(header) or not np.all(np.isfinite(body)):
-        raise ConfigError(f"reflectance set {path}: every row needs {len(header)} finite numbers")
-    body = body[np.argsort(body[:, 0])]
-    values = body[:, 1:]
-    if np.any(values < 0) or np.any(values > 2):
-        raise ConfigError(f"reflectance set {path}: reflectances must be fractions in [0, 2] "
-                          "(per cent? divide by 100)")
-    names = header[1:]
-    sds = [colour.SpectralDistribution(dict(zip(body[:, 0], values[:, i])), name=name)
-           for i, name in enumerate(names)]
-    return names, sds
-
-
-def reflectance_set(name: str, *, base_dir: str | Path = ".") -> ReflectanceSet:
-    """Load a built-in reflectance set or a CSV table.
-
-    Parameters
-    ----------
-    name : str
-        One of :data:`REFLECTANCE_SETS` (``"colorchecker"``, ``"rawtoaces"``,
-        ``"cie2017"``, ``"cri"``, ``"cqs"``) or the path of a CSV file whose header is
-        ``wavelength_nm,<patch name>,...`` and whose values are reflectance fractions.
-    base_dir : str or path-like
-        Folder relative CSV paths are resolved against.
-
-    Returns
-    -------
-    ReflectanceSet
-
-    Raises
-    ------
-    ConfigError
-        For an unknown name (listing the valid ones) or an unreadable CSV.
-
-    References
-    ----------
-    .. [1] See the module references (CIE 224:2017, CIE 13.3-1995, Davis & Ohno 2010,
-       rawtoaces, Pascale 2006).
-    """
-    text = str(name).strip()
-    if text.lower().endswith(".csv") or "/" in text:
-        path = Path(text).expanduser()
-        if not path.is_absolute():
-            path = Path(base_dir) / path
-        names, sds = _csv_set(path)
-        return ReflectanceSet(text, f"reflectances from {path.name}", tuple(names), tuple(sds))
-    key = text.casefold()
-    if key not in REFLECTANCE_SETS:
-        raise ConfigError(f"unknown reflectance set {name!r}; valid: {', '.join(REFLECTANCE_SETS)} "
-                          "or a CSV path (wavelength_nm, one column per patch)")
-    description, loader = REFLECTANCE_SETS[key]
-    names, sds = loader()
-    return ReflectanceSet(key, description, tuple(str(n) for n in names), tuple(sds))
-
-
-# ============================================================================ the chart
-@dataclass
-class Chart:
-    """A chart image and where its patches are.
-
-    Attributes
-    ----------
-    radiance : SpectralImage
-        (H, W, B) band integrals of radiance, W·m⁻²·sr⁻¹.
-    patches : list of Patch
-        Every patch (the set's first, then an appended white reference if any).
-    n_set : int
-        The first ``n_set`` patches are the set's (their statistics are reported).
-    white_index : int
-        Index (into ``patches``) of the white reference.
-    sds : list
-        Reflectance of every patch (for the ground truth).
-    source : str
-        ``"synthetic"`` or ``"render"``.
-    """
-
-    radiance: Any
-    patches: list
-    n_set: int
-    white_index: int
-    sds: list
-    source: str
-
-
-def _with_white_reference(refset: ReflectanceSet) -> tuple[list[str], list, int]:
-    """Patch names and spectra with the white reference; its index."""
-    from . import spectra
-
-    names, sds = list(refset.names), list(refset.sds)
-    if refset.name == "colorchecker" and WHITE_REFERENCE in names:
-        return names, sds, names.index(WHITE_REFERENCE)
-    names.append(f"reference: {WHITE_REFERENCE}")
-    sds.append(spectra.colorchecker_reflectances()[WHITE_REFERENCE])
-    return names, sds, len(names) - 1
-
-
-def _grid_columns(count: int) -> int:
-    """Columns of a chart of ``count`` patches: 6 for a ColorChecker, else about 3:2."""
-    if count <= 24:
-        return min(count, 6)
-    return int(math.ceil(math.sqrt(1.5 * count)))
-
-
-def synthetic_chart(
-    refset: ReflectanceSet,
-    illuminant: str,
-    *,
-    illuminance_lux: float = 1000.0,
-    bands: str = "400:700:10",
-    patch_px: int = 16,
-    gap_px: int = 4,
-) -> Chart:
-    """Radiance of flat Lambertian patches facing the camera under an illuminant.
-
-    Each patch is a ``patch_px`` square of constant band radiance
-    ``L_b = ∫_b ρ(λ)·E(λ)/π dλ`` (trapezoid rule on 0.1-nm steps of the 1-nm tables),
-    E the illuminant's spectral irradiance scaled to ``illuminance_lux``; patches sit
-    ``gap_px`` apart on a frame of reflectance 0.03. Reflectances are interpolated linearly
-    and hold their end values outside their tables (as the scene presets hand them to
-    Mitsuba); negative values (round-off in some tables) are set to 0.
-
-    Parameters
-    ----------
-    refset : ReflectanceSet
-        The patches (a white reference is appended unless it is the ColorChecker).
-    illuminant : str
-        Illuminant name, ``"blackbody:<K>"`` or CSV path (:func:`spectral_cam.spectra.illuminant`).
-    illuminance_lux : float
-        Illuminance on the chart, lx.
-    bands : str
-        Band centres ``"start:stop:step"`` in nm (each band ``step`` wide).
-    patch_px, gap_px : int
-        Patch size and spacing, pixels.
-
-    Returns
-    -------
-    Chart
-
-    References
-    ----------
-    .. [1] McCluney, W. R. (2014). Introduction to Radiometry and Photometry, 2nd ed.,
-       §1.6 (Lambertian radiance L = ρE/π).
-    .. [2] CIE 15:2004 (illuminance from spectral irradiance, K_m = 683 lm/W).
-    """
-    from . import spectra
-    from .presets import Patch
-    from .render import SpectralImage
-
-    if not (isinstance(patch_px, int) and patch_px >= 4):
-        raise ConfigError(f"validate.patch_px = {patch_px!r}: must be a whole number of pixels >= 4")
-    if not (isinstance(gap_px, int) and gap_px >= 0):
-        raise ConfigError(f"validate.gap_px = {gap_px!r}: must be a whole number of pixels >= 0")
-    grid = spectra.parse_bands(bands)
-    names, sds, white = _with_white_reference(refset)
-    columns = _grid_columns(len(sds))
-    rows = int(math.ceil(len(sds) / columns))
-    pitch = patch_px + gap_px
-    width, height = columns * pitch + gap_px, rows * pitch + gap_px
-    width, height = width + width % 2, height + height % 2  # whole Bayer tiles
-    wavelengths, irradiance = spectra.absolute_irradiance(illuminant, illuminance_lux)
-    rho = np.stack([np.maximum(spectra.sample(sd, wavelengths), 0.0) for sd in sds])
-    patch_radiance = spectra.band_integrals(rho * irradiance / np.pi, wavelengths, grid)
-    frame_radiance = spectra.band_integrals(FRAME_REFLECTANCE * irradiance / np.pi, wavelengths, grid)
-    data = np.empty((height, width, len(grid)), dtype=np.float32)
-    data[:] = frame_radiance.astype(np.float32)
-    patches = []
-    for index, name in enumerate(names):
-        row, column = divmod(index, columns)
-        top, left = gap_px + row * pitch, gap_px + column * pitch
-        data[top:top + patch_px, left:left + patch_px] = patch_radiance[index].astype(np.float32)
-        patches.append(Patch(name, left + patch_px / 2, top + patch_px / 2, patch_px / 2, patch_px / 2))
-    image = SpectralImage(data, np.asarray(grid.centres_nm), np.asarray(grid.edges_nm),
-                          meta={"chart": "synthetic", "illuminant": illuminant, "illuminance_lux": illuminance_lux})
-    return Chart(image, patches, len(refset), white, sds, "synthetic")
 
 
 def rendered_chart(config) -> Chart:
@@ -480,7 +216,7 @@ def rendered_chart(config) -> Chart:
     patches = colorchecker_patches(config)
     names = [p.name for p in patches]
     sds = list(spectra.colorchecker_reflectances().values())
-    return Chart(image, patches, len(patches), names.index(WHITE_REFERENCE), sds, "render")
+    return Chart(image, patches, len(patches), white_patch_index(names), sds, "render")
 
 
 # ============================================================================ plan
@@ -675,7 +411,7 @@ class RawpyPipeline(_Pipeline):
     def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
         import rawpy
 
-        from .groundtruth import xyz_to_linear_srgb
+        from .colorimetry import xyz_to_linear_srgb
 
         with rawpy.imread(str(dng_path)) as handle:
             image = handle.postprocess(**self._options()).astype(np.float64) / 65535.0
@@ -698,7 +434,7 @@ def _to_linear_srgb(image, space: str) -> np.ndarray:
     """(H, W, 3) values in ``space`` → linear sRGB (unclipped)."""
     import colour
 
-    from .groundtruth import xyz_to_linear_srgb
+    from .colorimetry import xyz_to_linear_srgb
 
     if space == "xyz":
         return xyz_to_linear_srgb(image)
@@ -1395,7 +1131,7 @@ def _slug(text: str) -> str:
 
 def _exposure_mask(chart: Chart, camera: str, illuminant: str, transmission) -> np.ndarray:
     """Interior of the patch with the largest camera response (normally the white)."""
-    from . import calibration
+    from .sensor import calibration
 
     responses = calibration.camera_responses(camera, illuminant, chart.sds, transmission=transmission)
     brightest = int(np.argmax(responses.max(axis=1)))
@@ -1443,7 +1179,7 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
     ----------
     .. [1] See the module docstring (ground truth, ΔE2000, angular error, SNR).
     """
-    from . import groundtruth
+    from . import colorimetry
     from .io import staged_directory
     from .raw import write_dng
     from .sensor import expose
@@ -1473,7 +1209,7 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
                     if plan.chart == "synthetic":
                         synthetic = synthetic_chart(refset, illuminant, illuminance_lux=plan.illuminance_lux,
                                                     bands=plan.bands, patch_px=plan.patch_px, gap_px=plan.gap_px)
-                        reference = groundtruth.patch_linear_srgb(illuminant, synthetic.sds)
+                        reference = colorimetry.patch_linear_srgb(illuminant, synthetic.sds)
                     for camera in plan.cameras:
                         for exposure in plan.exposures:
                             chart = synthetic
@@ -1483,7 +1219,7 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
                                 if key not in render_cache:
                                     render_cache[key] = rendered_chart(config)
                                 chart = render_cache[key]
-                                reference = groundtruth.patch_linear_srgb(illuminant, chart.sds)
+                                reference = colorimetry.patch_linear_srgb(illuminant, chart.sds)
                             config = plan.scene_config(illuminant, camera, exposure, chart)
                             mask = _exposure_mask(chart, camera, illuminant, _transmissions(config))
                             raw = expose(chart.radiance, config, white_mask=mask)
@@ -1693,7 +1429,7 @@ def _check_thin_lens() -> list[CheckResult]:
 
 
 def _narrow_band_image(size: int, radiance: float, wavelength_nm: float):
-    from .render import SpectralImage
+    from .image import SpectralImage
 
     centres = np.arange(400.0, 701.0, 10.0)
     edges = np.append(centres - 5.0, centres[-1] + 5.0)
@@ -1842,7 +1578,7 @@ def _check_dng_libraw() -> list[CheckResult]:
     LibRaw's own development against ours with the DNG matrix."""
     import rawpy
 
-    from . import groundtruth
+    from . import colorimetry
     from .isp import ISPConfig, develop
     from .metrics.image_quality import delta_e2000, patch_means
     from .raw import read_raw, write_dng
@@ -1861,7 +1597,7 @@ def _check_dng_libraw() -> list[CheckResult]:
     same_shape = mosaic.shape == raw.mosaic.shape
     max_dn = float(np.max(np.abs(mosaic.astype(np.int64) - raw.mosaic.astype(np.int64)))) if same_shape else math.inf
     neutral = (1.0 / multipliers) / (1.0 / multipliers).max()
-    libraw = patch_means(groundtruth.xyz_to_linear_srgb(xyz), chart.patches, margin=PATCH_MARGIN)
+    libraw = patch_means(colorimetry.xyz_to_linear_srgb(xyz), chart.patches, margin=PATCH_MARGIN)
     ours = patch_means(develop(raw, ISPConfig(colour_matrix="dng", demosaic="menon2007", tone="linear",
                                               highlights="none")).linear, chart.patches, margin=PATCH_MARGIN)
     ours_scaled = ours * (libraw[chart.white_index] @ _y_weights()) / (ours[chart.white_index] @ _y_weights())
@@ -1890,19 +1626,20 @@ def _check_colour_chain() -> list[CheckResult]:
     camera responses."""
     import colour
 
-    from . import calibration, groundtruth
+    from .sensor import calibration
+    from . import colorimetry
     from .isp import ISPConfig, develop
     from .metrics.image_quality import delta_e2000, patch_means
 
     t0 = time.perf_counter()
-    reference = groundtruth.patch_linear_srgb("A")
+    reference = colorimetry.patch_linear_srgb("A")
     white = calibration.illuminant_white_xyz("A")
     d65 = colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
     cat = np.asarray(colour.adaptation.matrix_chromatic_adaptation_VonKries(white, d65, "Bradford"))
-    other = groundtruth.xyz_to_linear_srgb(calibration.reflectance_xyz("A") @ cat.T)
+    other = colorimetry.xyz_to_linear_srgb(calibration.reflectance_xyz("A") @ cat.T)
     routes = float(np.max(delta_e2000(other, reference)))
     chart, raw = _noise_free_chart_raw()
-    reference = groundtruth.patch_linear_srgb("D65")
+    reference = colorimetry.patch_linear_srgb("D65")
     matrix = calibration.camera_to_xyz_d65("nikon_d850", "D65")
     linear = develop(raw, ISPConfig(colour_matrix="fitted", demosaic="menon2007", tone="linear",
                                     highlights="none"), camera_to_xyz=matrix).linear
@@ -1910,7 +1647,7 @@ def _check_colour_chain() -> list[CheckResult]:
                         exposure_match_index=chart.white_index)
     balanced = calibration.camera_responses("nikon_d850", "D65") / calibration.camera_responses(
         "nikon_d850", "D65", [1.0])[0]
-    analytic = delta_e2000(groundtruth.xyz_to_linear_srgb(balanced @ matrix.T), reference,
+    analytic = delta_e2000(colorimetry.xyz_to_linear_srgb(balanced @ matrix.T), reference,
                            exposure_match_index=chart.white_index)
     seconds = time.perf_counter() - t0
     return [

@@ -367,7 +367,7 @@ def test_spec_draws_sweeps_and_errors(tmp_path):
 def test_clean_rgb_is_the_noise_free_raw(make_scene):
     """With every noise term off, the RAW is the clean camera RGB through the CFA, quantised."""
     from spectral_cam import spectra
-    from spectral_cam.render import SpectralImage
+    from spectral_cam.image import SpectralImage
     from spectral_cam.sensor import expose
 
     config = make_scene(sensor={"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0,

@@ -9,9 +9,9 @@ import tifffile
 
 from spectral_cam import sensor as S
 from spectral_cam import spectra
-from spectral_cam.errors import RawFormatError
+from spectral_cam.errors import ConfigError, RawFormatError
 from spectral_cam.raw import RawImage, read_raw, write_dng
-from spectral_cam.render import SpectralImage
+from spectral_cam.image import SpectralImage
 from spectral_cam.scene import scene_from_dict
 
 BANDS = spectra.parse_bands("400:700:10")
@@ -116,7 +116,7 @@ def test_corrupt_missing_and_truncated_files(tmp_path):
 def test_write_dng_rejects_bad_raw(tmp_path):
     with pytest.raises(RawFormatError, match="mosaic"):
         write_dng(RawImage(np.zeros((2, 2, 3), np.uint16), "RGGB", 0, 4095), tmp_path / "x.dng")
-    with pytest.raises(RawFormatError, match="cfa"):
+    with pytest.raises(ConfigError, match="CFA pattern"):
         write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGBW", 0, 4095), tmp_path / "x.dng")
     with pytest.raises(RawFormatError, match="black"):
         write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGGB", 5000, 4095), tmp_path / "x.dng")
@@ -131,7 +131,7 @@ def test_colour_matrix_2_under_illuminant_a_is_written_read_and_interpolated(tmp
     import tifffile
 
     from spectral_cam import expose, scene_from_dict
-    from spectral_cam.groundtruth import patch_linear_srgb
+    from spectral_cam.colorimetry import patch_linear_srgb
     from spectral_cam.isp import ISPConfig, develop
     from spectral_cam.metrics import colorchecker_delta_e
     from spectral_cam.raw import read_raw, write_dng

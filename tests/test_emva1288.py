@@ -10,7 +10,7 @@ import scipy.constants as const
 
 from spectral_cam import sensor as S
 from spectral_cam.metrics.emva1288 import pair_statistics, photon_transfer, plot_photon_transfer, spatial_nonuniformity
-from spectral_cam.render import SpectralImage
+from spectral_cam.image import SpectralImage
 from spectral_cam.scene import scene_from_dict
 
 WAVELENGTHS = np.arange(400.0, 701.0, 10.0)

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import spectral_cam as sc
-from spectral_cam import calibration, groundtruth
+from spectral_cam import colorimetry
+from spectral_cam.sensor import calibration
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.presets import colorchecker_patches
 from spectral_cam.scene import scene_from_dict
@@ -84,7 +85,7 @@ def chart():
         "white_mask": white,
         "raw": expose(radiance, config, white_mask=white),
         "noisy_raw": expose(radiance, scene(), white_mask=white),
-        "reference": groundtruth.patch_linear_srgb("D65"),
+        "reference": colorimetry.patch_linear_srgb("D65"),
         "linear": calibration.camera_to_xyz_d65(model, "D65", method="linear"),
         "root_polynomial": calibration.camera_to_xyz_d65(model, "D65", method="root_polynomial"),
     }
@@ -114,19 +115,19 @@ def test_ground_truth_routes_agree(chart):
     vs the ground truth of the rendered radiance (bands 395–705 nm only)."""
     import colour
 
-    white = calibration.illuminant_white_xyz("D65")
+    white = colorimetry.illuminant_white_xyz("D65")
     d65 = colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
     cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white, d65, "Bradford")
-    other = xyz_to_srgb(calibration.reflectance_xyz("D65") @ np.asarray(cat).T)
+    other = xyz_to_srgb(colorimetry.reflectance_xyz("D65") @ np.asarray(cat).T)
     assert np.max(delta_e(other, chart["reference"])) < 0.05
-    rendered = groundtruth.groundtruth_linear_srgb(chart["radiance"], "D65",
+    rendered = colorimetry.groundtruth_linear_srgb(chart["radiance"], "D65",
                                                    white_region=chart["patches"][WHITE].interior())
     assert np.mean(delta_e(means(rendered, chart["patches"]), chart["reference"])) < 0.5
 
 
 def test_white_patch_sits_at_0_8_of_saturation(chart):
     raw = chart["raw"]
-    from spectral_cam.isp.cfa import channel_index
+    from spectral_cam.cfa import channel_index
 
     normalised = (raw.mosaic.astype(float) - raw.black_level) / (raw.white_level - raw.black_level)
     index = channel_index(normalised.shape, raw.cfa)

@@ -14,7 +14,7 @@ import pytest
 from spectral_cam.errors import ConfigError
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.isp import config as isp_config
-from spectral_cam.isp.cfa import channel_index, opencv_bayer_code, opencv_bayer_name
+from spectral_cam.cfa import channel_index, opencv_bayer_code, opencv_bayer_name
 from spectral_cam.isp.demosaic import DEMOSAIC, demosaic
 from spectral_cam.isp.denoise import (DENOISERS, NoiseModel, denoise_mosaic, estimate_noise,
                                       generalized_anscombe, inverse_generalized_anscombe)

@@ -67,7 +67,7 @@ def test_camera_film_and_31_bands_agree_within_1_percent_on_a_d65_colorchecker()
 
 
 def test_bands_auto_picks_the_camera_film_only_when_nothing_needs_the_spectrum():
-    from spectral_cam.render import decide_bands
+    from spectral_cam.render.decisions import decide_bands
 
     def decide(**render_keys):
         return decide_bands(scene_from_dict({"render": render_keys}), False)

@@ -53,7 +53,7 @@ def test_model_decisions_for_diffraction_follow_the_nyquist_cost():
 
 
 def test_diffraction_decision_applied_at_f22_2um_and_skipped_at_f1_4_24um():
-    from spectral_cam.render import decide_diffraction
+    from spectral_cam.render.decisions import decide_diffraction
     from spectral_cam.spectra import parse_bands
 
     bands = parse_bands("400:700:10")
@@ -68,7 +68,7 @@ def test_diffraction_decision_applied_at_f22_2um_and_skipped_at_f1_4_24um():
 
 
 def test_lens_decision_uses_the_depth_range():
-    from spectral_cam.render import decide_lens_model
+    from spectral_cam.render.decisions import decide_lens_model
 
     lens = ThinLens(0.025, 1.4, 2.0, 480 * 6e-6, 320 * 6e-6, 480, 320)
     flat = np.full((4, 4), 2.0)

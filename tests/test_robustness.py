@@ -73,7 +73,7 @@ def test_corrupt_exr_files_are_clear_errors(tmp_path, content):
 def test_truncated_exr_is_a_clear_error(tmp_path):
     import numpy as np
 
-    from spectral_cam.render import SpectralImage
+    from spectral_cam.image import SpectralImage
     from spectral_cam.spectral_exr import write_spectral_exr
 
     image = SpectralImage(np.random.default_rng(0).random((32, 32, 4), dtype=np.float32),

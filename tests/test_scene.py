@@ -146,7 +146,7 @@ def test_review_findings_on_names_seeds_bands_and_transmissions():
 
 
 def test_monochrome_sensor_never_gets_the_camera_film():
-    from spectral_cam.render import decide_bands
+    from spectral_cam.render.decisions import decide_bands
 
     mono = scene_from_dict({"sensor": {"model": "ideal", "cfa": "none"}, "render": {"spectral_output": False}})
     assert decide_bands(mono, False)[0] is False

@@ -27,7 +27,8 @@ from spectral_cam.errors import ConfigError, RawFormatError, SensorError, Spectr
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.isp.demosaic import DEMOSAIC
 from spectral_cam.raw import RawImage, read_raw, write_dng
-from spectral_cam.render import SpectralImage
+from spectral_cam.image import SpectralImage
+from spectral_cam.render import render_layered
 from spectral_cam.scene import scene_from_dict
 
 WAVELENGTHS = np.arange(400.0, 701.0, 10.0)
@@ -302,7 +303,7 @@ def bokeh_renders():
 
     thin = {seed: render(stress.bokeh_scene(model="thin", spp=spp, seed=seed, **BOKEH_TEST), with_depth=False)
             for seed, spp in ((11, 8192), (12, 8192), (13, 1024))}
-    remedy = stress.render_defocus_remedy(stress.bokeh_scene(model="pinhole", spp=128, seed=14, **BOKEH_TEST))
+    remedy = render_layered(stress.bokeh_scene(model="pinhole", spp=128, seed=14, **BOKEH_TEST))
     return thin, remedy
 
 
@@ -337,7 +338,7 @@ def test_remedy_records_its_decision_and_refuses_bad_options(bokeh_renders):
     assert {"pinhole_render", "depth", "defocus_layers"} <= set(remedy.meta["timings_s"])
     config = stress.bokeh_scene(model="pinhole", spp=1, **BOKEH_TEST)
     with pytest.raises(ConfigError, match="margin_px"):
-        stress.render_defocus_remedy(config, margin_px=-1)
+        render_layered(config, margin_px=-1)
     with pytest.raises(ConfigError, match="supersample"):
         stress.nearest_depth(config, supersample=0)
 

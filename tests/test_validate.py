@@ -28,7 +28,8 @@ import numpy as np
 import pytest
 
 import spectral_cam as sc
-from spectral_cam import calibration, groundtruth, spectra
+from spectral_cam import colorimetry, spectra
+from spectral_cam.sensor import calibration
 from spectral_cam.cli import main
 from spectral_cam.errors import ConfigError
 from spectral_cam.isp import ISPConfig, develop
@@ -265,7 +266,7 @@ def test_csv_matches_the_isp_colorchecker_test_on_an_identical_configuration(tmp
     white = np.zeros((HEIGHT, WIDTH), bool)
     white[patches[WHITE].interior()] = True
     raw = expose(radiance, config, white_mask=white)
-    reference = groundtruth.patch_linear_srgb("D65")
+    reference = colorimetry.patch_linear_srgb("D65")
     transforms = {"linear": calibration.camera_to_xyz_d65("nikon_d850", "D65", method="linear"),
                   "root_polynomial": calibration.camera_to_xyz_d65("nikon_d850", "D65", method="root_polynomial"),
                   None: None}
@@ -299,7 +300,7 @@ def test_synthetic_chart_is_lambert_radiance_of_the_reflectances():
         block = chart.radiance.data[rows, cols]
         np.testing.assert_allclose(block, np.broadcast_to(expected, block.shape), rtol=1e-6)
     # ground truth and chart order agree: the white reference reads Y ≈ 0.9 of the diffuser
-    reference = groundtruth.patch_linear_srgb("A", chart.sds)
+    reference = colorimetry.patch_linear_srgb("A", chart.sds)
     assert reference[chart.white_index] @ [0.2126, 0.7152, 0.0722] == pytest.approx(0.9, abs=0.03)
 
 

@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigError
-from .cfa import channel_index, channel_masks, check_cfa, opencv_bayer_code
+from ..cfa import channel_index, channel_masks, check_cfa, opencv_bayer_code
 
 __all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "vng", "ea"]
 
@@ -233,7 +233,7 @@ def vng(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
         (H, W) float32 linear mosaic.
     cfa
         Bayer tile name read from the top-left pixel (OpenCV's name is derived with
-        :func:`~spectral_cam.isp.cfa.opencv_bayer_name`).
+        :func:`~spectral_cam.cfa.opencv_bayer_name`).
 
     Returns
     -------

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
-from .cfa import check_cfa
+from ..cfa import check_cfa
 
 __all__ = [
     "NoiseModel",

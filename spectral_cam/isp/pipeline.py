@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from .cfa import check_cfa
+from ..cfa import check_cfa
 from .colour_correction import camera_to_linear_srgb, dng_camera_to_xyz_d65
 from .config import ISPConfig
 from .demosaic import demosaic

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigError
-from .cfa import channel_index, tile_gain_map
+from ..cfa import channel_index, tile_gain_map
 from .highlights import clipped_mask
 
 __all__ = ["WHITE_BALANCE", "white_balance_gains", "apply_white_balance"]

@@ -38,6 +38,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ..cfa import MONOCHROME, check_cfa
+
 __all__ = ["PhotonTransferResult", "photon_transfer", "pair_statistics", "spatial_nonuniformity",
            "snr_model", "plot_photon_transfer", "channel_pixels"]
 
@@ -45,7 +47,6 @@ __all__ = ["PhotonTransferResult", "photon_transfer", "pair_statistics", "spatia
 QUANTISATION_VAR_DN2 = 1.0 / 12.0
 #: Upper end of the linear range used for K and R, as a fraction of μ_y.sat − μ_y.dark.
 LINEAR_FRACTION = 0.7
-_BAYER = {"RGGB": "RGGB", "BGGR": "BGGR", "GRBG": "GRBG", "GBRG": "GBRG"}
 
 
 # ----------------------------------------------------------------------------- pixels
@@ -60,10 +61,9 @@ def channel_pixels(frame: np.ndarray, cfa: str) -> dict[str, np.ndarray]:
     frame = np.asarray(frame)
     if frame.ndim != 2:
         raise ValueError(f"a frame must be a 2-D mosaic; got shape {frame.shape}")
-    if cfa == "none":
+    cfa = check_cfa(cfa, allow_monochrome=True)
+    if cfa == MONOCHROME:
         return {"Y": frame.ravel()}
-    if cfa not in _BAYER:
-        raise ValueError(f"unknown CFA {cfa!r}; valid: {', '.join(_BAYER)}, none")
     groups: dict[str, list[np.ndarray]] = {"R": [], "G": [], "B": []}
     for index, colour in enumerate(cfa):
         a, b = divmod(index, 2)
@@ -326,8 +326,7 @@ def photon_transfer(
     if len(dark) not in (1, len(bright)):
         raise ValueError(f"give one dark pair or one per point ({len(bright)}); got {len(dark)}")
     cfa = cfa or bright[0][2] or "none"
-    if cfa != "none" and cfa not in _BAYER:
-        raise ValueError(f"unknown CFA {cfa!r}; valid: {', '.join(_BAYER)}, none")
+    cfa = check_cfa(cfa, allow_monochrome=True)
 
     dark_stats = [pair_statistics(a, b, cfa=cfa) for a, b, _ in dark]
     channels = tuple(dark_stats[0][0])

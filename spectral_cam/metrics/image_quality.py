@@ -131,7 +131,7 @@ def colorchecker_delta_e(image: np.ndarray, reference, patches, *, margin: float
     image
         (H, W, 3) linear sRGB (tone curve off), unclipped.
     reference
-        (N, 3) reference linear sRGB per patch (e.g. :func:`spectral_cam.groundtruth.patch_linear_srgb`),
+        (N, 3) reference linear sRGB per patch (e.g. :func:`spectral_cam.colorimetry.patch_linear_srgb`),
         or an (H, W, 3) reference image whose patch means are taken.
     patches
         The N patches (:func:`spectral_cam.presets.colorchecker_patches`).

@@ -1,4 +1,7 @@
-"""Bayer colour-filter-array geometry shared by the ISP stages.
+"""Bayer colour-filter-array geometry: the one place that knows the 2×2 tiles.
+
+The scene validation, the sensor, the DNG writer and reader, the ISP stages and the EMVA
+1288 analysis all ask this module, so a bad CFA name gets the same error everywhere.
 
 A CFA is named by its 2×2 tile read row by row from the top-left pixel ("RGGB" has red at
 (0, 0), green at (0, 1) and (1, 0), blue at (1, 1)), the DNG CFAPattern convention.
@@ -16,11 +19,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
+from .errors import ConfigError
 
 __all__ = [
     "BAYER_PATTERNS",
+    "CFA_PATTERNS",
+    "MONOCHROME",
     "check_cfa",
+    "tile_layout",
     "channel_index",
     "channel_masks",
     "tile_gain_map",
@@ -29,32 +35,76 @@ __all__ = [
     "plane_offsets",
 ]
 
-#: Bayer tiles the ISP develops.
+#: The 2×2 Bayer tiles, read row by row from the top-left pixel.
 BAYER_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
-_CHANNEL = {"R": 0, "G": 1, "B": 2}
+#: A sensor without a colour filter array (one channel, flat QE).
+MONOCHROME = "none"
+#: Every CFA a sensor, RAW or analysis accepts.
+CFA_PATTERNS = (*BAYER_PATTERNS, MONOCHROME)
+#: Colour index of each letter: 0 = R, 1 = G, 2 = B (also the DNG CFAPattern codes).
+CHANNEL_CODES = {"R": 0, "G": 1, "B": 2}
+_CHANNEL = CHANNEL_CODES
 
 
-def check_cfa(cfa: str) -> str:
-    """Return the upper-case Bayer tile name, or raise.
+def check_cfa(cfa: str, *, allow_monochrome: bool = False) -> str:
+    """Return the upper-case Bayer tile name (or ``"none"``), or raise.
 
     Parameters
     ----------
     cfa
         Bayer tile read row by row from the top-left pixel, e.g. ``"RGGB"``.
+    allow_monochrome
+        Also accept ``"none"`` (a monochrome sensor).
 
     Raises
     ------
     ConfigError
-        If ``cfa`` is not one of :data:`BAYER_PATTERNS`.
+        If ``cfa`` is not one of :data:`BAYER_PATTERNS` (or ``"none"`` when allowed).
 
     References
     ----------
     .. [1] Adobe (2023). DNG Specification 1.7.1.0, CFAPattern.
+
+    Examples
+    --------
+    >>> check_cfa("rggb")
+    'RGGB'
+    >>> check_cfa("none", allow_monochrome=True)
+    'none'
     """
-    name = str(cfa).upper()
+    text = str(cfa)
+    if allow_monochrome and text.lower() == MONOCHROME:
+        return MONOCHROME
+    name = text.upper()
     if name not in BAYER_PATTERNS:
-        raise ConfigError(f"CFA pattern {cfa!r} is not a Bayer tile; valid: {', '.join(BAYER_PATTERNS)}")
+        valid = CFA_PATTERNS if allow_monochrome else BAYER_PATTERNS
+        raise ConfigError(f"CFA pattern {cfa!r} is not a Bayer tile; valid: {', '.join(valid)}")
     return name
+
+
+def tile_layout(cfa: str) -> tuple[tuple[int, int], tuple[int, int]] | None:
+    """Channel indices of the 2×2 tile, ``((c00, c01), (c10, c11))`` with 0 = R, 1 = G,
+    2 = B, or None for a monochrome sensor (``"none"``).
+
+    Raises
+    ------
+    ConfigError
+        For anything but a Bayer tile or ``"none"``.
+
+    References
+    ----------
+    .. [1] Bayer, B. E. (1976). Color imaging array. US Patent 3,971,065.
+
+    Examples
+    --------
+    >>> tile_layout("GRBG")
+    ((1, 0), (2, 1))
+    """
+    name = check_cfa(cfa, allow_monochrome=True)
+    if name == MONOCHROME:
+        return None
+    codes = [CHANNEL_CODES[c] for c in name]
+    return (codes[0], codes[1]), (codes[2], codes[3])
 
 
 def channel_index(shape: tuple[int, int], cfa: str) -> np.ndarray:

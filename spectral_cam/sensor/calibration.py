@@ -33,17 +33,16 @@ References
 from __future__ import annotations
 
 import functools
-from typing import Callable, Mapping
+from typing import Callable
 
 import numpy as np
 
-from . import spectra
-from .errors import ConfigError
+from .. import spectra
+from ..colorimetry import illuminant_sd, illuminant_white_xyz, reflectance_list, reflectance_xyz
+from ..errors import ConfigError
 
 __all__ = [
     "camera_responses",
-    "reflectance_xyz",
-    "illuminant_white_xyz",
     "xyz_to_camera_matrix",
     "camera_to_xyz_d65",
     "as_shot_neutral",
@@ -53,9 +52,7 @@ __all__ = [
 
 #: Methods accepted by :func:`camera_to_xyz_d65`.
 CORRECTION_METHODS = ("linear", "root_polynomial")
-_CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
 #: CIE 1931 integration grid (nm): the CMFs' own 1-nm table.
-_XYZ_GRID_NM = np.arange(360.0, 831.0, 1.0)
 #: Wavelength range of the ideal (flat-QE) camera (nm).
 _IDEAL_RANGE_NM = (360.0, 830.0)
 
@@ -72,18 +69,6 @@ def _camera_table(camera) -> tuple[np.ndarray, np.ndarray]:
     if values.ndim != 2 or values.shape[1] != 3:
         raise ConfigError(f"camera {getattr(msds, 'name', camera)!r}: need three channels (r, g, b)")
     return np.asarray(msds.wavelengths, dtype=float), values
-
-
-def _illuminant_sd(illuminant_spd):
-    return spectra.illuminant(illuminant_spd) if isinstance(illuminant_spd, str) else illuminant_spd
-
-
-def _reflectance_list(reflectances) -> list:
-    if reflectances is None:
-        return list(spectra.colorchecker_reflectances().values())
-    if isinstance(reflectances, Mapping):
-        return list(reflectances.values())
-    return [spectra.reflectance(r) if isinstance(r, (str, int, float)) else r for r in reflectances]
 
 
 def _transmission_curve(transmission, wavelengths_nm: np.ndarray) -> np.ndarray:
@@ -145,9 +130,9 @@ def camera_responses(
     cam_wl, cam_values = _camera_table(camera)
     wl = _camera_grid(cam_wl)
     sens = np.stack([np.interp(wl, cam_wl, cam_values[:, i]) for i in range(3)], axis=-1)
-    power = spectra.sample(_illuminant_sd(illuminant_spd), wl, outside=0.0)
+    power = spectra.sample(illuminant_sd(illuminant_spd), wl, outside=0.0)
     power = power * _transmission_curve(transmission, wl)
-    rho = np.stack([spectra.sample(sd, wl) for sd in _reflectance_list(reflectances)])
+    rho = np.stack([spectra.sample(sd, wl) for sd in reflectance_list(reflectances)])
     return (rho * power) @ sens
 
 
@@ -172,54 +157,6 @@ def as_shot_neutral(camera, illuminant_spd, *, transmission=None) -> np.ndarray:
     if not np.all(white > 0):
         raise ConfigError("the camera does not respond to this illuminant in every channel")
     return white / white.max()
-
-
-# ----------------------------------------------------------------------------- XYZ
-def _xyz_of(rho: np.ndarray, power: np.ndarray) -> np.ndarray:
-    import colour
-    from colour.colorimetry import sd_to_XYZ_integration
-
-    cmfs = colour.MSDS_CMFS[_CMFS_NAME]
-    shape = colour.SpectralShape(_XYZ_GRID_NM[0], _XYZ_GRID_NM[-1], 1.0)
-    illum = colour.SpectralDistribution(dict(zip(_XYZ_GRID_NM, power)), name="illuminant")
-    if not np.any(power > 0):
-        raise ConfigError("the illuminant has no power in 360–830 nm")
-    return np.asarray(sd_to_XYZ_integration(rho, cmfs, illum, shape=shape)) / 100.0
-
-
-def reflectance_xyz(illuminant_spd, reflectances=None) -> np.ndarray:
-    """CIE 1931 2° XYZ of reflectances under an illuminant (perfect white: Y = 1).
-
-    Parameters
-    ----------
-    illuminant_spd : str or colour.SpectralDistribution
-        Illuminant name or SPD (zero outside its table).
-    reflectances : mapping, sequence or None
-        As in :func:`camera_responses`; default the 24 ColorChecker patches.
-
-    Returns
-    -------
-    numpy.ndarray
-        (N, 3) XYZ, computed by colour-science's integration method on the CMFs' 1-nm grid
-        (360–830 nm); reflectances hold their end values outside their tables.
-
-    References
-    ----------
-    .. [1] CIE 15:2004, Colorimetry, §7.1.
-    """
-    power = spectra.sample(_illuminant_sd(illuminant_spd), _XYZ_GRID_NM, outside=0.0)
-    rho = np.stack([spectra.sample(sd, _XYZ_GRID_NM) for sd in _reflectance_list(reflectances)])
-    return _xyz_of(rho, power)
-
-
-def illuminant_white_xyz(illuminant_spd) -> np.ndarray:
-    """XYZ of the perfect diffuser under an illuminant, Y = 1 (the illuminant's white).
-
-    References
-    ----------
-    .. [1] CIE 15:2004, Colorimetry, §7.1.
-    """
-    return reflectance_xyz(illuminant_spd, [1.0])[0]
 
 
 # ----------------------------------------------------------------------------- fitting

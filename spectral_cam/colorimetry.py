@@ -1,10 +1,10 @@
-"""Ground truth for colour accuracy: the ideal colorimetric image of a scene.
+"""Colorimetry: the one ground truth for colour accuracy, and XYZ of spectra under a light.
 
-One definition everywhere (DESIGN.md): CIE 1931 2° XYZ of the spectral radiance under
+One definition everywhere (docs/design.md, "Ground truth"): CIE 1931 2° XYZ of the spectral radiance under
 the scene illuminant → Bradford chromatic adaptation from the illuminant's white to D65
 → linear sRGB, unclipped, exposure-matched on the white patch. Two routes:
 
-- :func:`groundtruth_linear_srgb`: from a rendered :class:`~spectral_cam.render.SpectralImage`
+- :func:`groundtruth_linear_srgb`: from a rendered :class:`~spectral_cam.image.SpectralImage`
   (band integrals of radiance; each band weighted by the CMFs averaged over the band);
 - :func:`patch_linear_srgb`: analytically, from reflectance spectra and the illuminant's
   SPD (colour-science integration on a 1-nm grid), for the ColorChecker patches.
@@ -28,6 +28,7 @@ from typing import Mapping
 import numpy as np
 
 from . import spectra
+from .errors import ConfigError
 
 __all__ = [
     "CMFS_NAME",
@@ -37,7 +38,10 @@ __all__ = [
     "illuminant_white_xyz",
     "adapt_to_d65",
     "xyz_to_linear_srgb",
-    "patch_xyz",
+    "reflectance_xyz",
+    "illuminant_sd",
+    "reflectance_list",
+    "white_patch_index",
     "patch_linear_srgb",
     "groundtruth_linear_srgb",
     "match_exposure",
@@ -46,6 +50,30 @@ __all__ = [
 CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
 #: Name of the ColorChecker's white patch (the exposure reference).
 WHITE_PATCH = "white 9.5 (.05 D)"
+
+
+def white_patch_index(names=None) -> int:
+    """Index of the ColorChecker's white patch (:data:`WHITE_PATCH`) among patch names.
+
+    Parameters
+    ----------
+    names : sequence of str, optional
+        Patch names; default the 24 ColorChecker patches in chart order.
+
+    Raises
+    ------
+    ConfigError
+        If the white patch is not among the names.
+
+    Examples
+    --------
+    >>> white_patch_index()
+    18
+    """
+    names = list(spectra.colorchecker_reflectances()) if names is None else list(names)
+    if WHITE_PATCH not in names:
+        raise ConfigError(f"no ColorChecker white patch {WHITE_PATCH!r} among the patches")
+    return names.index(WHITE_PATCH)
 _GRID_NM = np.arange(360.0, 831.0, 1.0)
 
 
@@ -94,7 +122,7 @@ def spectral_to_xyz(image) -> np.ndarray:
     Parameters
     ----------
     image
-        :class:`~spectral_cam.render.SpectralImage` (``.data`` (H, W, B) band integrals,
+        :class:`~spectral_cam.image.SpectralImage` (``.data`` (H, W, B) band integrals,
         ``.band_edges_nm``).
 
     Returns
@@ -114,31 +142,68 @@ def spectral_to_xyz(image) -> np.ndarray:
     return np.asarray(image.data, dtype=np.float64) @ weights
 
 
-def illuminant_white_xyz(illuminant_spd) -> np.ndarray:
-    """XYZ (Y = 1) of the perfect reflecting diffuser under an illuminant.
+def illuminant_sd(illuminant_spd):
+    """An illuminant name, ``blackbody:<K>`` or CSV path as a colour.SpectralDistribution
+    (a SpectralDistribution passes through)."""
+    return spectra.illuminant(illuminant_spd) if isinstance(illuminant_spd, str) else illuminant_spd
+
+
+def reflectance_list(reflectances) -> list:
+    """Reflectances as a list of spectra: None gives the 24 ColorChecker patches (chart
+    order); a mapping gives its values; numbers and names go through
+    :func:`spectral_cam.spectra.reflectance`."""
+    if reflectances is None:
+        return list(spectra.colorchecker_reflectances().values())
+    if isinstance(reflectances, Mapping):
+        return list(reflectances.values())
+    return [spectra.reflectance(r) if isinstance(r, (str, int, float)) else r for r in reflectances]
+
+
+def _xyz_of(rho: np.ndarray, power: np.ndarray) -> np.ndarray:
+    import colour
+    from colour.colorimetry import sd_to_XYZ_integration
+
+    cmfs = colour.MSDS_CMFS[CMFS_NAME]
+    shape = colour.SpectralShape(_GRID_NM[0], _GRID_NM[-1], 1.0)
+    illum = colour.SpectralDistribution(dict(zip(_GRID_NM, power)), name="illuminant")
+    if not np.any(power > 0):
+        raise ConfigError("the illuminant has no power in 360–830 nm")
+    return np.asarray(sd_to_XYZ_integration(rho, cmfs, illum, shape=shape)) / 100.0
+
+
+def reflectance_xyz(illuminant_spd, reflectances=None) -> np.ndarray:
+    """CIE 1931 2° XYZ of reflectances under an illuminant (perfect white: Y = 1).
 
     Parameters
     ----------
-    illuminant_spd
-        Illuminant name (:func:`spectral_cam.spectra.illuminant`) or a
-        colour.SpectralDistribution.
+    illuminant_spd : str or colour.SpectralDistribution
+        Illuminant name or SPD (zero outside its table).
+    reflectances : mapping, sequence or None
+        As in :func:`camera_responses`; default the 24 ColorChecker patches.
 
     Returns
     -------
     numpy.ndarray
-        (3,) XYZ with Y = 1.
+        (N, 3) XYZ, computed by colour-science's integration method on the CMFs' 1-nm grid
+        (360–830 nm); reflectances hold their end values outside their tables.
 
     References
     ----------
-    .. [1] CIE 15:2004, §7.1 (integration on the 1-nm CMF table).
+    .. [1] CIE 15:2004, Colorimetry, §7.1.
     """
-    import colour
+    power = spectra.sample(illuminant_sd(illuminant_spd), _GRID_NM, outside=0.0)
+    rho = np.stack([spectra.sample(sd, _GRID_NM) for sd in reflectance_list(reflectances)])
+    return _xyz_of(rho, power)
 
-    sd = spectra.illuminant(illuminant_spd) if isinstance(illuminant_spd, str) else illuminant_spd
-    power = spectra.sample(sd, _GRID_NM, outside=0.0)
-    values = np.asarray(_cmfs().copy().align(colour.SpectralShape(360, 830, 1)).values)
-    xyz = power @ values
-    return xyz / xyz[1]
+
+def illuminant_white_xyz(illuminant_spd) -> np.ndarray:
+    """XYZ of the perfect diffuser under an illuminant, Y = 1 (the illuminant's white).
+
+    References
+    ----------
+    .. [1] CIE 15:2004, Colorimetry, §7.1.
+    """
+    return reflectance_xyz(illuminant_spd, [1.0])[0]
 
 
 def _d65_white() -> np.ndarray:
@@ -187,44 +252,6 @@ def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:
     return np.asarray(xyz, dtype=float) @ matrix.T
 
 
-def patch_xyz(illuminant_spd, reflectances=None) -> np.ndarray:
-    """Analytic XYZ (perfect diffuser Y = 1) of reflectances under an illuminant.
-
-    Parameters
-    ----------
-    illuminant_spd
-        Illuminant name or colour.SpectralDistribution.
-    reflectances
-        Mapping or sequence of colour.SpectralDistribution; default the 24 ColorChecker
-        patches (BabelColor average), in chart order.
-
-    Returns
-    -------
-    numpy.ndarray
-        (N, 3) XYZ by colour-science's ``sd_to_XYZ(method="Integration")`` on the CMFs'
-        1-nm grid; reflectances are interpolated linearly and hold their end values
-        outside their table (as the scene presets give them to Mitsuba).
-
-    References
-    ----------
-    .. [1] CIE 15:2004, §7.1.
-    """
-    import colour
-
-    if reflectances is None:
-        reflectances = spectra.colorchecker_reflectances()
-    sds = list(reflectances.values()) if isinstance(reflectances, Mapping) else list(reflectances)
-    sd_illum = spectra.illuminant(illuminant_spd) if isinstance(illuminant_spd, str) else illuminant_spd
-    shape = colour.SpectralShape(360, 830, 1)
-    illum = colour.SpectralDistribution(dict(zip(_GRID_NM, spectra.sample(sd_illum, _GRID_NM, outside=0.0))))
-    cmfs = _cmfs().copy().align(shape)
-    # linear interpolation and held end values: how the scene presets hand reflectances
-    # to Mitsuba, so the analytic colours are those of the rendered surfaces
-    out = [colour.sd_to_XYZ(sd.copy().align(shape, interpolator=colour.LinearInterpolator), cmfs, illum,
-                            method="Integration") / 100.0 for sd in sds]
-    return np.asarray(out)
-
-
 def patch_linear_srgb(illuminant_spd, reflectances=None) -> np.ndarray:
     """Analytic ground truth per patch: XYZ → Bradford to D65 → linear sRGB (unclipped).
 
@@ -233,7 +260,7 @@ def patch_linear_srgb(illuminant_spd, reflectances=None) -> np.ndarray:
     illuminant_spd
         Illuminant name or colour.SpectralDistribution.
     reflectances
-        As in :func:`patch_xyz`; default the 24 ColorChecker patches.
+        As in :func:`reflectance_xyz`; default the 24 ColorChecker patches.
 
     Returns
     -------
@@ -244,7 +271,7 @@ def patch_linear_srgb(illuminant_spd, reflectances=None) -> np.ndarray:
     ----------
     .. [1] CIE 15:2004; Lam (1985); IEC 61966-2-1:1999.
     """
-    xyz = patch_xyz(illuminant_spd, reflectances)
+    xyz = reflectance_xyz(illuminant_spd, reflectances)
     return xyz_to_linear_srgb(adapt_to_d65(xyz, illuminant_white_xyz(illuminant_spd)))
 
 
@@ -298,7 +325,7 @@ def groundtruth_linear_srgb(image, illuminant_spd, *, white_region=None, white_r
     Parameters
     ----------
     image
-        :class:`~spectral_cam.render.SpectralImage`.
+        :class:`~spectral_cam.image.SpectralImage`.
     illuminant_spd
         The scene illuminant (name or SPD).
     white_region

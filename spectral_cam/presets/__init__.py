@@ -1,0 +1,39 @@
+"""Scene presets: the geometry, materials and light of each ``scene.preset``, as Mitsuba
+scene-dict entries, in one registry (:data:`PRESETS`).
+
+A new preset is one function ``(config, lens, mi) -> dict`` registered with
+``@PRESETS.register(name, options=(...scene keys...), description=...)`` in a module of this
+package (and imported below); scene validation, ``spectral-cam`` help and errors read the
+registry. ``common`` holds what presets share, ``charts`` the chart targets,
+``depth_targets`` the depth-of-field and bokeh targets, ``cornell_box`` the Cornell box.
+
+References
+----------
+.. [1] McCamy, Marcus & Davidson (1976), J. Applied Photographic Engineering 2(3).
+.. [2] ISO 12233:2017 (slanted edge, 4:1 contrast).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from . import charts, cornell_box, depth_targets  # noqa: F401  (each registers its presets)
+from .charts import colorchecker_patches, white_reference_mask
+from .common import EDGE_REFLECTANCES, PRESETS, Patch
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..optics import ThinLens
+    from ..scene import SceneConfig
+
+__all__ = ["PRESETS", "build_objects", "colorchecker_patches", "white_reference_mask", "Patch", "EDGE_REFLECTANCES"]
+
+
+def build_objects(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
+    """Shapes and emitters of the configured preset as Mitsuba scene-dict entries
+    (``mi`` must have a spectral variant set).
+
+    References
+    ----------
+    .. [1] Jakob, W., et al. (2022). Mitsuba 3, ``mi.load_dict`` scene dictionaries.
+    """
+    return PRESETS[config.scene.preset](config, lens, mi)

@@ -1,0 +1,115 @@
+"""Chart presets: ``colorchecker``, ``flat_field`` and ``slanted_edge``.
+
+References
+----------
+.. [1] McCamy, C. S., Marcus, H., & Davidson, J. G. (1976). A color-rendition chart.
+   J. Applied Photographic Engineering 2(3) (ColorChecker layout: 6 × 4 patches).
+.. [2] ISO 12233:2017, Photography — Electronic still picture imaging — Resolution and
+   spatial frequency responses (slanted edge, 4:1 contrast).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .. import spectra
+from .common import (
+    CHART_FRAME_REFLECTANCE,
+    EDGE_REFLECTANCES,
+    PRESETS,
+    Patch,
+    diffuse,
+    facing_rectangle,
+    field_half_size,
+    sun,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..optics import ThinLens
+    from ..scene import SceneConfig
+
+
+# ----------------------------------------------------------------------------- presets
+def colorchecker_patches(config: SceneConfig) -> list[Patch]:
+    """Where the 24 patches of the ``colorchecker`` preset fall in the image, in reading
+    order (``dark skin`` top-left)."""
+    from ..optics import ThinLens
+
+    lens = ThinLens.from_config(config.lens, config.sensor)
+    s = config.scene
+    half_w, _ = field_half_size(lens, s.distance_m)
+    pitch = 2 * half_w * s.fill / 6
+    size = pitch * (1 - s.gap)
+    scale = lens.image_distance_m / (s.distance_m * lens.pixel_pitch_m)
+    patches = []
+    for index, name in enumerate(spectra.colorchecker_reflectances()):
+        row, col = divmod(index, 6)
+        # chart reading order runs left to right on the image: image-left is camera +x
+        x = (2.5 - col) * pitch
+        y = (1.5 - row) * pitch
+        column, image_row = lens.project(x, y, s.distance_m)
+        patches.append(Patch(name, float(column), float(image_row), size / 2 * scale, size / 2 * scale))
+    return patches
+
+
+def white_reference_mask(config: SceneConfig) -> np.ndarray | None:
+    """The ColorChecker's white patch (interior) as the auto-exposure reference, or None
+    for scenes without one (the sensor then uses the 99th percentile)."""
+    if config.scene.preset != "colorchecker" or config.scene.mitsuba_xml:
+        return None
+    mask = np.zeros((config.sensor.height_px, config.sensor.width_px), dtype=bool)
+    white = next(p for p in colorchecker_patches(config) if p.name.startswith("white"))
+    mask[white.interior(0.2)] = True
+    return mask if mask.any() else None
+
+
+@PRESETS.register("colorchecker", options=("distance_m", "fill", "gap"),
+                  description="the 24-patch ColorChecker (BabelColor spectra) facing the camera")
+def colorchecker(config: SceneConfig, lens: ThinLens, mi) -> dict:
+    s = config.scene
+    half_w, _ = field_half_size(lens, s.distance_m)
+    pitch = 2 * half_w * s.fill / 6
+    objects = {}
+    for index, (name, sd) in enumerate(spectra.colorchecker_reflectances().items()):
+        row, col = divmod(index, 6)
+        centre = ((2.5 - col) * pitch, (1.5 - row) * pitch, s.distance_m)
+        half = pitch * (1 - s.gap) / 2
+        objects[f"patch_{index:02d}"] = facing_rectangle(mi, centre, half, half, diffuse(sd))
+    if s.gap > 0:
+        # the black frame sits 1 mm behind the patches
+        objects["chart_frame"] = facing_rectangle(
+            mi, (0.0, 0.0, s.distance_m + 1e-3), 3.25 * pitch, 2.25 * pitch, diffuse(CHART_FRAME_REFLECTANCE)
+        )
+    objects["light"] = sun(config)
+    return objects
+
+
+@PRESETS.register("flat_field", options=("distance_m", "reflectance"),
+                  description="a uniform Lambertian target filling the view")
+def flat_field(config: SceneConfig, lens: ThinLens, mi) -> dict:
+    s = config.scene
+    half_w, half_h = field_half_size(lens, s.distance_m)
+    bsdf = diffuse(spectra.reflectance(s.reflectance) if isinstance(s.reflectance, str) else s.reflectance)
+    # 1.5× the field so defocus never reveals an edge
+    return {"target": facing_rectangle(mi, (0, 0, s.distance_m), 1.5 * half_w, 1.5 * half_h, bsdf),
+            "light": sun(config)}
+
+
+@PRESETS.register("slanted_edge", options=("distance_m", "edge_angle_deg"),
+                  description="an ISO 12233 4:1 slanted edge")
+def slanted_edge(config: SceneConfig, lens: ThinLens, mi) -> dict:
+    s = config.scene
+    half_w, half_h = field_half_size(lens, s.distance_m)
+    big = 1.5 * max(half_w, half_h)
+    bright, dark = EDGE_REFLECTANCES
+    angle = np.radians(s.edge_angle_deg)
+    # the bright square's left edge passes through the optical axis, tilted by the angle;
+    # it sits 0.1 mm in front of the dark background so the two never z-fight
+    centre = (-big * np.cos(angle), big * np.sin(angle), s.distance_m - 1e-4)
+    return {
+        "light": sun(config),
+        "background": facing_rectangle(mi, (0, 0, s.distance_m), big * 2, big * 2, diffuse(dark)),
+        "bright_half": facing_rectangle(mi, centre, big, big, diffuse(bright), angle_deg=-s.edge_angle_deg),
+    }

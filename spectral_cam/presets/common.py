@@ -1,0 +1,109 @@
+"""What every preset shares: the preset registry, measured spectra as Mitsuba spectra,
+Lambertian materials, facing rectangles and the light along the optical axis.
+
+Conventions: the camera sits at the origin looking along +z with +y up, so a point's
+camera-space z is its depth. Presets without their own light are lit by one
+``directional`` emitter travelling along +z (from behind the camera), whose irradiance on a
+surface facing the camera is the configured illuminance: a Lambertian reflectance ρ(λ)
+then has radiance ρ(λ)·E(λ)/π (docs/design.md, "Scene").
+
+References
+----------
+.. [1] McCluney, W. R. (2014). Introduction to Radiometry and Photometry, 2nd ed., §1.6
+   (Lambertian radiance L = ρE/π).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .. import spectra
+from ..registry import Registry
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..optics import ThinLens
+    from ..scene import SceneConfig
+
+#: ISO 12233:2017 low-contrast (4:1) edge: reflectances of the bright and dark sides.
+EDGE_REFLECTANCES = (0.8, 0.2)
+
+
+#: Reflectance of the ColorChecker's black frame (about that of the real chart's frame).
+CHART_FRAME_REFLECTANCE = 0.03
+
+
+SPECTRUM_STEP_NM = 5.0
+#: Every ``scene.preset``: name → builder ``(config, lens, mi) -> dict`` of Mitsuba scene-dict
+#: entries (shapes and emitters); its options are the ``[scene]`` keys it reads.
+PRESETS = Registry("scene preset")
+
+
+@dataclass(frozen=True)
+class Patch:
+    """A chart patch in pixel coordinates (continuous; 0 at the top-left image corner)."""
+
+    name: str
+    column: float
+    row: float
+    half_width_px: float
+    half_height_px: float
+
+    def interior(self, margin: float = 0.2) -> tuple[slice, slice]:
+        """Row and column slices of the whole pixels inside the patch, shrunk by
+        ``margin`` of its size on each side (to stay clear of blur and edges)."""
+        hw = self.half_width_px * (1 - 2 * margin)
+        hh = self.half_height_px * (1 - 2 * margin)
+        c0, c1 = int(np.ceil(self.column - hw - 1e-6)), int(np.floor(self.column + hw + 1e-6))
+        r0, r1 = int(np.ceil(self.row - hh - 1e-6)), int(np.floor(self.row + hh + 1e-6))
+        return slice(r0, max(r1, r0 + 1)), slice(c0, max(c1, c0 + 1))
+
+
+# ----------------------------------------------------------------------------- helpers
+def spectrum_dict(values_per_wavelength: tuple[np.ndarray, np.ndarray]) -> dict:
+    wavelengths, values = values_per_wavelength
+    return {"type": "spectrum", "value": [(float(w), float(v)) for w, v in zip(wavelengths, values)]}
+
+
+def reflectance_spectrum(sd) -> dict:
+    """A reflectance on Mitsuba's whole range, end values held (ColorChecker data stop at
+    380/730 nm)."""
+    lo, hi = spectra.MITSUBA_RANGE_NM
+    wavelengths = np.arange(lo, hi + SPECTRUM_STEP_NM / 2, SPECTRUM_STEP_NM)
+    return spectrum_dict((wavelengths, np.clip(spectra.sample(sd, wavelengths), 0.0, 1.0)))
+
+
+def diffuse(reflectance) -> dict:
+    if isinstance(reflectance, (int, float)):
+        return {"type": "diffuse", "reflectance": {"type": "uniform", "value": float(reflectance)}}
+    return {"type": "diffuse", "reflectance": reflectance_spectrum(reflectance)}
+
+
+def facing_rectangle(mi, centre, half_width, half_height, bsdf, angle_deg=0.0) -> dict:
+    """A rectangle at ``centre`` facing the camera (normal −z), rotated by ``angle_deg``
+    about the optical axis."""
+    to_world = (
+        mi.ScalarTransform4f()
+        .translate([float(c) for c in centre])
+        .rotate([0, 0, 1], angle_deg)
+        .rotate([0, 1, 0], 180.0)
+        .scale([half_width, half_height, 1.0])
+    )
+    return {"type": "rectangle", "to_world": to_world, "bsdf": bsdf}
+
+
+def field_half_size(lens: ThinLens, depth_m: float) -> tuple[float, float]:
+    """Half width and height (m) of the field of view at a depth."""
+    scale = depth_m / lens.image_distance_m
+    return lens.sensor_width_m / 2 * scale, lens.sensor_height_m / 2 * scale
+
+
+def light_irradiance(config: SceneConfig):
+    return spectra.absolute_irradiance(config.illuminant.spd, config.illuminant.illuminance_lux)
+
+
+def sun(config: SceneConfig) -> dict:
+    """Directional light along +z with the configured spectral irradiance."""
+    return {"type": "directional", "direction": [0.0, 0.0, 1.0], "irradiance": spectrum_dict(light_irradiance(config))}

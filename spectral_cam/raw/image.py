@@ -1,0 +1,80 @@
+"""The RAW image: a sensor's mosaic plus the metadata an ISP needs (levels, CFA, colour, noise).
+
+References
+----------
+.. [1] Adobe (2023). Digital Negative (DNG) Specification, version 1.7.1.0, ch. 4 (tags),
+   ch. 6 (colour).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..cfa import check_cfa
+from ..errors import RawFormatError
+
+
+@dataclass
+class RawImage:
+    """A sensor's raw output plus the metadata an ISP needs.
+
+    Attributes
+    ----------
+    mosaic
+        (H, W) uint16 digital numbers (DN), one CFA colour per pixel.
+    cfa
+        Bayer tile read row by row from the top-left pixel ("RGGB", "BGGR", "GRBG",
+        "GBRG"), or "none" for a monochrome sensor.
+    black_level
+        DN added by the ADC offset (DNG BlackLevel): a number, or a (2, 2) array per CFA site
+        (BlackLevelRepeatDim 2×2) when a camera's channels differ.
+    white_level
+        Largest DN the ADC can return (DNG WhiteLevel), 2**bits − 1.
+    color_matrix
+        (3, 3) XYZ(D65) → camera RGB (DNG ColorMatrix1, CalibrationIlluminant1 = D65), or None.
+    as_shot_neutral
+        (3,) camera RGB of the scene illuminant's white, normalised to max 1 (DNG
+        AsShotNeutral), or None.
+    noise_profile
+        (S, O) of the DNG NoiseProfile: variance = S·x + O for the signal x normalised to
+        [0, 1] by (DN − black) / (white − black), or None.
+    camera_model
+        DNG UniqueCameraModel.
+    meta
+        Everything else (gain K in DN/e⁻, exposure, ISO, seeds, ...).
+    color_matrix_2
+        (3, 3) XYZ → camera RGB calibrated under Standard Illuminant A (DNG ColorMatrix2,
+        CalibrationIlluminant2 = 17), or None. With both matrices an ISP interpolates
+        between them by the scene white's correlated colour temperature (DNG ch. 6).
+    """
+
+    mosaic: np.ndarray
+    cfa: str
+    black_level: float | np.ndarray
+    white_level: int
+    color_matrix: np.ndarray | None = None
+    as_shot_neutral: np.ndarray | None = None
+    noise_profile: tuple[float, float] | None = None
+    camera_model: str = ""
+    meta: dict = field(default_factory=dict)
+    color_matrix_2: np.ndarray | None = None
+
+
+def check_raw(raw: RawImage) -> np.ndarray:
+    mosaic = np.asarray(raw.mosaic)
+    if mosaic.ndim != 2 or mosaic.size == 0:
+        raise RawFormatError(f"RawImage.mosaic must be a non-empty (H, W) array; got shape {mosaic.shape}")
+    if mosaic.dtype != np.uint16:
+        if not np.issubdtype(mosaic.dtype, np.integer) or mosaic.min() < 0 or mosaic.max() > 65535:
+            raise RawFormatError(f"RawImage.mosaic must hold whole numbers in 0..65535; got {mosaic.dtype}")
+        mosaic = mosaic.astype(np.uint16)
+    check_cfa(raw.cfa, allow_monochrome=True)
+    black = np.asarray(raw.black_level, dtype=float)
+    if black.ndim not in (0, 2) or (black.ndim == 2 and black.shape != (2, 2)):
+        raise RawFormatError(f"black_level must be a number or a 2×2 array per CFA site; got shape {black.shape}")
+    if not 0 < int(raw.white_level) <= 65535 or not (0 <= black.min() and black.max() < int(raw.white_level)):
+        raise RawFormatError(f"levels black = {raw.black_level!r}, white = {raw.white_level!r}: need "
+                             "0 <= black < white <= 65535")
+    return np.ascontiguousarray(mosaic)

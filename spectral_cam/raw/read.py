@@ -1,0 +1,232 @@
+"""RAW reading: any raw file LibRaw supports (DNG or a camera's own format), through rawpy.
+
+LibRaw does not expose a DNG's ColorMatrix directly: its ``color_matrix`` is the camera →
+sRGB matrix it derived from it (``rgb_xyz_matrix`` stays zero for DNGs), so the XYZ →
+camera matrix is recovered by inverting LibRaw's derivation.
+
+References
+----------
+.. [1] Adobe (2023). Digital Negative (DNG) Specification, version 1.7.1.0, ch. 6 (colour).
+.. [2] LibRaw 0.21 (libraw_internal ``cam_xyz_coeff``: rgb_cam = (diag(1/pre_mul)·
+   cam_xyz·xyz_rgb)⁻¹ with rows of cam_xyz·xyz_rgb normalised to sum 1).
+.. [3] rawpy documentation, https://letmaik.github.io/rawpy/api/rawpy.RawPy.html
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import RawFormatError
+from .dng import DNG_TAGS, ILLUMINANT_A
+from .image import RawImage
+
+#: sRGB (D65) → XYZ as LibRaw hard-codes it (``xyz_rgb``), needed to undo its derivation.
+_LIBRAW_XYZ_RGB = np.array([[0.412453, 0.357580, 0.180423],
+                            [0.212671, 0.715160, 0.072169],
+                            [0.019334, 0.119193, 0.950227]])
+
+
+# ----------------------------------------------------------------------------- reading
+def _xyz_to_camera_from_libraw(rgb_cam: np.ndarray, daylight: np.ndarray) -> np.ndarray | None:
+    """Undo LibRaw's cam_xyz → rgb_cam derivation; normalise D65 white → max 1."""
+    rgb_cam = np.asarray(rgb_cam, dtype=float)[:3, :3]
+    pre_mul = np.asarray(daylight, dtype=float)[:3]
+    if not (np.all(np.isfinite(rgb_cam)) and np.all(pre_mul > 0)) or abs(np.linalg.det(rgb_cam)) < 1e-12:
+        return None
+    cam_xyz = np.diag(1.0 / pre_mul) @ np.linalg.inv(rgb_cam) @ np.linalg.inv(_LIBRAW_XYZ_RGB)
+    neutral = cam_xyz @ _LIBRAW_XYZ_RGB.sum(axis=1)
+    if not neutral.max() > 0:
+        return None
+    return cam_xyz / neutral.max()
+
+
+def _cfa_string(pattern, description: bytes, colors: int) -> str:
+    if colors == 1 or pattern is None:
+        return "none"
+    pattern = np.asarray(pattern)
+    letters = description.decode("ascii", "replace")
+    if pattern.shape != (2, 2) or colors != 3:
+        raise RawFormatError(
+            f"unsupported colour filter array ({pattern.shape[0]}×{pattern.shape[1]} tile of "
+            f"{letters!r}); spectral_cam reads 2×2 Bayer (RGGB, BGGR, GRBG, GBRG) and monochrome raws")
+    cfa = "".join(letters[i] for i in pattern.ravel())
+    if sorted(cfa) != sorted("RGGB"):
+        raise RawFormatError(f"unsupported colour filter array {cfa!r}; need a Bayer tile of R, G, G, B")
+    return cfa
+
+
+def _tiff_extras(path: Path) -> dict:
+    """NoiseProfile, UniqueCameraModel and Make/Model from a TIFF-based raw (best effort)."""
+    import tifffile
+
+    extras: dict = {}
+    try:
+        with tifffile.TiffFile(path) as tif:
+            for page in tif.pages:
+                tags = page.tags
+                for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model", "ColorMatrix1",
+                             "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2"):
+                    tag = tags.get(DNG_TAGS[name])
+                    if tag is not None and name not in extras:
+                        extras[name] = tag.value
+    except Exception:  # not a TIFF container (CR3, RAF, ...): rawpy's fields are all there is
+        return {}
+    return extras
+
+
+#: LibRaw refuses raw images smaller than this on either side.
+LIBRAW_MIN_SIDE_PX = 22
+
+
+def _raw_ifds(path: Path):
+    """The TIFF pages of a TIFF-based raw holding a CFA image (empty for other formats)."""
+    import tifffile
+
+    found = []
+    try:
+        with tifffile.TiffFile(path) as tif:
+            for page in tif.pages:
+                tag = page.tags.get(262)
+                photometric = tag.value if tag is not None and isinstance(tag.value, int) else None
+                shape = tuple(int(n) for n in page.shape if isinstance(n, (int, np.integer)))
+                found.append((photometric, {code: page.tags.get(code) is not None for code in (33421, 33422)},
+                              shape))
+    except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
+        return []
+    return found
+
+
+def _check_tiff_cfa(path: Path) -> None:
+    """Refuse a CFA image (PhotometricInterpretation 32803) without CFARepeatPatternDim or
+    CFAPattern: LibRaw would decode it with a stale pattern left from the previous file."""
+    for photometric, has, _ in _raw_ifds(path):
+        if photometric == 32803 and not all(has.values()):
+            raise RawFormatError(f"{path}: a CFA raw image needs the CFARepeatPatternDim (33421) and "
+                                 "CFAPattern (33422) tags; this one lacks them")
+
+
+def _size_hint(path: Path) -> str:
+    for photometric, _, shape in _raw_ifds(path):
+        if photometric in (32803, 34892) and len(shape) >= 2 and min(shape[:2]) < LIBRAW_MIN_SIDE_PX:
+            return (f" (its raw image is {shape[1]}×{shape[0]} px; LibRaw reads no side under "
+                    f"{LIBRAW_MIN_SIDE_PX} px)")
+    return ""
+
+
+#: EXIF LightSource codes treated as Standard Illuminant A (≈ 2856 K) for interpolation.
+_TUNGSTEN_CODES = (ILLUMINANT_A, 3)
+
+
+def _rational_matrix(value) -> np.ndarray | None:
+    """A 3×3 matrix from a TIFF (S)RATIONAL tag as tifffile returns it (values or num/den pairs)."""
+    flat = np.asarray(value, dtype=float).reshape(-1)
+    if flat.size == 18:
+        den = flat[1::2]
+        if np.any(den == 0):
+            return None
+        flat = flat[0::2] / den
+    return flat.reshape(3, 3) if flat.size == 9 and np.all(np.isfinite(flat)) else None
+
+
+def _tungsten_matrix(extras: dict) -> np.ndarray | None:
+    """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
+    for number in (1, 2):
+        code = extras.get(f"CalibrationIlluminant{number}")
+        if code is not None and int(np.asarray(code).reshape(-1)[0]) in _TUNGSTEN_CODES:
+            value = extras.get(f"ColorMatrix{number}")
+            return None if value is None else _rational_matrix(value)
+    return None
+
+
+def read_raw(path) -> RawImage:
+    """Read any raw file LibRaw supports (DNG or a camera's format) into a RawImage.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The raw file.
+
+    Returns
+    -------
+    RawImage
+        ``mosaic``: the visible raw area (uint16); ``cfa`` from LibRaw's pattern and colour
+        description; ``black_level`` (a number, or a 2×2 array per CFA site when the
+        channels' levels differ; LibRaw's list in ``meta["black_level_per_channel"]``); ``white_level``; ``as_shot_neutral`` =
+        1 / camera white-balance multipliers (max 1); ``color_matrix`` = XYZ(D65) → camera
+        recovered from LibRaw's ``color_matrix`` (camera → sRGB) and daylight multipliers,
+        normalised so D65's white maps to a neutral of max 1; ``noise_profile`` and
+        ``camera_model`` from the DNG tags when present.
+
+    Raises
+    ------
+    RawFormatError
+        If the file is missing, not a raw file, truncated or corrupt, or has a colour
+        filter array other than a 2×2 Bayer tile or none.
+
+    References
+    ----------
+    .. [1] rawpy API (raw_image_visible, raw_pattern, color_desc, black_level_per_channel,
+       white_level, camera_whitebalance, daylight_whitebalance, color_matrix).
+    .. [2] Adobe (2023). DNG Specification 1.7.1.0.
+    """
+    import rawpy
+
+    path = Path(path)
+    if not path.is_file():
+        raise RawFormatError(f"raw file {str(path)!r} does not exist")
+    _check_tiff_cfa(path)
+    try:
+        with rawpy.imread(str(path)) as handle:
+            mosaic = np.array(handle.raw_image_visible, dtype=np.uint16, copy=True)
+            colors = int(handle.num_colors)
+            cfa = _cfa_string(handle.raw_pattern, bytes(handle.color_desc), colors)
+            black_levels = [float(v) for v in handle.black_level_per_channel]
+            pattern = np.asarray(handle.raw_pattern)
+            white = int(handle.white_level)
+            camera_wb = np.asarray(handle.camera_whitebalance, dtype=float)
+            daylight = np.asarray(handle.daylight_whitebalance, dtype=float)
+            rgb_cam = np.asarray(handle.color_matrix, dtype=float)
+            raw_type = str(handle.raw_type)
+    except RawFormatError:
+        raise
+    except (rawpy.LibRawError, OSError, ValueError, NotImplementedError) as exc:
+        # rawpy raises NotImplementedError ("filters: N") for CFA layouts it cannot map
+        raise RawFormatError(
+            f"{path} is not a readable raw file (missing data, truncated or corrupt){_size_hint(path)}: "
+            f"{type(exc).__name__}: {exc}") from None
+    if mosaic.ndim != 2 or mosaic.size == 0:
+        raise RawFormatError(f"{path}: no single-plane raw mosaic (LibRaw raw type {raw_type})")
+    neutral = matrix = None
+    if cfa != "none":
+        wb = camera_wb[:3]
+        if np.all(wb > 0):
+            neutral = (1.0 / wb) / (1.0 / wb).max()
+        matrix = _xyz_to_camera_from_libraw(rgb_cam, daylight)
+    extras = _tiff_extras(path)
+    noise = extras.get("NoiseProfile")
+    noise_profile = (float(noise[0]), float(noise[1])) if noise is not None and len(noise) >= 2 else None
+    # LibRaw orders black_level_per_channel by colour index; raw_pattern maps sites to it
+    if cfa == "none" or len(set(black_levels[:4])) == 1 or pattern.shape != (2, 2):
+        black = float(black_levels[0])
+    else:
+        black = np.asarray(black_levels, dtype=float)[pattern]
+    return RawImage(
+        mosaic=mosaic,
+        cfa=cfa,
+        black_level=black,
+        white_level=white,
+        color_matrix=matrix,
+        color_matrix_2=_tungsten_matrix(extras) if matrix is not None else None,
+        as_shot_neutral=neutral,
+        noise_profile=noise_profile,
+        camera_model=str(extras.get("UniqueCameraModel", "")).strip(),
+        meta={
+            "source": str(path),
+            "black_level_per_channel": black_levels,
+            "make": str(extras.get("Make", "")).strip(),
+            "model": str(extras.get("Model", "")).strip(),
+            "libraw_raw_type": raw_type,
+        },
+    )

@@ -1,0 +1,134 @@
+"""One registry shape for every extension point: name → :class:`Entry`.
+
+Scene presets, ISP methods (white balance, demosaic, denoise, highlights, tone, encoders),
+validation pipeline types, stress studies and benchmarks are all :class:`Registry` objects.
+An entry names its function, the option keys it accepts and a one-line description, so
+adding a demosaicer or a pipeline type is one ``@REGISTRY.register(...)`` in one place: the
+config validation, the CLI help and the error messages read the registry.
+
+References
+----------
+.. [1] Mitsuba 3, ``mi.register_bsdf``/``register_sensor`` (plugins registered by name).
+.. [2] colour-science, method mappings such as ``colour.MSDS_CMFS`` and ``method=``
+   arguments (a named mapping per extension point).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Callable, Iterator
+
+from .errors import ConfigError
+
+__all__ = ["Entry", "Registry"]
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One registered implementation.
+
+    Attributes
+    ----------
+    name : str
+        The name users write (a scene key's value, a plan's ``type``, a CLI argument).
+    function : callable
+        The implementation.
+    options : tuple of str
+        Option keys the entry accepts besides the common ones (empty: none).
+    description : str
+        One line for help texts and error messages.
+    """
+
+    name: str
+    function: Callable
+    options: tuple[str, ...] = ()
+    description: str = ""
+
+    def __call__(self, *args, **kwargs):
+        return self.function(*args, **kwargs)
+
+
+class Registry(Mapping):
+    """A named mapping of :class:`Entry` objects, read-only except through :meth:`register`.
+
+    Parameters
+    ----------
+    kind : str
+        What the entries are, for messages (``"demosaic method"``, ``"scene preset"``).
+
+    Examples
+    --------
+    >>> DEMO = Registry("greeting")
+    >>> @DEMO.register("hello", options=("name",), description="says hello")
+    ... def hello(name="world"):
+    ...     return f"hello {name}"
+    >>> DEMO["hello"](name="you")
+    'hello you'
+    >>> DEMO.check_options("hello", {"name": "x"})
+    >>> list(DEMO)
+    ['hello']
+    >>> DEMO["bye"]
+    Traceback (most recent call last):
+    ...
+    spectral_cam.errors.ConfigError: unknown greeting 'bye'; valid: hello
+    """
+
+    def __init__(self, kind: str):
+        self.kind = kind
+        self._entries: dict[str, Entry] = {}
+
+    def register(self, name: str, *, options: tuple[str, ...] = (), description: str = ""):
+        """Decorator: register the decorated function under ``name``."""
+
+        def decorate(function: Callable) -> Callable:
+            self.add(name, function, options=options, description=description)
+            return function
+
+        return decorate
+
+    def add(self, name: str, function: Callable, *, options: tuple[str, ...] = (), description: str = "") -> Entry:
+        """Register ``function`` under ``name`` (a name can be registered once)."""
+        if name in self._entries:
+            raise ValueError(f"{self.kind} {name!r} is registered twice")
+        entry = Entry(name, function, tuple(options), description)
+        self._entries[name] = entry
+        return entry
+
+    def __getitem__(self, name: str) -> Entry:
+        try:
+            return self._entries[name]
+        except (KeyError, TypeError):
+            raise ConfigError(f"unknown {self.kind} {name!r}; valid: {', '.join(self._entries)}") from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._entries
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._entries)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def names(self) -> tuple[str, ...]:
+        """The registered names, in registration order."""
+        return tuple(self._entries)
+
+    def check(self, name: Any, *, key: str | None = None) -> str:
+        """Return ``name`` if registered, else raise a :class:`ConfigError` listing the valid
+        names (prefixed by the config ``key`` when given)."""
+        if isinstance(name, str) and name in self._entries:
+            return name
+        where = f"{key} = {name!r}: " if key else ""
+        raise ConfigError(f"{where}unknown {self.kind} {name!r}; valid: {', '.join(self._entries)}")
+
+    def check_options(self, name: str, options: Mapping[str, Any], *, common: tuple[str, ...] = (),
+                      where: str | None = None) -> None:
+        """Raise a :class:`ConfigError` for option keys the entry does not declare."""
+        entry = self[name]
+        valid = (*common, *entry.options)
+        unknown = [key for key in options if key not in valid]
+        if unknown:
+            place = where or f"{self.kind} {name!r}"
+            raise ConfigError(f"{place}: unknown key(s) {', '.join(map(repr, unknown))}; "
+                              f"valid: {', '.join(valid) or 'none'}")

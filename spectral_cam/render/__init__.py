@@ -1,0 +1,92 @@
+"""Spectral rendering with Mitsuba 3: passes, seeds, model decisions, depth.
+
+The only package that imports Mitsuba. :func:`render` turns a
+:class:`~spectral_cam.scene.SceneConfig` into a :class:`~spectral_cam.image.SpectralImage`
+of band radiances (W·m⁻²·sr⁻¹ per band: each value the integral of L(λ) over its band, as
+Mitsuba's ``specfilm`` returns it) and a depth map. ``variants`` picks the Mitsuba variant,
+``films`` what a pixel integrates, ``scene_dict`` builds the Mitsuba scene, ``decisions``
+the model choices, ``depth`` the depth pass and ``defocus`` the depth-layered lens model.
+
+References
+----------
+.. [1] Jakob, W., et al. (2022). Mitsuba 3 renderer, https://mitsuba-renderer.org
+   (plugins ``thinlens``, ``perspective``, ``specfilm``, ``aov``).
+.. [2] Pharr, M., Jakob, W., & Humphreys, G. (2023). Physically Based Rendering, 4th ed.,
+   §5.2.3 (thin lens), §4.6 (spectral sampling).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+from ..image import SpectralImage
+from ..optics import ThinLens
+from ..scene import SceneConfig
+from .decisions import decide_lens_model
+from .defocus import render_layered
+from .depth import render_depth
+from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
+from .variants import choose_variant
+
+__all__ = ["render", "render_layered", "choose_variant", "SpectralImage", "LANES_PER_PASS", "SCALAR_LANES_PER_PASS"]
+
+
+def render(
+    config: SceneConfig,
+    *,
+    progress: Callable[[int, int, float], None] | None = None,
+    with_depth: bool = True,
+    lens: ThinLens | None = None,
+) -> SpectralImage:
+    """Render the scene's spectral radiance through the configured lens.
+
+    Parameters
+    ----------
+    config
+        The validated scene.
+    progress
+        Called after each pass with (spp done, spp total, seconds so far).
+    with_depth
+        Also render the camera-space depth map (a second, cheap render).
+    lens
+        The job's lens, built once (default: ``ThinLens.from_config(config.lens,
+        config.sensor)``). It travels on the result as ``.lens``, so the sensor's camera
+        equation uses the optics the render used.
+
+    Returns
+    -------
+    SpectralImage
+        Band integrals of radiance, W·m⁻²·sr⁻¹, shape (height_px, width_px, bands).
+
+    Examples
+    --------
+    >>> import spectral_cam as sc
+    >>> scene = sc.scene_from_dict({"sensor": {"width_px": 24, "height_px": 16}, "render": {"spp": 4}})
+    >>> radiance = sc.render(scene)
+    >>> radiance.data.shape, radiance.meta["lens_model"]
+    ((16, 24, 6), 'pinhole')
+    """
+    import mitsuba as mi
+
+    variant = choose_variant(config.render.variant)
+    mi.set_variant(variant)
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    decisions: dict[str, dict] = {}
+
+    depth, depth_s = None, 0.0
+    lens_model = config.lens.model
+    if with_depth or lens_model == "auto":
+        t0 = time.perf_counter()
+        depth = render_depth(mi, config, lens)
+        depth_s = time.perf_counter() - t0
+    if lens_model == "auto":
+        lens_model, decisions["lens_model"] = decide_lens_model(lens, depth, config)
+
+    if config.lens.model == "layered" or lens_model == "layered":
+        image = render_layered(config, lens=lens, progress=progress, variant=variant)
+        if decisions:
+            image.meta["model_decisions"] = {**decisions, **image.meta["model_decisions"]}
+        return image
+    return trace(config, lens, lens_model, variant=variant, depth=depth, depth_s=depth_s, decisions=decisions,
+                 progress=progress)

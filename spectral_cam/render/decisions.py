@@ -1,0 +1,230 @@
+"""Model no more than a scene needs: the render's model decisions.
+
+Each returns its choice and a record for ``meta.json`` under ``model_decisions``:
+the lens model (pinhole when defocus costs <= 0.03 of MTF at Nyquist; the depth-layered
+model where it is exact and cheaper), diffraction (only when it costs > 0.03 of MTF at
+Nyquist), the film (camera curves when nothing needs the spectrum) and ``spp = "auto"``
+(stop when Monte-Carlo noise is <= 0.3 of the sensor's own). See docs/design.md, "Model
+decisions".
+
+References
+----------
+.. [1] Goodman, J. W. (2005). Introduction to Fourier Optics, 3rd ed., §6.3.2 (diffraction MTF).
+.. [2] EMVA 1288 Release 4.0, §2.3 (temporal noise model).
+.. [3] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §2.1.4 (Monte Carlo variance).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import spectra
+from ..errors import ConfigError
+from ..image import SpectralImage
+from ..optics import MTF_TOLERANCE, ThinLens
+from ..scene import SPECTRAL_BANDS_DEFAULT, SceneConfig
+
+#: spp = "auto": samples per pass, passes before judging, and the stopping rule.
+AUTO_SPP_PER_PASS = 8
+
+
+AUTO_SPP_MIN_PASSES = 4
+
+
+AUTO_SPP_TARGET_RATIO = 0.3
+
+
+AUTO_SPP_BRIGHT_FRACTION = 0.1
+
+
+def decide_bands(config: SceneConfig, diffraction: bool) -> tuple[bool, dict]:
+    """Camera-film channels instead of spectral bands when nothing needs the spectrum.
+
+    ``render.bands = "auto"`` picks the camera film when no spectral output is asked
+    (``render.spectral_output = false``) and diffraction (a per-band PSF) does not apply:
+    the film integrates the measured curves exactly, so it has no band-discretisation bias
+    and 6 channels instead of 31.
+    """
+    requested = config.render.bands
+    if config.sensor.cfa == "none":
+        if requested == "camera":
+            raise ConfigError("render.bands = 'camera' needs a colour sensor; a monochrome sensor "
+                              "(sensor.cfa = 'none') integrates spectral bands")
+        choice = requested if requested != "auto" else SPECTRAL_BANDS_DEFAULT
+        return False, {"choice": choice, "reason": "monochrome sensor: flat-QE spectral bands"}
+    if requested == "camera":
+        if diffraction:
+            raise ConfigError("render.bands = 'camera' cannot carry the per-band diffraction PSF that applies "
+                              "here; use render.bands = 'auto' or a band grid, or render.diffraction = 'off'")
+        return True, {"choice": "camera", "reason": "render.bands = 'camera'"}
+    if requested != "auto":
+        return False, {"choice": requested, "reason": f"render.bands = {requested!r}"}
+    if config.render.spectral_output:
+        return False, {"choice": SPECTRAL_BANDS_DEFAULT, "reason": "a spectral output (radiance.exr) is asked"}
+    if diffraction:
+        return False, {"choice": SPECTRAL_BANDS_DEFAULT, "reason": "diffraction needs a per-band PSF"}
+    return True, {"choice": "camera", "reason": "one camera, no spectral output, no diffraction: the camera "
+                                                "curves go into the film (no band discretisation)"}
+
+
+class NoiseMonitor:
+    """Monte-Carlo noise against sensor noise, pass by pass (``render.spp = "auto"``).
+
+    Each pass's image is turned into noise-free photo-electrons per pixel (through the
+    CFA, at the configured exposure); the spread between passes estimates the Monte-Carlo
+    standard deviation of their mean, σ_MC² = var(pass)/n. The sensor's own noise is
+    σ_sensor² = μ_e + σ_d² (shot + dark noise, EMVA 1288). The render stops when, over the
+    pixels brighter than 10 % of the maximum, the 90th percentile of σ_MC/σ_sensor is ≤ 0.3.
+
+    References
+    ----------
+    .. [1] EMVA 1288 Release 4.0, §2.3 (temporal noise model).
+    .. [2] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §2.1.4 (Monte Carlo variance).
+    """
+
+    def __init__(self, config: SceneConfig, wavelengths_nm, edges_nm, channels):
+        from ..presets import white_reference_mask
+
+        self.config, self.channels = config, channels
+        self.wavelengths, self.edges = np.asarray(wavelengths_nm), np.asarray(edges_nm)
+        self.white_mask = white_reference_mask(config)
+        self.count = 0
+        self.sum = self.sum_sq = None
+        self.ratio_p90 = np.inf
+        self.exposure_s = None
+        self.history: list[tuple[int, float]] = []
+
+    def _image(self, data):
+        return SpectralImage(np.asarray(data, dtype=np.float32), self.wavelengths, self.edges, None, {},
+                             self.channels)
+
+    def add(self, image: np.ndarray) -> bool:
+        """Add one pass (all passes have the same spp); returns True once enough passes
+        exist to judge convergence."""
+        from ..sensor import expected_electrons
+
+        rate, _ = expected_electrons(self._image(np.maximum(image, 0.0)), self.config, exposure_s=1.0)
+        rate = rate.astype(np.float64)
+        if self.sum is None:
+            self.sum, self.sum_sq = np.zeros_like(rate), np.zeros_like(rate)
+        self.sum += rate
+        self.sum_sq += rate * rate
+        self.count += 1
+        return self.count >= AUTO_SPP_MIN_PASSES
+
+    def converged(self, mean_image: np.ndarray) -> bool:
+        """Judge the passes so far; ``mean_image`` is their running mean (for the exposure
+        time when ``exposure.time_s = "auto"``)."""
+        from ..sensor import dark_noise_electrons, expected_electrons
+
+        n = self.count
+        mean_rate = self.sum / n
+        if self.config.exposure.time_s == "auto":
+            _, exposure_s = expected_electrons(self._image(np.maximum(mean_image, 0.0)), self.config,
+                                               white_mask=self.white_mask)
+        else:
+            exposure_s = float(self.config.exposure.time_s)
+        self.exposure_s = exposure_s
+        mean_e = mean_rate * exposure_s
+        var_pass = np.maximum(self.sum_sq / n - mean_rate ** 2, 0.0) * n / (n - 1) * exposure_s ** 2
+        sigma_mc = np.sqrt(var_pass / n)
+        sigma_sensor = np.sqrt(mean_e + dark_noise_electrons(self.config.sensor, exposure_s) ** 2)
+        bright = mean_e > AUTO_SPP_BRIGHT_FRACTION * mean_e.max()
+        if not bright.any() or mean_e.max() <= 0:
+            self.ratio_p90 = 0.0
+        else:
+            self.ratio_p90 = float(np.percentile(sigma_mc[bright] / sigma_sensor[bright], 90))
+        self.history.append((n, self.ratio_p90))
+        return self.ratio_p90 <= AUTO_SPP_TARGET_RATIO
+
+    def record(self, spp: int, cap: int) -> dict:
+        """The decision record for meta.json."""
+        stopped = "converged" if self.ratio_p90 <= AUTO_SPP_TARGET_RATIO else f"reached render.max_spp = {cap}"
+        return {
+            "choice": spp,
+            "reason": f"{stopped}: 90th percentile of σ_MC/σ_sensor over pixels > "
+                      f"{AUTO_SPP_BRIGHT_FRACTION:g}·max is {self.ratio_p90:.3f} (target ≤ {AUTO_SPP_TARGET_RATIO})",
+            "ratio_p90": self.ratio_p90,
+            "exposure_s": self.exposure_s,
+            "history": [{"passes": n, "ratio_p90": r} for n, r in self.history],
+        }
+
+
+#: Accuracy budget of the depth-layered model's alternative: thin-lens path tracing is
+#: replaced when its expected per-pixel relative noise in the blur exceeds this.
+LAYERED_NOISE_BUDGET = 0.01
+#: CoC bin of the layered model (a ratio): surfaces within one bin share one disc PSF.
+LAYERED_COC_RATIO = 1.05
+
+
+def thin_lens_noise(lens: ThinLens, depth_m: np.ndarray, spp: int) -> float:
+    """Expected relative Monte-Carlo noise per pixel of thin-lens path tracing where the
+    scene's objects are blurred: √((1 − p)/(p·spp)), p the fraction of the aperture through
+    which a pixel inside a blur disc sees an object, estimated as the objects' pinhole
+    footprint (pixels with a finite depth) over the area of the largest blur disc.
+
+    References
+    ----------
+    .. [1] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §2.1.4 (Monte Carlo variance of a
+       Bernoulli-weighted estimator).
+    """
+    finite = np.isfinite(depth_m)
+    if not finite.any():
+        return 0.0
+    coc = float(np.max(lens.coc_diameter_px(depth_m[finite])))
+    disc_px = max(math.pi * coc * coc / 4.0, 1.0)
+    p = min(1.0, float(finite.sum()) / disc_px)
+    return math.sqrt((1.0 - p) / (p * max(spp, 1)))
+
+
+def decide_lens_model(lens: ThinLens, depth_m: np.ndarray, config: SceneConfig | None = None) -> tuple[str, dict]:
+    """The cheapest lens model within the accuracy budget, from the depths in view.
+
+    - ``pinhole`` when defocus costs ≤ 0.03 of MTF at Nyquist over the depths in view;
+    - ``layered`` (:func:`spectral_cam.render.defocus.render_layered`) when every surface in
+      view lies in one CoC bin (no object is blurred over another at a different blur, so
+      the layered model has no partial-occlusion error) and thin-lens path tracing at the
+      configured spp would leave more than :data:`LAYERED_NOISE_BUDGET` relative noise in
+      the blur (:func:`thin_lens_noise`): a small bright source far out of focus;
+    - ``thin`` otherwise.
+
+    Returns the chosen model and the decision record for ``meta.json``.
+    """
+    finite = depth_m[np.isfinite(depth_m)]
+    if finite.size == 0:
+        return "thin", {"choice": "thin", "reason": "nothing in view to measure depth on"}
+    near, far = float(finite.min()), float(finite.max())
+    cost = lens.defocus_cost(near, far)
+    cocs = [float(lens.coc_diameter_px(near)), float(lens.coc_diameter_px(far))]
+    record = {"mtf_cost_at_nyquist": cost, "depth_range_m": [near, far], "max_coc_px": max(cocs)}
+    if cost <= MTF_TOLERANCE:
+        return "pinhole", {"choice": "pinhole", "reason": f"defocus costs {cost:.3f} of MTF at Nyquist over "
+                           f"{near:.3g}–{far:.3g} m (≤ {MTF_TOLERANCE})", **record}
+    reason = f"defocus costs {cost:.3f} of MTF at Nyquist over {near:.3g}–{far:.3g} m (> {MTF_TOLERANCE})"
+    if config is not None and min(cocs) >= 1.0 and max(cocs) <= LAYERED_COC_RATIO * min(cocs):
+        spp = config.render.max_spp if config.render.spp == "auto" else int(config.render.spp)
+        noise = thin_lens_noise(lens, depth_m, spp)
+        record["thin_lens_noise"] = noise
+        if noise > LAYERED_NOISE_BUDGET:
+            return "layered", {"choice": "layered", "reason": f"{reason}; every surface in one CoC bin and "
+                               f"thin-lens noise at {spp} spp ≈ {noise:.2g} > {LAYERED_NOISE_BUDGET}: "
+                               "pinhole render + depth-layered disc PSF", **record}
+    return "thin", {"choice": "thin", "reason": reason, **record}
+
+
+def decide_diffraction(lens: ThinLens, bands: spectra.BandGrid, mode: str) -> tuple[bool, dict]:
+    """Apply the per-band Airy PSF when forced, or (``auto``) when it costs more than 0.03
+    of MTF at Nyquist for the longest band (diffraction grows with λ)."""
+    longest = float(max(bands.centres_nm))
+    cost = lens.diffraction_cost(longest)
+    if mode == "auto":
+        apply = cost > MTF_TOLERANCE
+        reason = (f"diffraction costs {cost:.3f} of MTF at Nyquist at {longest:g} nm "
+                  f"({'>' if apply else '≤'} {MTF_TOLERANCE}) at N_w = {lens.working_f_number:.3g}")
+    else:
+        apply = mode == "on"
+        reason = f"render.diffraction = {mode!r} (costs {cost:.3f} of MTF at Nyquist at {longest:g} nm)"
+    return apply, {"choice": "airy_psf_per_band" if apply else "skipped", "reason": reason,
+                   "mtf_cost_at_nyquist": cost}

@@ -1,0 +1,353 @@
+"""The depth-layered lens model (``lens.model = "layered"``): thin-lens depth of field
+without its Monte-Carlo noise.
+
+A small bright source far out of focus is seen by a pixel through only a fraction p of the
+aperture (:func:`aperture_fraction`), so camera-side path tracing of the thin lens has a
+relative noise of √((1 − p)/(p·spp)) per pixel. :func:`render_layered` renders through a
+pinhole of the same geometry instead, takes the nearest depth per pixel from supersampled
+depth samples (:func:`nearest_depth`), and applies the uniform-disc CoC PSF of each depth
+layer to every spectral band (:func:`defocus_layers`), compositing back to front. Limit:
+one depth per pixel, so a near object lacks partial occlusion at its blurred edge; the
+``auto`` lens decision picks this model only where that cannot happen (docs/design.md,
+"Model decisions").
+
+References
+----------
+.. [1] Potmesil, M., & Chakravarty, I. (1981). A lens and aperture camera model for
+   synthetic image generation. Proc. SIGGRAPH '81, 297–305.
+.. [2] Kraus, M., & Strengert, M. (2007). Depth-of-field rendering by pyramidal image
+   processing. Computer Graphics Forum 26(3), 645–654.
+.. [3] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §5.2.3 (thin-lens ray generation).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from .. import spectra
+from ..errors import ConfigError
+from ..image import SpectralImage
+from ..optics import ThinLens
+from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT
+from .decisions import decide_diffraction
+from .depth import render_depth
+from .trace import trace
+from .variants import choose_variant
+
+__all__ = ["render_layered", "defocus_layers", "disc_kernel", "nearest_depth", "aperture_fraction"]
+
+
+def disc_kernel(diameter_px: float, *, supersample: int = 9) -> np.ndarray:
+    """A uniform disc of the given diameter as a pixel kernel: each entry is the fraction
+    of its pixel the disc covers (``supersample``² points per pixel), normalised to sum 1.
+
+    Parameters
+    ----------
+    diameter_px
+        Disc diameter, pixels; below 1 px the kernel is the identity (1×1).
+    supersample
+        Coverage samples per pixel along each axis.
+
+    Returns
+    -------
+    numpy.ndarray
+        (2k + 1, 2k + 1) float64 kernel, k = ⌈diameter/2 − ½⌉.
+
+    References
+    ----------
+    .. [1] Ray (2002), Applied Photographic Optics, ch. 10 (geometric defocus: a uniform
+       disc the size of the circle of confusion, for a circular aperture).
+    """
+    if not (math.isfinite(diameter_px) and diameter_px >= 0):
+        raise ConfigError(f"disc diameter {diameter_px!r} px must be a finite number >= 0")
+    radius = 0.5 * float(diameter_px)
+    if diameter_px < 1.0:
+        return np.ones((1, 1))
+    half = int(math.ceil(radius - 0.5))
+    offsets = (np.arange(supersample) + 0.5) / supersample - 0.5
+    fine = (np.arange(-half, half + 1)[:, None] + offsets[None, :]).ravel()
+    inside = (fine[:, None] ** 2 + fine[None, :] ** 2) <= radius * radius
+    n = 2 * half + 1
+    kernel = inside.reshape(n, supersample, n, supersample).mean(axis=(1, 3))
+    return kernel / kernel.sum()
+
+
+#: Largest distance (px) over which a lit pixel without a depth sample takes its nearest
+#: neighbour's depth; lit pixels farther from any hit are treated as at infinity.
+DEPTH_FILL_PX = 1.5
+
+
+def _fill_depth(depth: np.ndarray, lit: np.ndarray) -> np.ndarray:
+    from scipy import ndimage
+
+    finite = np.isfinite(depth)
+    missing = lit & ~finite
+    if not missing.any() or not finite.any():
+        return depth
+    distance, (iy, ix) = ndimage.distance_transform_edt(~finite, return_indices=True)
+    return np.where(missing & (distance <= DEPTH_FILL_PX), depth[iy, ix], depth)
+
+
+def defocus_layers(radiance, lens, *, depth_m: np.ndarray | None = None, coc_ratio: float = 1.05):
+    """Thin-lens defocus of an all-in-focus (pinhole) spectral image, layer by layer.
+
+    Pixels are grouped by side of the focus plane and circle-of-confusion diameter
+    c(z) = A·f·|z − z_f|/(z·(z_f − f)) (bins a factor ``coc_ratio`` wide; c < 1 px is in
+    focus). Each layer — its radiance and its coverage (alpha) — is convolved with a
+    uniform disc of its mean CoC (:func:`disc_kernel`), and the layers are composited back
+    to front (far side from the largest CoC down, then the in-focus layer, then the near
+    side up to the largest CoC): ``out = L_layer + (1 − α_layer)·out``. Every band gets the
+    same geometric PSF, so the whole spectral cube is defocused at once.
+
+    Limitations: a pixel carries one depth (mixed pixels take the nearest surface), and
+    what a near object hides in the pinhole image is missing behind its blurred edge
+    (partial occlusion: a thin rim darker than the thin-lens render's).
+
+    Parameters
+    ----------
+    radiance : SpectralImage
+        (H, W, B) band radiance rendered through a pinhole of the lens's geometry.
+    lens : ThinLens
+        The lens whose defocus to apply (f, N, focus distance, pixel pitch).
+    depth_m : numpy.ndarray, optional
+        (H, W) camera-space z (m), inf where nothing was hit; default ``radiance.depth_m``.
+        Lit pixels without a depth take their neighbour's within :data:`DEPTH_FILL_PX`,
+        else infinity.
+    coc_ratio : float
+        Width of a CoC bin as a ratio (> 1); 1.05 keeps every disc within 2.5 % of its
+        pixels' own CoC.
+
+    Returns
+    -------
+    SpectralImage
+        The defocused image (same bands), depth and ``meta["defocus_layers"]`` (number of
+        layers, CoC range in px).
+
+    Raises
+    ------
+    ConfigError
+        Without a depth map of the image's size, or for ``coc_ratio`` <= 1.
+
+    References
+    ----------
+    .. [1] Potmesil, M., & Chakravarty, I. (1981). Proc. SIGGRAPH '81, 297–305.
+    .. [2] Kraus, M., & Strengert, M. (2007). Computer Graphics Forum 26(3), 645–654.
+    """
+    from scipy.signal import fftconvolve
+
+    
+    data = np.asarray(radiance.data, dtype=np.float32)
+    depth = radiance.depth_m if depth_m is None else depth_m
+    if depth is None or np.shape(depth) != data.shape[:2]:
+        raise ConfigError(f"defocus_layers needs an (H, W) = {data.shape[:2]} depth map in metres; got "
+                          f"{None if depth is None else np.shape(depth)} (render with with_depth=True or pass depth_m)")
+    if not (math.isfinite(coc_ratio) and coc_ratio > 1.0):
+        raise ConfigError(f"coc_ratio {coc_ratio!r} must be a number > 1 (e.g. 1.05)")
+    lit = data.max(axis=-1) > 0
+    depth = _fill_depth(np.asarray(depth, dtype=np.float64), lit)
+    occupied = lit | np.isfinite(depth)
+    coc = np.asarray(lens.coc_diameter_px(np.where(np.isnan(depth), np.inf, depth)), dtype=np.float64)
+    bins = np.zeros(depth.shape, dtype=np.int64)
+    blurred = occupied & (coc >= 1.0)
+    bins[blurred] = 1 + np.floor(np.log(coc[blurred]) / math.log(coc_ratio)).astype(np.int64)
+    side = np.where(bins == 0, 0, np.where(depth > lens.focus_distance_m, 1, -1))
+    keys = {(int(s), int(b)) for s, b in zip(side[occupied], bins[occupied])}
+    order = (sorted((k for k in keys if k[0] == 1), key=lambda k: -k[1]) + [k for k in keys if k[0] == 0]
+             + sorted((k for k in keys if k[0] == -1), key=lambda k: k[1]))
+    out = np.zeros_like(data)
+    height, width = depth.shape
+    diameters = []
+    for s, b in order:
+        mask = occupied & (side == s) & (bins == b)
+        diameter = float(coc[mask].mean()) if s != 0 else 0.0
+        diameters.append(diameter)
+        kernel = disc_kernel(diameter)
+        reach = kernel.shape[0] // 2
+        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+        box = (slice(max(rows[0] - reach, 0), min(rows[-1] + reach + 1, height)),
+               slice(max(cols[0] - reach, 0), min(cols[-1] + reach + 1, width)))
+        alpha = mask[box].astype(np.float64)
+        colour = data[box] * alpha[..., None]
+        if reach:
+            colour = fftconvolve(colour, kernel[..., None], mode="same", axes=(0, 1))
+            alpha = fftconvolve(alpha, kernel, mode="same")
+        # FFT round-off leaves ~1e-16 negatives
+        colour = np.maximum(colour, 0.0)
+        alpha = np.clip(alpha, 0.0, 1.0)
+        out[box] = (colour + (1.0 - alpha)[..., None] * out[box]).astype(np.float32)
+    meta = dict(getattr(radiance, "meta", {}) or {})
+    meta["defocus_layers"] = {"layers": len(order), "coc_ratio": coc_ratio,
+                              "coc_range_px": [min(diameters, default=0.0), max(diameters, default=0.0)]}
+    return SpectralImage(out, np.asarray(radiance.wavelengths_nm), np.asarray(radiance.band_edges_nm),
+                         depth.astype(np.float32), meta, getattr(radiance, "channels", None))
+
+
+def nearest_depth(config, *, supersample: int = 4) -> np.ndarray:
+    """Camera-space z (m) of the nearest surface in each pixel, from ``supersample``²
+    depth samples per pixel (a pinhole depth render at ``supersample``× the resolution,
+    min-pooled), so small objects are not missed as by a 1-sample depth map.
+
+    Parameters
+    ----------
+    config : SceneConfig
+        The scene (its sensor and lens geometry).
+    supersample : int
+        Depth samples per pixel along each axis, 1–8.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) float32 depth in metres, inf where no sample hit anything.
+
+    References
+    ----------
+    .. [1] :func:`spectral_cam.render.render_depth` (z from the position AOV).
+    """
+    import mitsuba as mi
+
+    
+    if not (isinstance(supersample, int) and 1 <= supersample <= 8):
+        raise ConfigError(f"depth supersample {supersample!r} must be a whole number in 1..8")
+    width, height = config.sensor.width_px, config.sensor.height_px
+    factor = max(1, min(supersample, 20000 // max(width, height)))
+    fine = config.replace(**{"sensor.width_px": width * factor, "sensor.height_px": height * factor,
+                             "sensor.pixel_pitch_um": config.sensor.pixel_pitch_um / factor,
+                             "lens.model": "pinhole"})
+    mi.set_variant(choose_variant(config.render.variant))
+    depth = render_depth(mi, fine, ThinLens.from_config(fine.lens, fine.sensor))
+    return depth.reshape(height, factor, width, factor).min(axis=(1, 3)).astype(np.float32)
+
+
+def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: int = 4, coc_ratio: float = 1.05,
+                   margin_px: int | str = "auto", progress=None,
+                   variant: str | None = None):
+    """Thin-lens depth of field without its Monte-Carlo noise: render through a pinhole,
+    then defocus by depth layers (:func:`defocus_layers`).
+
+    A small bright source far out of focus is seen by a pixel through only a fraction of
+    the aperture, so camera-side path tracing needs ~1/p samples per pixel per unit of
+    relative variance; through a pinhole the same source covers whole pixels and converges
+    as fast as anything else. The spectral radiance is rendered through a pinhole of the
+    configured geometry (frame enlarged by ``margin_px`` on each side so light from just
+    outside the view blurs in), the nearest depth per pixel from ``depth_supersample``²
+    samples, the per-depth uniform disc PSF of the CoC diameter applied to all bands, the
+    frame cropped; diffraction follows ``render.diffraction`` as in
+    :func:`spectral_cam.render.render`.
+
+    Parameters
+    ----------
+    config : SceneConfig
+        The scene with its thin lens (``lens.model`` is ignored: this is the thin lens's
+        defocus).
+    lens : ThinLens, optional
+        The job's lens (default: from ``config``).
+    depth_supersample : int
+        Depth samples per pixel along each axis (1–8).
+    coc_ratio : float
+        CoC bin width as a ratio (> 1).
+    margin_px : int or "auto"
+        Extra pixels rendered on each side; ``"auto"``: half the largest CoC in view + 1.
+    progress : callable, optional
+        Called after each pass of the pinhole render with (spp done, spp total, seconds).
+    variant : str, optional
+        Mitsuba variant already chosen (default: ``render.variant`` resolved).
+
+    Returns
+    -------
+    SpectralImage
+        Band radiance (W·m⁻²·sr⁻¹ per band) with depth and ``meta`` (timings, the layer
+        decision under ``model_decisions["defocus"]``).
+
+    References
+    ----------
+    .. [1] Potmesil & Chakravarty (1981), Proc. SIGGRAPH '81, 297–305.
+    .. [2] Kraus & Strengert (2007), Computer Graphics Forum 26(3), 645–654.
+    """
+
+    timings: dict[str, float] = {}
+    import mitsuba as mi
+
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    variant = choose_variant(config.render.variant) if variant is None else variant
+    mi.set_variant(variant)
+    width, height = config.sensor.width_px, config.sensor.height_px
+    band_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
+    bands = spectra.parse_bands(band_spec)
+    apply, diffraction = decide_diffraction(lens, bands, config.render.diffraction)
+    pinhole = {"lens.model": "pinhole", "render.diffraction": "off"}
+    if apply:
+        if config.render.bands == "camera":
+            raise ConfigError("render.bands = 'camera' cannot carry the per-band diffraction PSF that applies "
+                              "here; use render.bands = 'auto' or a band grid, or render.diffraction = 'off'")
+        pinhole["render.bands"] = band_spec  # diffraction is applied per band after the defocus
+    started = time.perf_counter()
+    if margin_px == "auto":
+        probe = nearest_depth(config, supersample=1)
+        finite = probe[np.isfinite(probe)]
+        reach = [float(lens.coc_diameter_px(z)) for z in (finite.min(), finite.max())] if finite.size else []
+        if not np.all(np.isfinite(probe)):
+            reach.append(float(lens.coc_diameter_px(math.inf)))
+        margin = int(math.ceil(max(reach, default=0.0) / 2.0)) + 1
+    elif isinstance(margin_px, int) and margin_px >= 0:
+        margin = margin_px
+    else:
+        raise ConfigError(f"margin_px {margin_px!r} must be 'auto' or a whole number of pixels >= 0")
+    margin = min(margin, max(width, height), (20000 - max(width, height)) // 2)
+    timings["margin_probe"] = time.perf_counter() - started
+    wide = config.replace(**{"sensor.width_px": width + 2 * margin, "sensor.height_px": height + 2 * margin,
+                             **pinhole})
+    t0 = time.perf_counter()
+    wide_lens = ThinLens.from_config(wide.lens, wide.sensor)
+    sharp = trace(wide, wide_lens, "pinhole", variant=variant, progress=progress)
+    timings["pinhole_render"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    depth = nearest_depth(wide, supersample=depth_supersample)
+    timings["depth"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    blurred = defocus_layers(sharp, wide_lens, depth_m=depth, coc_ratio=coc_ratio)
+    timings["defocus_layers"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    data = blurred.data
+    if apply:
+        data = lens.apply_diffraction(data, bands.centres_nm)
+    timings["diffraction"] = time.perf_counter() - t0
+    crop = (slice(margin, margin + height), slice(margin, margin + width))
+    meta = dict(sharp.meta)
+    decisions = dict(meta.get("model_decisions", {}))
+    layers = blurred.meta["defocus_layers"]
+    decisions["defocus"] = {
+        "choice": "depth_layered_disc_psf",
+        "reason": (f"pinhole render + uniform-disc CoC PSF per depth layer ({layers['layers']} layers, "
+                   f"CoC {layers['coc_range_px'][0]:.3g}–{layers['coc_range_px'][1]:.3g} px), "
+                   "instead of thin-lens path tracing"),
+        "depth_supersample": depth_supersample, "margin_px": margin, **layers,
+    }
+    decisions["diffraction"] = diffraction
+    meta.update({"lens_model": "layered", "model_decisions": decisions,
+                 "optics": lens.describe(),
+                 "timings_s": {**meta.get("timings_s", {}), **timings, "total": time.perf_counter() - started}})
+    return SpectralImage(np.ascontiguousarray(data[crop], dtype=np.float32), blurred.wavelengths_nm,
+                         blurred.band_edges_nm, blurred.depth_m[crop], meta, blurred.channels, lens)
+
+
+
+def aperture_fraction(config) -> float:
+    """Fraction p of the aperture through which a pixel inside the blur disc sees the
+    (single, on-axis) source of a ``point_sources`` scene: ``(r·z_f/(|z − z_f|·R))²``.
+
+    A lens point u sees the source when the ray through u and the pixel's conjugate point
+    on the focus plane meets the source disc at depth z; those u form a disc of radius
+    r·z_f/|z − z_f| on the aperture of radius R.
+
+    References
+    ----------
+    .. [1] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §5.2.3 (thin-lens ray generation).
+    """
+    lens = ThinLens.from_config(config.lens, config.sensor)
+    z, zf = config.scene.depths_m[0], lens.focus_distance_m
+    return float(min(1.0, (config.scene.source_radius_m * zf / (abs(z - zf) * lens.aperture_radius_m)) ** 2))
+
+

@@ -1,0 +1,57 @@
+"""Films: what each pixel of a render integrates.
+
+``band_film``: one box-shaped unit-sensitivity ``specfilm`` channel per band (each value a
+band integral of radiance). ``camera_film``: the three photon-weighted camera curves and the
+CIE 1931 CMFs in one 6-channel film (``render.bands = "camera"``).
+
+References
+----------
+.. [1] Jakob, W., et al. (2022). Mitsuba 3, plugin ``specfilm``.
+.. [2] CIE 015:2018, Colorimetry, 4th ed., §7 (CIE 1931 standard observer).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import spectra
+from ..scene import SceneConfig
+
+#: Wavelength step (nm) of the camera film's tabulated curves.
+CAMERA_FILM_STEP_NM = 5.0
+
+
+# ----------------------------------------------------------------------------- scene dict
+def band_film(bands: spectra.BandGrid, width: int, height: int) -> dict:
+    """A ``specfilm`` with one box-shaped unit-sensitivity channel per band, so each channel
+    is the band integral of radiance. Names sort in band order (EXR sorts channel names)."""
+    film = {
+        "type": "specfilm",
+        "width": width,
+        "height": height,
+        "component_format": "float32",  # float16 overflows above 65504
+        "rfilter": {"type": "box"},  # the default gaussian correlates neighbouring pixels
+    }
+    for index, (lo, hi) in enumerate(zip(bands.edges_nm[:-1], bands.edges_nm[1:])):
+        film[f"band_{index:03d}"] = {"type": "spectrum", "value": [(lo, 1.0), (hi, 1.0)]}
+    return film
+
+
+def camera_film(config: SceneConfig, width: int, height: int) -> dict:
+    """A 6-channel ``specfilm``: the photon-weighted camera curves η_c(λ)·T(λ)·λ/λ_ref
+    (:func:`spectral_cam.sensor.film_curves`) and the CIE 1931 2° CMFs, so one render
+    integrates the camera's response exactly and gives the XYZ ground truth too."""
+    import colour
+
+    from ..sensor import CAMERA_CHANNELS, film_curves
+
+    lo, hi = spectra.MITSUBA_RANGE_NM
+    wl = np.arange(lo, hi + 0.5, CAMERA_FILM_STEP_NM)
+    cmfs = spectra.sample(colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"], wl, outside=0.0)
+    curves = np.concatenate([film_curves(config, wl), cmfs], axis=1)
+    film = {"type": "specfilm", "width": width, "height": height, "component_format": "float32",
+            "rfilter": {"type": "box"}}
+    for index, name in enumerate(CAMERA_CHANNELS):  # names sort in channel order
+        film[f"ch{index}_{name}"] = {"type": "spectrum",
+                                     "value": [(float(w), float(v)) for w, v in zip(wl, curves[:, index])]}
+    return film

@@ -1,0 +1,149 @@
+"""Path tracing of one frame through a thin lens or a pinhole: film, passes, seeds, spp.
+
+:func:`trace` renders in passes of at most :data:`LANES_PER_PASS` lanes, each with its own
+seed derived from ``render.seed``; ``spp = "auto"`` stops when the Monte-Carlo noise is a
+small fraction of the sensor's (:class:`~spectral_cam.render.decisions.NoiseMonitor`).
+
+References
+----------
+.. [1] Jakob, W., et al. (2022). Mitsuba 3 renderer (``mi.render``, ``specfilm``).
+.. [2] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §2.1.4 (Monte Carlo estimators).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import numpy as np
+
+from .. import spectra
+from ..errors import RenderError
+from ..image import SpectralImage
+from ..optics import ThinLens
+from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
+from .decisions import AUTO_SPP_PER_PASS, NoiseMonitor, decide_bands, decide_diffraction
+from .films import band_film, camera_film
+from .scene_dict import build_scene, camera_dict, pass_seed
+
+#: Wavefront lanes per Mitsuba pass (pixels × spp); bounds memory for the vectorised variants.
+LANES_PER_PASS = 1 << 22
+#: Lanes per pass for the scalar variant (its cost is per sample; smaller passes give progress).
+SCALAR_LANES_PER_PASS = 1 << 20
+
+
+def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
+          depth: np.ndarray | None = None, depth_s: float = 0.0, decisions: dict | None = None,
+          progress: Callable[[int, int, float], None] | None = None) -> SpectralImage:
+    """Render the radiance of ``config`` through ``lens`` as ``lens_model`` (``"thin"`` or
+    ``"pinhole"``) with Mitsuba's current variant (``variant``, already set).
+
+    Parameters
+    ----------
+    config : SceneConfig
+        The scene.
+    lens : ThinLens
+        The job's lens.
+    lens_model : {"thin", "pinhole"}
+        Geometry of the camera rays.
+    variant : str
+        The Mitsuba variant in use (recorded).
+    depth, depth_s
+        A depth map already rendered (m) and its time (s), carried into the result.
+    decisions : dict, optional
+        Model decisions made so far (``lens_model``); the film, diffraction and spp
+        decisions are added.
+    progress : callable, optional
+        Called after each pass with (spp done, spp total, seconds so far).
+
+    Returns
+    -------
+    SpectralImage
+        Band integrals of radiance, W·m⁻²·sr⁻¹, with ``.lens`` set to ``lens``.
+
+    References
+    ----------
+    .. [1] Jakob, W., et al. (2022). Mitsuba 3 renderer (``mi.render``).
+    """
+    import mitsuba as mi
+
+    width, height = config.sensor.width_px, config.sensor.height_px
+    decisions = dict(decisions or {})
+    spectral_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
+    bands = spectra.parse_bands(spectral_spec)
+    diffract, decisions["diffraction"] = decide_diffraction(lens, bands, config.render.diffraction)
+    use_camera, decisions["bands"] = decide_bands(config, diffract)
+    if use_camera:
+        from ..sensor import CAMERA_CHANNELS
+
+        film, channels = camera_film(config, width, height), CAMERA_CHANNELS
+        wavelengths, edges = np.array([]), np.asarray(spectra.MITSUBA_RANGE_NM)
+    else:
+        film, channels = band_film(bands, width, height), None
+        wavelengths, edges = np.asarray(bands.centres_nm), np.asarray(bands.edges_nm)
+    n_channels = len(channels) if channels else len(bands)
+
+    auto_spp = config.render.spp == "auto"
+    target_spp = config.render.max_spp if auto_spp else config.render.spp
+    lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
+    spp_per_pass = max(1, min(AUTO_SPP_PER_PASS if auto_spp else target_spp, lanes // (width * height)))
+    monitor = None
+    if auto_spp:  # equal passes: the pass-to-pass spread estimates the Monte-Carlo noise
+        target_spp = -(-target_spp // spp_per_pass) * spp_per_pass
+        monitor = NoiseMonitor(config, wavelengths, edges, channels)
+
+    started = time.perf_counter()
+    camera = camera_dict(mi, lens, lens_model, film, spp_per_pass)
+    integrator = {"type": "path", "max_depth": config.render.max_depth}
+    scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
+    load_s = time.perf_counter() - started
+
+    accumulated = np.zeros((height, width, n_channels), dtype=np.float64)
+    done, index, seeds = 0, 0, []
+    while done < target_spp:
+        spp = min(spp_per_pass, target_spp - done)
+        seed = pass_seed(config.render.seed, index)
+        image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, seed=seed, spp=spp),
+                           dtype=np.float64).reshape(height, width, n_channels)
+        accumulated += image * spp
+        done += spp
+        index += 1
+        seeds.append(seed)
+        if progress is not None:
+            progress(done, target_spp, time.perf_counter() - started)
+        if monitor is not None and monitor.add(image) and monitor.converged(accumulated / done):
+            break
+    if monitor is not None:
+        decisions["spp"] = monitor.record(done, config.render.max_spp)
+        if progress is not None and done < target_spp:
+            progress(done, done, time.perf_counter() - started)
+    data = accumulated / done
+    # Mitsuba's film can return values like −1e-19 where a pixel is black (floating-point
+    # cancellation); anything clearly negative would be a bug, not rounding
+    lowest, highest = float(data.min()), float(data.max())
+    if lowest < -1e-6 * max(highest, 1e-30):
+        raise RenderError(f"Mitsuba returned negative radiance ({lowest:g}, max {highest:g})")
+    data = np.maximum(data, 0.0).astype(np.float32)
+    radiance_s = time.perf_counter() - started - load_s
+
+    t0 = time.perf_counter()
+    if diffract:
+        data = lens.apply_diffraction(data, bands.centres_nm)
+    diffraction_s = time.perf_counter() - t0
+
+    meta = {
+        "variant": variant,
+        "lens_model": lens_model,
+        "spp": done,
+        "spp_per_pass": spp_per_pass,
+        "passes": index,
+        "pass_seeds": seeds,
+        "bands": "camera" if use_camera else spectral_spec,
+        "bands_nm": list(wavelengths),
+        "channels": list(channels) if channels else None,
+        "optics": lens.describe(),
+        "model_decisions": decisions,
+        "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s,
+                      "diffraction": diffraction_s},
+    }
+    return SpectralImage(data, wavelengths, edges, depth, meta, channels, lens)

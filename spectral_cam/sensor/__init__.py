@@ -1,0 +1,231 @@
+"""Image sensor: band radiance → irradiance → photons → electrons → noise → ADC → RAW.
+
+:func:`expose` composes the stages, each a plain function in its own module so tests and
+other programs can use them alone: ``radiometry`` (camera equation, quantum efficiency,
+electron rates through the CFA), ``exposure`` (auto exposure), ``noise`` (the EMVA 1288
+chain), ``calibration`` (colour matrices fitted from the measured curves) and ``colour``
+(the colour metadata of a RAW). The result is a :class:`~spectral_cam.raw.RawImage` with
+the metadata a DNG and an ISP need (ColorMatrix1/2, AsShotNeutral, NoiseProfile, K, ...).
+
+Every noise term can be switched off (``sensor.shot_noise = false``, or a zero
+``read_noise_e`` / ``dark_current_e_per_s`` / ``dsnu_e`` / ``prnu``).
+
+References
+----------
+.. [1] EMVA Standard 1288, Release 4.0 Linear (2021), §2–3.
+.. [2] Adobe (2023). DNG Specification 1.7.1.0 (ColorMatrix1, AsShotNeutral, NoiseProfile).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import SensorError
+from ..raw.image import RawImage
+from .colour import _colour_matrix, _fitted_corrections
+from .exposure import _AUTO_FULL_BELOW, _AUTO_STEP, auto_exposure_time, expected_electrons
+from .noise import (
+    HYBRID_POISSON_BELOW_E,
+    SHOT_NOISE_METHODS,
+    _check_sensor,
+    dark_noise_electrons,
+    fixed_patterns,
+    noise_profile,
+    saturation_electrons,
+    simulate_frame,
+    system_gain,
+)
+from .radiometry import (
+    CAMERA_CHANNELS,
+    FILM_REFERENCE_NM,
+    SignalModel,
+    _illuminant_bands,
+    _illuminant_film_response,
+    band_weights,
+    camera_equation_irradiance,
+    electron_rates,
+    electrons_per_band_radiance,
+    film_curves,
+    max_channel_rates,
+    photons_per_joule,
+    quantum_efficiency,
+    signal_model,
+    validate_radiance,
+)
+
+__all__ = [
+    "expose", "quantum_efficiency", "camera_equation_irradiance", "photons_per_joule", "band_weights",
+    "electron_rates", "max_channel_rates", "electrons_per_band_radiance", "system_gain", "saturation_electrons",
+    "dark_noise_electrons", "noise_profile", "fixed_patterns", "auto_exposure_time", "simulate_frame",
+    "validate_radiance", "signal_model", "SignalModel", "film_curves", "expected_electrons", "CAMERA_CHANNELS",
+    "FILM_REFERENCE_NM", "SHOT_NOISE_METHODS", "HYBRID_POISSON_BELOW_E",
+]
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..image import SpectralImage
+    from ..scene import SceneConfig
+
+
+# ----------------------------------------------------------------------------- expose
+def expose(
+    radiance: "SpectralImage",
+    config: "SceneConfig",
+    *,
+    frame_seed: int | None = None,
+    white_mask: np.ndarray | None = None,
+    shot_noise_method: str = "hybrid",
+    workers: int | None = None,
+) -> RawImage:
+    """Simulate the sensor's exposure to a spectral radiance image.
+
+    Parameters
+    ----------
+    radiance : SpectralImage
+        (H, W, B) band integrals of radiance (W·m⁻²·sr⁻¹) matching the sensor's size; any
+        SpectralImage works, a synthetic uniform one included.
+    config : SceneConfig
+        Uses ``sensor``, ``lens`` (working f-number, transmission, vignetting geometry),
+        ``exposure`` (time or ``"auto"``, ISO, auto_fraction), ``illuminant.spd`` (for
+        AsShotNeutral) and ``render.seed`` (the default frame seed).
+    frame_seed : int, optional
+        Seed of the temporal noise (default ``config.render.seed``).
+    white_mask : numpy.ndarray, optional
+        Boolean (H, W) white reference for ``exposure.time_s = "auto"``; without it the
+        99th percentile of the max-channel electron rate is used.
+    shot_noise_method : {"hybrid", "poisson"}
+        See :data:`SHOT_NOISE_METHODS`.
+    workers : int, optional
+        Threads for the chunked stages.
+
+    Returns
+    -------
+    RawImage
+        uint16 mosaic, CFA, black/white levels, ColorMatrix1 (XYZ(D65) → camera; None for
+        an ``"ideal"`` sensor's identical channels), AsShotNeutral (the simulated sensor's
+        own response to the illuminant's white, max 1), NoiseProfile and ``meta`` with K
+        (DN/e⁻), exposure, ISO, saturation, σ_d, QE, seeds and per-stage timings.
+
+    Raises
+    ------
+    SensorError
+        For radiance of the wrong shape or with NaN, infinite or negative values, or an
+        invalid sensor.
+
+    References
+    ----------
+    .. [1] EMVA 1288 Release 4.0, §2–3.
+    .. [2] Adobe (2023). DNG Specification 1.7.1.0 (ColorMatrix1, AsShotNeutral, NoiseProfile).
+    """
+    started = time.perf_counter()
+    timings: dict[str, float] = {}
+    sensor, exposure = config.sensor, config.exposure
+    _check_sensor(sensor)
+    validate_radiance(radiance, sensor)
+    frame_seed = config.render.seed if frame_seed is None else frame_seed
+    if not (isinstance(frame_seed, (int, np.integer)) and not isinstance(frame_seed, bool) and frame_seed >= 0):
+        raise SensorError(f"frame_seed {frame_seed!r} must be a whole number >= 0")
+    if shot_noise_method not in SHOT_NOISE_METHODS:
+        raise SensorError(f"shot_noise_method {shot_noise_method!r}; valid: {', '.join(SHOT_NOISE_METHODS)}")
+    monochrome = sensor.cfa == "none"
+    model = signal_model(radiance, config)
+    weights, cos4, qe = model.weights, model.cos4, model.qe
+    n_w, area, trans_specs = model.working_f_number, model.pixel_area_m2, model.transmission_specs
+    timings["setup"] = time.perf_counter() - started
+
+    t0 = time.perf_counter()
+    auto = exposure.time_s == "auto"
+    rate = electron_rates(radiance.data, weights, cfa=sensor.cfa, cos4=cos4, workers=workers)
+    timings["electron_rates"] = time.perf_counter() - t0
+
+    gain = system_gain(sensor, exposure.iso)
+    saturation_e = saturation_electrons(sensor, gain)
+    t0 = time.perf_counter()
+    reference_rate = None
+    if auto:
+        if white_mask is not None:
+            mask = np.asarray(white_mask, dtype=bool)
+            if mask.shape != rate.shape or not mask.any():
+                raise SensorError(f"white_mask must be a boolean {rate.shape} array with at least one True pixel")
+            reference_rates = max_channel_rates(radiance.data, weights, cos4=cos4, mask=mask)
+            percentile = None
+        else:
+            step = 1 if rate.size <= _AUTO_FULL_BELOW else _AUTO_STEP
+            reference_rates = max_channel_rates(radiance.data, weights, cos4=cos4, step=step)
+            percentile = 99.0
+        exposure_s, reference_rate = auto_exposure_time(
+            reference_rates, saturation_e=saturation_e, fraction=exposure.auto_fraction,
+            dark_current_e_per_s=sensor.dark_current_e_per_s, percentile=percentile)
+    else:
+        exposure_s = float(exposure.time_s)
+    timings["auto_exposure"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    mosaic, chain_cpu = simulate_frame(rate, sensor, exposure_s=exposure_s, gain=gain, frame_seed=int(frame_seed),
+                                       shot_noise_method=shot_noise_method, workers=workers)
+    timings["noise_chain"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    black, white = sensor.black_level_dn, 2 ** sensor.bit_depth - 1
+    sigma_d = dark_noise_electrons(sensor, exposure_s)
+    if monochrome:
+        neutral = matrix = matrix_a = None
+    else:
+        if model.camera_channels:
+            response = _illuminant_film_response(config)
+        else:
+            edges = tuple(np.asarray(radiance.band_edges_nm, float).tolist())
+            response = _illuminant_bands(config.illuminant.spd, edges) @ weights
+        neutral = response / response.max() if response.max() > 0 else None
+        matrix = _colour_matrix(sensor.model, trans_specs) if sensor.model != "ideal" else None
+        matrix_a = _colour_matrix(sensor.model, trans_specs, "A") if matrix is not None else None
+    timings["colour"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - started
+
+    peak_per_channel = qe.max(axis=0)
+    meta = {
+        "K_dn_per_e": gain,
+        "exposure_s": exposure_s,
+        "exposure_auto": auto,
+        "auto_reference_e_per_s": reference_rate,
+        "auto_fraction": exposure.auto_fraction if auto else None,
+        "iso": exposure.iso,
+        "base_iso": sensor.base_iso,
+        "saturation_e": saturation_e,
+        "full_well_e": sensor.full_well_e,
+        "sigma_dark_e": sigma_d,
+        "read_noise_e": sensor.read_noise_e,
+        "dark_current_e_per_s": sensor.dark_current_e_per_s,
+        "dsnu_e": sensor.dsnu_e,
+        "prnu": sensor.prnu,
+        "peak_qe": sensor.peak_qe,
+        "peak_qe_per_channel": [float(v) for v in peak_per_channel],
+        "input": "camera channels (photon-weighted film)" if model.camera_channels else
+                 f"{len(radiance.wavelengths_nm)} spectral bands",
+        "bit_depth": sensor.bit_depth,
+        "working_f_number": n_w,
+        "pixel_area_m2": area,
+        "vignetting": bool(sensor.vignetting),
+        "shot_noise": bool(sensor.shot_noise),
+        "shot_noise_method": shot_noise_method,
+        "seeds": {"sensor": int(sensor.seed), "frame": int(frame_seed)},
+        "model": sensor.model,
+        "timings_s": timings,
+        "noise_chain_cpu_s": chain_cpu,
+    }
+    if matrix is not None:
+        meta.update(_fitted_corrections(sensor.model, config.illuminant.spd, trans_specs))
+    return RawImage(
+        mosaic=mosaic,
+        cfa=sensor.cfa,
+        black_level=float(black),
+        white_level=int(white),
+        color_matrix=matrix,
+        as_shot_neutral=neutral,
+        noise_profile=noise_profile(gain, sensor.read_noise_e, black, white),
+        camera_model=f"spectral_cam {sensor.model}",
+        meta=meta,
+        color_matrix_2=matrix_a,
+    )
