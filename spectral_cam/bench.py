@@ -404,10 +404,10 @@ def configure_parser(parser) -> None:
     parser.add_argument("-o", "--output", default="bench", help="output folder for CSV + PNG (default: bench)")
     parser.add_argument("--quick", action="store_true", help="small sizes: a few minutes on 2 cores")
     parser.add_argument("--only", action="append", choices=list(BENCHMARKS), help="run only these (repeatable)")
-    parser.set_defaults(func=_run)
+    parser.set_defaults(func=run)
 
 
-def _run(args) -> int:
+def run(args) -> int:
     import sys
 
     run_benchmarks(args.output, quick=args.quick, only=args.only, log=lambda m: print(m, file=sys.stderr))

@@ -1,0 +1,87 @@
+"""``spectral-cam``: the command-line face of the Python API, thin: parse, call, map errors.
+
+    spectral-cam render SCENE.toml -o OUTDIR [--set section.key=value]... [--force]
+    spectral-cam develop RAW.dng -o IMAGE [--set isp.key=value]... [--force]
+    spectral-cam cameras | validate | dataset | stress | bench
+
+One module per command in this package (``cli/render.py``, ``cli/stress.py``, ...), each with
+``configure_parser(parser)`` and ``run(args) -> exit status``, registered in :data:`COMMANDS`
+and imported only when its command runs.
+
+User errors (bad scene files, names, values, existing outputs) print one clear message and
+exit with status 2, never a traceback. Results appear atomically: a render writes into a
+hidden staging folder that is renamed onto OUTDIR only when every file is complete.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from ..errors import SpectralCamError
+from ..registry import Registry
+
+__all__ = ["main"]
+
+#: Every ``spectral-cam`` command: name → loader of its module (``spectral_cam.cli.<name>``,
+#: defining ``configure_parser(parser)`` and ``run(args)``).
+COMMANDS = Registry("command")
+
+
+def _command(name: str, description: str) -> None:
+    COMMANDS.add(name, lambda: importlib.import_module(f"{__name__}.{name}"), description=description)
+
+
+_command("render", "render a scene file into OUTDIR")
+_command("develop", "develop any DNG (ours or a camera's) into an image")
+_command("cameras", "list the measured camera sensors")
+_command("validate", "validate colour pipelines against spectral ground truth")
+_command("dataset", "generate a randomised or swept synthetic dataset")
+_command("stress", "chart where methods break (stress scenes)")
+_command("bench", "speed-against-accuracy benchmarks (CSV + PNG charts)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser (command names and one-line help; each command's own
+    arguments are parsed by :func:`command_parser`)."""
+    parser = argparse.ArgumentParser(
+        prog="spectral-cam",
+        description="Spectral, path-traced scene-to-sensor camera simulator.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name, entry in COMMANDS.items():
+        sub.add_parser(name, help=entry.description, add_help=False)
+    return parser
+
+
+def command_parser(name: str) -> argparse.ArgumentParser:
+    """The parser of one command, its module imported now."""
+    entry = COMMANDS[name]
+    parser = argparse.ArgumentParser(prog=f"spectral-cam {name}", description=entry.description)
+    module = entry.function()
+    module.configure_parser(parser)
+    parser.set_defaults(func=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] in COMMANDS:
+        args = command_parser(argv[0]).parse_args(argv[1:])
+    else:
+        build_parser().parse_args(argv)  # prints usage and exits: no command named
+        return 2
+    try:
+        return args.func(args)
+    except SpectralCamError as exc:
+        print(f"spectral-cam: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # e.g. an output path under a file, a read-only folder
+        print(f"spectral-cam: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("spectral-cam: interrupted; no partial output was kept", file=sys.stderr)
+        return 130
+
+

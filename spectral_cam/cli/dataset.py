@@ -1,0 +1,3 @@
+"""Interim: moved here by the dataset app restructure."""
+
+from ..dataset import configure_parser, run  # noqa: F401

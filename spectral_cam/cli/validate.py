@@ -1,0 +1,3 @@
+"""Interim: moved here by the validate app restructure."""
+
+from ..validate import configure_parser, run  # noqa: F401
