@@ -1,4 +1,4 @@
-"""The command line: outputs as DESIGN.md specifies, and user errors without tracebacks."""
+"""The command line: outputs as docs/design.md specifies, and user errors without tracebacks."""
 
 from __future__ import annotations
 
