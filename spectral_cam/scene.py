@@ -10,7 +10,7 @@ The geometry of the presets lives in :mod:`spectral_cam.presets`.
 References
 ----------
 .. [1] TOML v1.0.0, https://toml.io/en/v1.0.0 (read with the standard library's tomllib).
-.. [2] ../shared/DESIGN.md, "The scene file and the CLI" (the key names are a contract).
+.. [2] docs/design.md, "The scene file" (the key names are a contract).
 """
 
 from __future__ import annotations
@@ -481,6 +481,15 @@ def load_scene(path: str | Path, overrides: Mapping[str, Any] | list[str] | None
         The ``.toml`` scene file.
     overrides
         ``{"lens.f_number": 2.8}`` or a list of ``"section.key=value"`` strings.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "scene.toml").write_text("lens = { f_number = 4.0 }")
+    >>> scene = load_scene(folder / "scene.toml", overrides={"sensor.width_px": 64})
+    >>> scene.lens.f_number, scene.sensor.width_px, scene.scene.preset
+    (4.0, 64, 'colorchecker')
     """
     path = Path(path)
     data = read_toml(path, "scene file")

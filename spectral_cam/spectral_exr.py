@@ -39,6 +39,18 @@ def write_spectral_exr(image: SpectralImage, path: str | Path) -> Path:
     """Write spectral radiance **per nm** (band integral / band width), W·m⁻²·sr⁻¹·nm⁻¹.
 
     The file appears only once complete (written to a temporary name, then renamed).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import numpy as np
+    >>> from spectral_cam.charts import narrow_band_flat
+    >>> from spectral_cam.spectral_exr import read_spectral_exr, write_spectral_exr
+    >>> image = narrow_band_flat((4, 4), 0.05)            # 31 bands of 10 nm, 400–700 nm
+    >>> path = write_spectral_exr(image, pathlib.Path(tempfile.mkdtemp()) / "radiance.exr")
+    >>> back = read_spectral_exr(path)
+    >>> bool(np.allclose(back.data, image.data)), back.wavelengths_nm[:3].tolist()
+    (True, [400.0, 410.0, 420.0])
     """
     import OpenEXR
 

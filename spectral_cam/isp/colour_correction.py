@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigError
+from ..registry import Registry
 
 __all__ = [
     "ROOT_POLYNOMIAL_TERMS",
@@ -300,3 +301,85 @@ def linear_srgb_to_xyz(rgb: np.ndarray) -> np.ndarray:
     _, to_xyz = _srgb_matrices()
     return _apply_3x3(rgb, to_xyz)
 
+
+
+# ----------------------------------------------------------------------------- which transform
+#: RawImage.meta key of a fitted (3, 3) white-balanced camera RGB → XYZ(D65) matrix
+#: (or a callable).
+META_CAMERA_TO_XYZ = "camera_to_xyz_d65"
+#: RawImage.meta key of a root-polynomial correction: a (3, N) matrix (N = 6, 13, 22) or
+#: a callable.
+META_CAMERA_TO_XYZ_ROOT_POLY = "camera_to_xyz_d65_root_polynomial"
+
+
+def _dng(raw, gains, supplied):
+    if raw.color_matrix is None:
+        raise ConfigError("isp.colour_matrix = 'dng' needs the RAW's ColorMatrix1; this RAW has none "
+                          "(use 'fitted' with a supplied matrix, or 'none')")
+    return dng_camera_to_xyz_d65(raw.color_matrix, 1.0 / gains, color_matrix_2=getattr(raw, "color_matrix_2", None))
+
+
+def _supplied(method: str, key: str):
+    def transform_of(raw, gains, supplied):
+        transform = supplied if supplied is not None else (raw.meta or {}).get(key)
+        if transform is None:
+            raise ConfigError(f"isp.colour_matrix = {method!r} needs a camera → XYZ(D65) transform: pass "
+                              f"camera_to_xyz= to develop() or put it in RawImage.meta[{key!r}]; "
+                              "valid without one: 'dng', 'none'")
+        if not callable(transform):
+            transform = np.asarray(transform, dtype=np.float64)
+            if method == "fitted" and transform.shape != (3, 3):
+                raise ConfigError(f"isp.colour_matrix = 'fitted' needs a (3, 3) matrix; got shape {transform.shape} "
+                                  "(a (3, N) matrix is a root-polynomial correction: use 'root_polynomial')")
+        return transform
+
+    return transform_of
+
+
+def _auto(raw, gains, supplied):
+    return None  # resolved by colour_transform (to "fitted", "dng" or "none")
+
+
+#: Sources of the white-balanced camera RGB → XYZ(D65) transform (``isp.colour_matrix``):
+#: each entry ``(raw, gains, supplied) -> transform`` (None: no colour correction).
+COLOUR_MATRIX = Registry("colour matrix source")
+COLOUR_MATRIX.add("auto", _auto, description="'fitted' when the RAW carries a fitted matrix, else 'dng', else 'none'")
+COLOUR_MATRIX.add("dng", _dng, description="the DNG's ColorMatrix1/2 (interpolated by CCT) and AsShotNeutral")
+COLOUR_MATRIX.add("fitted", _supplied("fitted", META_CAMERA_TO_XYZ),
+                  description="a 3×3 matrix fitted from the measured curves (RawImage.meta)")
+COLOUR_MATRIX.add("root_polynomial", _supplied("root_polynomial", META_CAMERA_TO_XYZ_ROOT_POLY),
+                  description="a root-polynomial correction fitted from the measured curves")
+COLOUR_MATRIX.add("none", lambda raw, gains, supplied: None, description="no colour correction (camera RGB)")
+
+
+def colour_transform(raw, method: str, gains: np.ndarray, supplied=None):
+    """(transform, source name) of white-balanced camera RGB → XYZ(D65) for a RAW.
+
+    Parameters
+    ----------
+    raw : RawImage
+        The RAW (its ColorMatrix1/2 and ``meta`` fitted corrections).
+    method : str
+        One of :data:`COLOUR_MATRIX`; ``"auto"`` picks ``"fitted"`` when a transform is
+        supplied or the RAW carries one, else ``"dng"`` when it has a ColorMatrix1, else
+        ``"none"``.
+    gains : numpy.ndarray
+        The white-balance gains applied (their inverse is the neutral the DNG matrix is
+        adapted from).
+    supplied : array or callable, optional
+        A transform given to :func:`spectral_cam.isp.develop` (``camera_to_xyz``).
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (mapping camera colour space to
+       CIE XYZ).
+    """
+    if method == "auto":
+        if supplied is not None or (raw.meta or {}).get(META_CAMERA_TO_XYZ) is not None:
+            method = "fitted"
+        elif raw.color_matrix is not None:
+            method = "dng"
+        else:
+            method = "none"
+    transform = COLOUR_MATRIX[method](raw, gains, supplied)
+    return transform, ("none" if transform is None else method)

@@ -1,8 +1,10 @@
 """The ISP's settings: a frozen, validated, TOML/JSON-serialisable :class:`ISPConfig`.
 
-This module imports nothing heavy (no NumPy, OpenCV, colour-science): the scene file
-reader uses :class:`ISPConfig` as its ``[isp]`` section. The method names below are the
-keys of the stage registries in the sibling modules (a test keeps the two in step).
+The scene file reader uses :class:`ISPConfig` as its ``[isp]`` section. Valid method names
+are the stage registries' (``WHITE_BALANCE``, ``DEMOSAIC``, ``DENOISERS``, ``HIGHLIGHTS``,
+``COLOUR_MATRIX``, ``TONE``, ``ENCODERS`` in the sibling modules): a new method is one
+registry entry, nothing here. The stage modules import only NumPy at load time (OpenCV,
+colour-science and scikit-image load on first use).
 
 Every field takes a TOML-friendly type (``str``, ``float``, ``int``, ``bool`` or a tuple
 of ``str``/``float``) and its annotation is kept as a string, the form
@@ -17,6 +19,13 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from ..errors import ConfigError
+from .colour_correction import COLOUR_MATRIX
+from .demosaic import DEMOSAIC
+from .denoise import DENOISERS
+from .encode import ENCODERS
+from .highlights import HIGHLIGHTS
+from .tone import TONE
+from .white_balance import WHITE_BALANCE
 
 __all__ = [
     "ISPConfig",
@@ -29,20 +38,14 @@ __all__ = [
     "OUTPUT_FORMATS",
 ]
 
-#: White balance: camera AsShotNeutral, grey world, white patch (bright percentile), gains.
-WHITE_BALANCE_METHODS = ("as_shot", "grey_world", "white_patch", "manual")
-#: Demosaicing algorithms (:mod:`spectral_cam.isp.demosaic`).
-DEMOSAIC_METHODS = ("bilinear", "malvar2004", "menon2007", "vng", "ea")
-#: Denoisers run in the variance-stabilised domain (:mod:`spectral_cam.isp.denoise`).
-DENOISE_METHODS = ("nlmeans", "bilateral", "tv")
-#: Clipped-highlight handling (:mod:`spectral_cam.isp.highlights`).
-HIGHLIGHT_METHODS = ("clip", "desaturate", "none")
-#: Camera RGB → XYZ(D65): "auto" = "fitted" when the RAW carries a fitted matrix, else "dng".
-COLOUR_MATRIX_METHODS = ("auto", "dng", "fitted", "root_polynomial", "none")
-#: Tone curves: sRGB OETF only (colorimetric), filmic + OETF, or linear (no curve).
-TONE_METHODS = ("srgb", "filmic", "linear")
-#: Files :func:`spectral_cam.isp.encode.write_outputs` can write.
-OUTPUT_FORMATS = ("png", "png16", "jpeg", "tiff", "exr")
+#: Method names per setting, read from the stage registries (one place per extension point).
+WHITE_BALANCE_METHODS = WHITE_BALANCE.names()
+DEMOSAIC_METHODS = DEMOSAIC.names()
+DENOISE_METHODS = DENOISERS.names()
+HIGHLIGHT_METHODS = HIGHLIGHTS.names()
+COLOUR_MATRIX_METHODS = COLOUR_MATRIX.names()
+TONE_METHODS = TONE.names()
+OUTPUT_FORMATS = ENCODERS.names()
 
 
 def _fail(key: str, value: Any, rule: str) -> None:

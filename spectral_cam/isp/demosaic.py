@@ -35,8 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
 from ..cfa import channel_index, channel_masks, check_cfa, opencv_bayer_code
+from ..errors import ConfigError
+from ..registry import Registry
 
 __all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "vng", "ea"]
 
@@ -273,13 +274,13 @@ def ea(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
 
 
 #: Demosaicing methods by name.
-DEMOSAIC = {
-    "bilinear": bilinear,
-    "malvar2004": malvar2004,
-    "menon2007": menon2007,
-    "vng": vng,
-    "ea": ea,
-}
+#: Demosaicing methods by name (``isp.demosaic``); a new method is one entry here.
+DEMOSAIC = Registry("demosaic method")
+DEMOSAIC.add("bilinear", bilinear, description="normalised masked convolution")
+DEMOSAIC.add("malvar2004", malvar2004, description="gradient-corrected linear (Malvar, He & Cutler 2004)")
+DEMOSAIC.add("menon2007", menon2007, description="directional filtering, a posteriori decision (Menon et al. 2007)")
+DEMOSAIC.add("vng", vng, description="OpenCV variable number of gradients")
+DEMOSAIC.add("ea", ea, description="OpenCV edge-aware")
 
 
 def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", *, method: str = "malvar2004") -> np.ndarray:
@@ -311,6 +312,4 @@ def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", *, method: str = "malvar2004
     .. [1] Malvar, H. S., He, L., & Cutler, R. (2004). Proc. IEEE ICASSP, 485–488.
     .. [2] Menon, D., Andriani, S., & Calvagno, G. (2007). IEEE TIP 16(1), 132–141.
     """
-    if method not in DEMOSAIC:
-        raise ConfigError(f"demosaic method {method!r} is unknown; valid: {', '.join(DEMOSAIC)}")
     return DEMOSAIC[method](mosaic, cfa)

@@ -3,7 +3,8 @@
 The Poisson–Gaussian model of a linear sensor holds only on the raw mosaic, before white
 balance, demosaicing and colour mixing: a normalised sample x (black 0, white 1) has
 variance ``var(x) = S·x + O`` (the DNG NoiseProfile; from the sensor's gain K in DN/e⁻
-and dark noise σ_d in e⁻, S = K/(W − B) and O = (K²σ_d² + 1/12)/(W − B)²). The
+and read noise σ_read in e⁻, S = K/(W − B) and O = (K²σ_read² + 1/12)/(W − B)²: x keeps
+the dark signal, whose shot noise S·x already counts; docs/design.md, "RAW"). The
 generalised Anscombe transform (GAT) maps such data to unit variance at every level; a
 denoiser designed for additive white Gaussian noise of σ = 1 then runs on each of the
 four CFA planes, and the exact unbiased inverse of Mäkitalo & Foi (2013), in its
@@ -41,8 +42,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError
 from ..cfa import check_cfa
+from ..errors import ConfigError
+from ..registry import Registry
 
 __all__ = [
     "NoiseModel",
@@ -182,7 +184,9 @@ def _inverse_algebraic(d: np.ndarray, sigma2: float) -> np.ndarray:
 
 
 #: Inverses of the GAT by name.
-INVERSES = {"exact_unbiased": _inverse_exact_unbiased, "algebraic": _inverse_algebraic}
+INVERSES = Registry("GAT inverse")
+INVERSES.add("exact_unbiased", _inverse_exact_unbiased, description="Mäkitalo & Foi (2013) closed-form approximation")
+INVERSES.add("algebraic", _inverse_algebraic, description="the algebraic inverse (biased at low counts)")
 
 
 def inverse_generalized_anscombe(d: np.ndarray, *, noise: NoiseModel, method: str = "exact_unbiased") -> np.ndarray:
@@ -215,8 +219,6 @@ def inverse_generalized_anscombe(d: np.ndarray, *, noise: NoiseModel, method: st
     .. [1] Mäkitalo, M., & Foi, A. (2013). Optimal inversion of the generalized Anscombe
        transformation for Poisson-Gaussian noise. IEEE TIP 22(1), 91–103.
     """
-    if method not in INVERSES:
-        raise ConfigError(f"GAT inverse {method!r} is unknown; valid: {', '.join(INVERSES)}")
     alpha, sigma2 = _counts_domain(noise)
     if alpha == 0:
         return (np.asarray(d, dtype=np.float64) * math.sqrt(sigma2)).astype(np.float32)
@@ -300,7 +302,10 @@ _BILATERAL_SIGMA_COLOR = 2.0
 _TV_WEIGHT = 1.0
 
 #: Denoisers for additive white Gaussian noise of σ = 1, by name.
-DENOISERS = {"nlmeans": _nlmeans, "bilateral": _bilateral, "tv": _tv}
+DENOISERS = Registry("denoise method")
+DENOISERS.add("nlmeans", _nlmeans, description="non-local means (Buades et al. 2005)")
+DENOISERS.add("bilateral", _bilateral, description="bilateral filter (Tomasi & Manduchi 1998)")
+DENOISERS.add("tv", _tv, description="total variation (Chambolle 2004)")
 
 
 def denoise_mosaic(
@@ -349,10 +354,8 @@ def denoise_mosaic(
     .. [1] Mäkitalo, M., & Foi, A. (2013). IEEE TIP 22(1), 91–103.
     .. [2] Buades, A., Coll, B., & Morel, J.-M. (2005). Proc. IEEE CVPR, 60–65.
     """
-    if method not in DENOISERS:
-        raise ConfigError(f"denoise method {method!r} is unknown; valid: {', '.join(DENOISERS)}")
-    if inverse not in INVERSES:
-        raise ConfigError(f"GAT inverse {inverse!r} is unknown; valid: {', '.join(INVERSES)}")
+    DENOISERS.check(method)
+    INVERSES.check(inverse)
     if not (math.isfinite(strength) and strength >= 0):
         raise ConfigError(f"denoise strength {strength!r} must be a number >= 0")
     mosaic = np.asarray(mosaic, dtype=np.float32)

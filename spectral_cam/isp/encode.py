@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..io import atomic_path
+from ..registry import Registry
 
 __all__ = [
     "ENCODERS",
@@ -212,7 +213,12 @@ def _exr(dev, path, **_):
 
 
 #: Encoders by output-format name; each takes a DevelopedImage and a path.
-ENCODERS = {"png": _png8, "png16": _png16, "jpeg": _jpeg, "tiff": _tiff, "exr": _exr}
+ENCODERS = Registry("output format")
+ENCODERS.add("png", _png8, description="8-bit sRGB PNG")
+ENCODERS.add("png16", _png16, description="16-bit sRGB PNG")
+ENCODERS.add("jpeg", _jpeg, options=("quality",), description="JPEG")
+ENCODERS.add("tiff", _tiff, description="16-bit TIFF")
+ENCODERS.add("exr", _exr, description="linear sRGB OpenEXR")
 #: File suffix each format writes with :func:`write_outputs`.
 FORMAT_SUFFIXES = {"png": ".png", "png16": ".16bit.png", "jpeg": ".jpg", "tiff": ".tif", "exr": ".exr"}
 _BY_SUFFIX = {".png": "png", ".jpg": "jpeg", ".jpeg": "jpeg", ".tif": "tiff", ".tiff": "tiff", ".exr": "exr"}
@@ -253,8 +259,6 @@ def write_image(developed, path: str | Path, *, format: str | None = None, quali
         if format is None:
             raise ConfigError(f"cannot tell the image format of {str(path)!r}; use a suffix among "
                               f"{', '.join(_BY_SUFFIX)}")
-    if format not in ENCODERS:
-        raise ConfigError(f"output format {format!r} is unknown; valid: {', '.join(ENCODERS)}")
     return ENCODERS[format](developed, path, quality=quality)
 
 
@@ -287,8 +291,7 @@ def write_outputs(developed, directory: str | Path, formats, *, stem: str = "ima
     """
     written = []
     for name in formats:
-        if name not in ENCODERS:
-            raise ConfigError(f"output format {name!r} is unknown; valid: {', '.join(ENCODERS)}")
+        ENCODERS.check(name)
         written.append(write_image(developed, Path(directory) / f"{stem}{FORMAT_SUFFIXES[name]}",
                                    format=name, quality=quality))
     return written

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..registry import Registry
 
 __all__ = ["HIGHLIGHTS", "clipped_mask", "handle_highlights"]
 
@@ -83,7 +83,10 @@ def _desaturate(rgb, mask, level):
 
 
 #: Highlight handlers by name.
-HIGHLIGHTS = {"clip": _clip, "desaturate": _desaturate, "none": _none}
+HIGHLIGHTS = Registry("highlight method")
+HIGHLIGHTS.add("clip", _clip, description="limit masked pixels to the white-balanced saturation")
+HIGHLIGHTS.add("desaturate", _desaturate, description="clip, then blend to neutral")
+HIGHLIGHTS.add("none", _none, description="leave clipped pixels as they are")
 
 
 def handle_highlights(rgb: np.ndarray, mask: np.ndarray, *, level: float = 1.0,
@@ -118,7 +121,5 @@ def handle_highlights(rgb: np.ndarray, mask: np.ndarray, *, level: float = 1.0,
     ----------
     .. [1] Coffin, D. dcraw.c, ``-H`` highlight modes.
     """
-    if method not in HIGHLIGHTS:
-        raise ConfigError(f"highlight method {method!r} is unknown; valid: {', '.join(HIGHLIGHTS)}")
     rgb = np.asarray(rgb, dtype=np.float32)
     return HIGHLIGHTS[method](rgb, np.asarray(mask, dtype=bool), float(level)).astype(np.float32, copy=False)

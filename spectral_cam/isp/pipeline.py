@@ -22,9 +22,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConfigError
 from ..cfa import check_cfa
-from .colour_correction import camera_to_linear_srgb, dng_camera_to_xyz_d65
+from ..errors import ConfigError
+from .colour_correction import (
+    META_CAMERA_TO_XYZ,
+    META_CAMERA_TO_XYZ_ROOT_POLY,
+    camera_to_linear_srgb,
+    colour_transform,
+)
 from .config import ISPConfig
 from .demosaic import demosaic
 from .denoise import NoiseModel, denoise_mosaic, estimate_noise
@@ -36,12 +41,6 @@ from .white_balance import apply_white_balance, white_balance_gains
 
 __all__ = ["DevelopedImage", "develop", "noise_model_of", "META_CAMERA_TO_XYZ", "META_CAMERA_TO_XYZ_ROOT_POLY"]
 
-#: RawImage.meta key of a fitted (3, 3) white-balanced camera RGB → XYZ(D65) matrix
-#: (or a callable).
-META_CAMERA_TO_XYZ = "camera_to_xyz_d65"
-#: RawImage.meta key of a root-polynomial correction: a (3, N) matrix (N = 6, 13, 22) or
-#: a callable.
-META_CAMERA_TO_XYZ_ROOT_POLY = "camera_to_xyz_d65_root_polynomial"
 #: RawImage.meta keys read for the sensor noise model when the RAW has no NoiseProfile.
 META_GAIN_KEYS = ("K", "K_dn_per_e", "gain_dn_per_e")
 META_DARK_NOISE_KEYS = ("sigma_dark_e", "sigma_d_e", "dark_noise_e")
@@ -119,39 +118,6 @@ def noise_model_of(raw) -> NoiseModel | None:
     return None
 
 
-def _colour_transform(raw, config: ISPConfig, gains: np.ndarray, camera_to_xyz_arg):
-    """(transform, source name) for white-balanced camera RGB → XYZ(D65)."""
-    meta = raw.meta or {}
-    method = config.colour_matrix
-    if method == "auto":
-        if camera_to_xyz_arg is not None or meta.get(META_CAMERA_TO_XYZ) is not None:
-            method = "fitted"
-        elif raw.color_matrix is not None:
-            method = "dng"
-        else:
-            method = "none"
-    if method == "none":
-        return None, "none"
-    if method == "dng":
-        if raw.color_matrix is None:
-            raise ConfigError("isp.colour_matrix = 'dng' needs the RAW's ColorMatrix1; this RAW has none "
-                              "(use 'fitted' with a supplied matrix, or 'none')")
-        return dng_camera_to_xyz_d65(raw.color_matrix, 1.0 / gains,
-                                     color_matrix_2=getattr(raw, "color_matrix_2", None)), "dng"
-    key = META_CAMERA_TO_XYZ if method == "fitted" else META_CAMERA_TO_XYZ_ROOT_POLY
-    transform = camera_to_xyz_arg if camera_to_xyz_arg is not None else meta.get(key)
-    if transform is None:
-        raise ConfigError(f"isp.colour_matrix = {method!r} needs a camera → XYZ(D65) transform: pass "
-                          f"camera_to_xyz= to develop() or put it in RawImage.meta[{key!r}]; "
-                          "valid without one: 'dng', 'none'")
-    if not callable(transform):
-        transform = np.asarray(transform, dtype=np.float64)
-        if method == "fitted" and transform.shape != (3, 3):
-            raise ConfigError(f"isp.colour_matrix = 'fitted' needs a (3, 3) matrix; got shape {transform.shape} "
-                              "(a (3, N) matrix is a root-polynomial correction: use 'root_polynomial')")
-    return transform, method
-
-
 def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> DevelopedImage:
     """Develop a RAW into a display sRGB image.
 
@@ -182,6 +148,20 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
     ----------
     .. [1] Ramanath, R., et al. (2005). IEEE Signal Processing Magazine 22(1), 34–43.
     .. [2] Adobe (2023). DNG Specification 1.7.1.0, ch. 5–6.
+
+    Examples
+    --------
+    A flat mid-grey mosaic, developed without a colour matrix: linear 0.5 everywhere, which the
+    sRGB OETF encodes as 0.735:
+
+    >>> import numpy as np
+    >>> from spectral_cam.isp import ISPConfig, develop
+    >>> from spectral_cam.raw import RawImage
+    >>> raw = RawImage(np.full((16, 16), 2048, np.uint16), "RGGB", black_level=0.0, white_level=4095,
+    ...                as_shot_neutral=np.ones(3))
+    >>> image = develop(raw, ISPConfig(colour_matrix="none"))
+    >>> image.image.shape, round(float(image.linear.mean()), 3), round(float(image.image.mean()), 3)
+    ((16, 16, 3), 0.5, 0.735)
     """
     config = ISPConfig() if config is None else config
     if not isinstance(config, ISPConfig):
@@ -230,7 +210,7 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
     timings["highlights"] = clock() - t
 
     t = clock()
-    transform, source = (None, "none") if monochrome else _colour_transform(raw, config, gains, camera_to_xyz)
+    transform, source = (None, "none") if monochrome else colour_transform(raw, config.colour_matrix, gains, camera_to_xyz)
     linear = rgb if transform is None else camera_to_linear_srgb(rgb, transform)
     if config.exposure_ev != 0:
         linear = apply_exposure(linear, ev=config.exposure_ev)

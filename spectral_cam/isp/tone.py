@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..registry import Registry
 
 __all__ = ["TONE", "srgb_oetf", "srgb_eotf", "filmic", "apply_exposure", "tone_map"]
 
@@ -112,7 +112,10 @@ def _linear(linear: np.ndarray) -> np.ndarray:
 
 
 #: Tone curves by name.
-TONE = {"srgb": srgb_oetf, "filmic": filmic, "linear": _linear}
+TONE = Registry("tone curve")
+TONE.add("srgb", srgb_oetf, description="the sRGB OETF only (colorimetric)")
+TONE.add("filmic", filmic, description="ACES-like filmic curve, then the sRGB OETF")
+TONE.add("linear", _linear, description="no curve")
 
 
 def apply_exposure(linear: np.ndarray, *, ev: float = 0.0) -> np.ndarray:
@@ -162,6 +165,4 @@ def tone_map(linear: np.ndarray, *, method: str = "srgb") -> np.ndarray:
     .. [1] IEC 61966-2-1:1999.
     .. [2] Narkowicz, K. (2016). ACES Filmic Tone Mapping Curve.
     """
-    if method not in TONE:
-        raise ConfigError(f"tone {method!r} is unknown; valid: {', '.join(TONE)}")
     return TONE[method](linear)

@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
 from ..cfa import channel_index, tile_gain_map
+from ..errors import ConfigError
+from ..registry import Registry
 from .highlights import clipped_mask
 
 __all__ = ["WHITE_BALANCE", "white_balance_gains", "apply_white_balance"]
@@ -72,12 +73,11 @@ def _manual(mosaic, cfa, *, gains=None, **_):
 
 
 #: White-balance gain estimators by name.
-WHITE_BALANCE = {
-    "as_shot": _as_shot,
-    "grey_world": _grey_world,
-    "white_patch": _white_patch,
-    "manual": _manual,
-}
+WHITE_BALANCE = Registry("white balance method")
+WHITE_BALANCE.add("as_shot", _as_shot, options=("as_shot_neutral",), description="the RAW's AsShotNeutral")
+WHITE_BALANCE.add("grey_world", _grey_world, description="mean of each channel (Buchsbaum 1980)")
+WHITE_BALANCE.add("white_patch", _white_patch, options=("percentile",), description="a bright percentile per channel")
+WHITE_BALANCE.add("manual", _manual, options=("gains",), description="isp.wb_gains")
 
 
 def white_balance_gains(
@@ -128,8 +128,6 @@ def white_balance_gains(
     .. [2] Land, E. H., & McCann, J. J. (1971). JOSA 61(1), 1–11.
     .. [3] Adobe (2023). DNG Specification 1.7.1.0, AsShotNeutral.
     """
-    if method not in WHITE_BALANCE:
-        raise ConfigError(f"white balance {method!r} is unknown; valid: {', '.join(WHITE_BALANCE)}")
     return WHITE_BALANCE[method](np.asarray(mosaic, dtype=np.float32), cfa, as_shot_neutral=as_shot_neutral,
                                  gains=gains, saturation=saturation, percentile=percentile)
 

@@ -1,6 +1,6 @@
 """Image-quality metrics: ColorChecker ΔE2000 per patch, patch means, PSNR and SSIM.
 
-Colour error follows DESIGN.md: measured on linear sRGB (tone curve off, unclipped),
+Colour error follows docs/design.md ("Ground truth"): measured on linear sRGB (tone curve off, unclipped),
 converted to CIE XYZ and CIELAB under D65 (the sRGB white), compared with CIEDE2000.
 
 References

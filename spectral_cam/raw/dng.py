@@ -114,6 +114,17 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     ----------
     .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 4 (tags 50706–51041).
     .. [2] ISO 12234-2 (TIFF/EP): CFARepeatPatternDim (33421), CFAPattern (33422).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import numpy as np
+    >>> from spectral_cam.raw import RawImage, read_raw, write_dng
+    >>> mosaic = np.arange(32 * 32, dtype=np.uint16).reshape(32, 32)
+    >>> path = write_dng(RawImage(mosaic, "GRBG", 64.0, 4095), pathlib.Path(tempfile.mkdtemp()) / "ramp.dng")
+    >>> raw = read_raw(path)                   # LibRaw reads it back bit for bit
+    >>> bool((raw.mosaic == mosaic).all()), raw.cfa, raw.white_level
+    (True, 'GRBG', 4095)
     """
     import tifffile
 

@@ -170,6 +170,17 @@ def read_raw(path) -> RawImage:
     .. [1] rawpy API (raw_image_visible, raw_pattern, color_desc, black_level_per_channel,
        white_level, camera_whitebalance, daylight_whitebalance, color_matrix).
     .. [2] Adobe (2023). DNG Specification 1.7.1.0.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import numpy as np
+    >>> from spectral_cam.raw import RawImage, read_raw, write_dng
+    >>> path = write_dng(RawImage(np.full((32, 32), 100, np.uint16), "RGGB", 64.0, 4095),
+    ...                  pathlib.Path(tempfile.mkdtemp()) / "flat.dng")
+    >>> raw = read_raw(path)
+    >>> raw.mosaic.shape, raw.cfa, float(np.mean(raw.black_level)), raw.white_level
+    ((32, 32), 'RGGB', 64.0, 4095)
     """
     import rawpy
 

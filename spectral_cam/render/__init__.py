@@ -64,8 +64,8 @@ def render(
     >>> import spectral_cam as sc
     >>> scene = sc.scene_from_dict({"sensor": {"width_px": 24, "height_px": 16}, "render": {"spp": 4}})
     >>> radiance = sc.render(scene)
-    >>> radiance.data.shape, radiance.meta["lens_model"]
-    ((16, 24, 6), 'pinhole')
+    >>> radiance.data.shape, radiance.meta["bands"], radiance.meta["lens_model"]
+    ((16, 24, 31), '400:700:10', 'pinhole')
     """
     import mitsuba as mi
 

@@ -118,6 +118,17 @@ def expose(
     ----------
     .. [1] EMVA 1288 Release 4.0, §2–3.
     .. [2] Adobe (2023). DNG Specification 1.7.1.0 (ColorMatrix1, AsShotNeutral, NoiseProfile).
+
+    Examples
+    --------
+    A flat field of 550-nm light (0.05 W·m⁻²·sr⁻¹ in its 10-nm band) for 10 ms:
+
+    >>> import spectral_cam as sc
+    >>> from spectral_cam.charts import narrow_band_flat
+    >>> scene = sc.scene_from_dict({"sensor": {"width_px": 32, "height_px": 32}, "exposure": {"time_s": 0.01}})
+    >>> raw = sc.expose(narrow_band_flat((32, 32), 0.05), scene)
+    >>> raw.mosaic.shape, raw.mosaic.dtype, raw.cfa, raw.white_level
+    ((32, 32), dtype('uint16'), 'RGGB', 4095)
     """
     started = time.perf_counter()
     timings: dict[str, float] = {}

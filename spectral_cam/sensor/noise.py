@@ -92,9 +92,9 @@ def noise_profile(gain: float, sigma_read_e: float, black_level: float, white_le
     ``O = (K²·σ_read² + 1/12)/(W − B)²`` (read noise plus quantisation).
 
     Only the black level B is subtracted, so x still holds the dark signal K·I_d·t, whose
-    shot noise S·x already counts: O takes the read noise alone. (DESIGN.md's
-    O = (K²σ_d² + 1/12)/(W − B)² with σ_d² = σ_read² + I_d·t counts the dark-current shot
-    noise twice; the difference is K²·I_d·t/(W − B)².)
+    shot noise S·x already counts: O takes the read noise alone. (O = (K²σ_d² + 1/12)/(W − B)²
+    with σ_d² = σ_read² + I_d·t would count the dark-current shot noise twice; the difference
+    is K²·I_d·t/(W − B)²; docs/design.md, "RAW".)
 
     Parameters
     ----------

@@ -1,0 +1,144 @@
+"""The package's structure: no import cycles, data flowing one way, apps and CLI on top.
+
+The reference is the package's own source read as text (``ast``): every import, at module
+level or inside a function, except those only for type checkers (``if TYPE_CHECKING:``),
+is an edge between two modules. Tarjan's algorithm finds the strongly connected components;
+any with more than one module is a cycle (Tarjan, R. E. (1972). SIAM J. Comput. 1(2), 146–160).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import spectral_cam
+
+pytestmark = pytest.mark.timeout(60)
+
+ROOT = Path(spectral_cam.__file__).parent
+PACKAGE = "spectral_cam"
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _modules() -> dict[str, Path]:
+    return {_module_name(p): p for p in ROOT.rglob("*.py")}
+
+
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    hidden = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            hidden.update(id(child) for child in ast.walk(node))
+    return hidden
+
+
+def _resolve(module: str, is_package: bool, level: int, target: str | None) -> str:
+    base = module.split(".") if is_package else module.split(".")[:-1]
+    if level > 1:
+        base = base[: len(base) - (level - 1)]
+    return ".".join(base + ([target] if target else []))
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module → the package modules it imports (submodule names resolved where they exist)."""
+    modules = _modules()
+    graph: dict[str, set[str]] = {name: set() for name in modules}
+    for name, path in modules.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        hidden = _type_checking_nodes(tree)
+        is_package = path.name == "__init__.py"
+        for node in ast.walk(tree):
+            if id(node) in hidden:
+                continue
+            targets = []
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = (_resolve(name, is_package, node.level, node.module) if node.level
+                        else node.module or "")
+                targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base
+                           for alias in node.names]
+            for target in targets:
+                while target and target not in modules:
+                    target = target.rpartition(".")[0]
+                if target.startswith(PACKAGE) and target != name:
+                    graph[name].add(target)
+    return graph
+
+
+def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Tarjan's strongly connected components."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for nxt in sorted(graph[node]):
+            if nxt not in index:
+                visit(nxt)
+                low[node] = min(low[node], low[nxt])
+            elif nxt in on_stack:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                item = stack.pop()
+                on_stack.discard(item)
+                component.append(item)
+                if item == node:
+                    break
+            out.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return out
+
+
+def test_the_import_graph_has_no_cycle():
+    cycles = [c for c in strongly_connected(import_graph()) if len(c) > 1]
+    assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
+
+
+def test_a_cycle_is_found_where_there_is_one():
+    # the detector itself, on a known graph
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert [c for c in strongly_connected(graph) if len(c) > 1] == [["a", "b", "c"]]
+
+
+def _reaches(graph, start: str, prefix: str) -> list[str]:
+    return sorted(t for t in graph[start] if t == prefix or t.startswith(prefix + "."))
+
+
+@pytest.mark.parametrize("lower, higher", [
+    ("spectral_cam.sensor", "spectral_cam.render"),       # the sensor knows nothing of Mitsuba
+    ("spectral_cam.isp", "spectral_cam.sensor"),          # the ISP sees RAW + metadata only
+    ("spectral_cam.isp", "spectral_cam.render"),
+    ("spectral_cam.isp", "spectral_cam.spectra"),
+    ("spectral_cam.raw", "spectral_cam.sensor"),
+    ("spectral_cam.metrics", "spectral_cam.render"),
+])
+def test_data_flows_one_way(lower, higher):
+    graph = import_graph()
+    offenders = {m: _reaches(graph, m, higher) for m in graph if m == lower or m.startswith(lower + ".")}
+    assert not {m: t for m, t in offenders.items() if t}
+
+
+def test_only_apps_and_cli_import_apps_and_cli():
+    graph = import_graph()
+    for module, targets in graph.items():
+        if module.startswith(("spectral_cam.apps", "spectral_cam.cli")):
+            continue
+        upward = [t for t in targets if t.startswith(("spectral_cam.apps", "spectral_cam.cli"))]
+        assert not upward, f"{module} imports {upward}"
