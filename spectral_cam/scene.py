@@ -10,7 +10,7 @@ The geometry of the presets lives in :mod:`spectral_cam.presets`.
 References
 ----------
 .. [1] TOML v1.0.0, https://toml.io/en/v1.0.0 (read with the standard library's tomllib).
-.. [2] docs/design.md, "The scene file" (the key names are a contract).
+.. [2] docs/design.md, "Scene file" (the key names are a contract).
 """
 
 from __future__ import annotations

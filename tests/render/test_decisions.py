@@ -108,3 +108,67 @@ def test_partial_diffraction_mtf_per_channel_matches_the_weighted_airy_mtf():
         error = np.abs(measured[nyquist] - expected[nyquist])
         print(f"channel {c}: max |MTF error| up to Nyquist {error.max():.3f}")
         assert error.max() < 0.05, f"channel {c}"
+
+
+def _small_source(**lens):
+    # one 6.5-mm emitter at 3 m (a disc of ~3 px radius through a pinhole), focus 0.3 m, f/1.4:
+    # a 23-px blur disc, seen through ~7 % of the aperture
+    return scene_from_dict({
+        "scene": {"preset": "point_sources", "depths_m": [3.0], "source_radius_m": 0.0065},
+        "lens": {"focal_length_mm": 8.0, "f_number": 1.4, "focus_distance_m": 0.3, **lens},
+        "sensor": {"width_px": 40, "height_px": 40, "pixel_pitch_um": 6.0},
+        "render": {"spp": 64, "diffraction": "off"},
+    })
+
+
+@pytest.mark.timeout(120)
+def test_auto_lens_model_picks_the_layered_model_for_a_small_source_far_out_of_focus():
+    from spectral_cam.render.defocus import aperture_fraction
+
+    config = _small_source()
+    image = render(config, with_depth=True)
+    decision = image.meta["model_decisions"]["lens_model"]
+    assert decision["choice"] == "layered" and image.meta["lens_model"] == "layered"
+    assert "defocus" in image.meta["model_decisions"]
+    # the thin-lens noise estimate against the aperture fraction p = (r·z_f/(|z − z_f|·R))²
+    # of the thin-lens ray geometry (PBRT 4th ed. §5.2.3): relative noise √((1 − p)/(p·spp))
+    p = aperture_fraction(config)
+    assert decision["thin_lens_noise"] == pytest.approx(np.sqrt((1 - p) / (p * 64)), rel=0.15)
+    assert decision["thin_lens_noise"] > 0.01
+
+
+@pytest.mark.timeout(120)
+def test_auto_lens_model_keeps_the_thin_lens_where_layers_would_occlude():
+    # three checker planes at 1, 2 and 4 m: blurred edges overlap other depths
+    config = scene_from_dict({
+        "scene": {"preset": "dof_targets", "depths_m": [1.0, 2.0, 4.0]},
+        "lens": {"focal_length_mm": 50.0, "f_number": 2.0, "focus_distance_m": 2.0},
+        "sensor": {"width_px": 48, "height_px": 32},
+        "render": {"spp": 4, "diffraction": "off"},
+    })
+    image = render(config, with_depth=True)
+    assert image.meta["model_decisions"]["lens_model"]["choice"] == "thin"
+    assert image.meta["lens_model"] == "thin"
+
+
+@pytest.mark.timeout(120)
+def test_the_sensor_uses_the_lens_the_render_used():
+    config = scene_from_dict({
+        "scene": {"preset": "flat_field", "distance_m": 1.0},
+        "lens": {"focal_length_mm": 50.0, "f_number": 2.8, "focus_distance_m": 1.0, "model": "pinhole"},
+        "sensor": {"width_px": 24, "height_px": 16, "vignetting": False},
+        "exposure": {"time_s": 0.001},
+        "render": {"spp": 4, "diffraction": "off"},
+    })
+    image = render(config, with_depth=False)
+    assert image.lens == ThinLens.from_config(config.lens, config.sensor)
+    other = config.replace(**{"lens.f_number": 5.6})
+    carried, _ = expected_electrons(image, other)
+    same, _ = expected_electrons(image, config)
+    np.testing.assert_array_equal(carried, same)  # the render's f/2.8, not the config's f/5.6
+    image.lens = None  # a synthetic image: the configured lens applies
+    stripped, _ = expected_electrons(image, other)
+    # the camera equation E = πL/(1 + 4N_w²) (Ray 2002, ch. 17), N_w = N(1 + m)
+    m = ThinLens.from_config(config.lens, config.sensor).magnification
+    ratio = (1 + 4 * (2.8 * (1 + m)) ** 2) / (1 + 4 * (5.6 * (1 + m)) ** 2)
+    assert float(stripped.mean() / same.mean()) == pytest.approx(ratio, rel=1e-5)

@@ -1,0 +1,39 @@
+"""The design document is the repository's own: every docstring that cites it names one of
+its headings, and nothing cites a file outside the repository."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+import spectral_cam
+
+pytestmark = pytest.mark.timeout(30)
+
+REPO = Path(spectral_cam.__file__).parent.parent
+PACKAGE = Path(spectral_cam.__file__).parent
+CITATION = re.compile(r'docs/design\.md[,\s(]*"([^"]+)"')
+
+
+def _headings() -> list[str]:
+    text = (REPO / "docs" / "design.md").read_text(encoding="utf-8")
+    return [line.lstrip("#").strip().replace("`", "").lower() for line in text.splitlines() if line.startswith("#")]
+
+
+def test_every_citation_of_the_design_names_a_heading():
+    headings = _headings()
+    missing = []
+    for path in PACKAGE.rglob("*.py"):
+        for cited in CITATION.findall(path.read_text(encoding="utf-8")):
+            name = " ".join(cited.replace("`", "").split()).lower()
+            if not any(h == name or h.startswith(name) for h in headings):
+                missing.append(f"{path.relative_to(REPO)}: {cited!r}")
+    assert not missing, "citations of headings docs/design.md lacks:\n" + "\n".join(missing)
+
+
+def test_nothing_cites_a_design_file_outside_the_repository():
+    for path in [*PACKAGE.rglob("*.py"), REPO / "README.md"]:
+        text = path.read_text(encoding="utf-8")
+        assert "DESIGN.md" not in text and "../shared" not in text, path
