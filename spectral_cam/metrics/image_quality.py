@@ -123,7 +123,7 @@ def delta_e2000(test_rgb: np.ndarray, reference_rgb: np.ndarray, *, exposure_mat
 
 
 def colorchecker_delta_e(image: np.ndarray, reference, patches, *, margin: float = 0.2,
-                         white_index: int = 18) -> dict:
+                         white_index: int | None = None) -> dict:
     """ΔE2000 of every ColorChecker patch of a linear sRGB image, exposure-matched on white.
 
     Parameters
@@ -138,7 +138,8 @@ def colorchecker_delta_e(image: np.ndarray, reference, patches, *, margin: float
     margin
         Patch-interior margin (see :func:`patch_means`).
     white_index
-        Index of the white patch used for exposure matching (18 on a ColorChecker).
+        Index of the patch used for exposure matching; default the ColorChecker's white
+        (:func:`spectral_cam.colorimetry.white_patch_index` of the patch names).
 
     Returns
     -------
@@ -156,6 +157,10 @@ def colorchecker_delta_e(image: np.ndarray, reference, patches, *, margin: float
     reference = np.asarray(reference, dtype=float)
     if reference.ndim == 3:
         reference = patch_means(reference, patches, margin=margin)
+    if white_index is None:
+        from ..colorimetry import white_patch_index
+
+        white_index = white_patch_index([p.name for p in patches])
     weights = np.asarray(colour.models.RGB_COLOURSPACE_sRGB.matrix_RGB_to_XYZ)[1]
     test = test * (reference[white_index] @ weights) / (test[white_index] @ weights)
     delta = delta_e2000(test, reference)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import spectra
+from ..colorimetry import WHITE_PATCH
 from .common import (
     CHART_FRAME_REFLECTANCE,
     EDGE_REFLECTANCES,
@@ -32,12 +33,12 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 # ----------------------------------------------------------------------------- presets
-def colorchecker_patches(config: SceneConfig) -> list[Patch]:
+def colorchecker_patches(config: SceneConfig, lens: ThinLens | None = None) -> list[Patch]:
     """Where the 24 patches of the ``colorchecker`` preset fall in the image, in reading
     order (``dark skin`` top-left)."""
     from ..optics import ThinLens
 
-    lens = ThinLens.from_config(config.lens, config.sensor)
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     s = config.scene
     half_w, _ = field_half_size(lens, s.distance_m)
     pitch = 2 * half_w * s.fill / 6
@@ -54,13 +55,13 @@ def colorchecker_patches(config: SceneConfig) -> list[Patch]:
     return patches
 
 
-def white_reference_mask(config: SceneConfig) -> np.ndarray | None:
+def white_reference_mask(config: SceneConfig, lens: ThinLens | None = None) -> np.ndarray | None:
     """The ColorChecker's white patch (interior) as the auto-exposure reference, or None
     for scenes without one (the sensor then uses the 99th percentile)."""
     if config.scene.preset != "colorchecker" or config.scene.mitsuba_xml:
         return None
     mask = np.zeros((config.sensor.height_px, config.sensor.width_px), dtype=bool)
-    white = next(p for p in colorchecker_patches(config) if p.name.startswith("white"))
+    white = next(p for p in colorchecker_patches(config, lens) if p.name == WHITE_PATCH)
     mask[white.interior(0.2)] = True
     return mask if mask.any() else None
 

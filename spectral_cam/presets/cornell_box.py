@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import spectra
+from ..colorimetry import WHITE_PATCH
 from .common import PRESETS, diffuse, light_irradiance, spectrum_dict
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -38,7 +39,7 @@ def cornell_box(config: SceneConfig, lens: ThinLens, mi) -> dict:
     camera = np.asarray(reference["sensor"]["to_world"].matrix, dtype=float).reshape(4, 4, -1)[..., 0]
     to_camera = np.diag([scale, scale, scale, 1.0]) @ np.linalg.inv(camera)
     patches = spectra.colorchecker_reflectances()
-    materials = {"white": diffuse(patches["white 9.5 (.05 D)"]), "red": diffuse(patches["red"]),
+    materials = {"white": diffuse(patches[WHITE_PATCH]), "red": diffuse(patches["red"]),
                  "green": diffuse(patches["green"])}
     objects = {}
     for name, shape in reference.items():

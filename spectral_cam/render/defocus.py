@@ -334,7 +334,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
 
 
 
-def aperture_fraction(config) -> float:
+def aperture_fraction(config, lens: ThinLens | None = None) -> float:
     """Fraction p of the aperture through which a pixel inside the blur disc sees the
     (single, on-axis) source of a ``point_sources`` scene: ``(r·z_f/(|z − z_f|·R))²``.
 
@@ -346,7 +346,7 @@ def aperture_fraction(config) -> float:
     ----------
     .. [1] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §5.2.3 (thin-lens ray generation).
     """
-    lens = ThinLens.from_config(config.lens, config.sensor)
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     z, zf = config.scene.depths_m[0], lens.focus_distance_m
     return float(min(1.0, (config.scene.source_radius_m * zf / (abs(z - zf) * lens.aperture_radius_m)) ** 2))
 
