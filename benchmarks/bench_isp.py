@@ -21,21 +21,10 @@ References
 from __future__ import annotations
 
 import argparse
-import csv
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
-
-
-def _best_of(repeats, func):
-    best, result = np.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - t0)
-    return result, best
 
 
 def main() -> None:
@@ -44,19 +33,16 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
 
-    import colour
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import rawpy
 
     from spectral_cam import expose, scene_from_dict
-    from spectral_cam.colorimetry import patch_linear_srgb
+    from spectral_cam.apps.bench.common import pareto_chart, timed, write_rows
+    from spectral_cam.apps.bench.isp import libraw_xyz
+    from spectral_cam.charts import reflectance_set, synthetic_chart
+    from spectral_cam.colorimetry import patch_linear_srgb, xyz_to_linear_srgb
     from spectral_cam.isp import ISPConfig, develop
     from spectral_cam.metrics import colorchecker_delta_e
     from spectral_cam.raw import read_raw, write_dng
-    from spectral_cam.validate import reflectance_set, synthetic_chart
 
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
@@ -68,9 +54,8 @@ def main() -> None:
     white[chart.patches[chart.white_index].interior(0.2)] = True
     raw = expose(chart.radiance, config, white_mask=white)
     del chart.radiance.data
-    patches = chart.patches[:24]
+    patches = chart.patches[:chart.n_set]
     truth = patch_linear_srgb("D65")
-    xyz_to_srgb = np.asarray(colour.models.RGB_COLOURSPACE_sRGB.matrix_XYZ_to_RGB)
 
     rows = []
     with tempfile.TemporaryDirectory() as folder:
@@ -80,42 +65,26 @@ def main() -> None:
         develop(raw, ISPConfig())  # warm-up: OpenCV's and NumPy's first calls set up thread pools
         for name, algorithm in (("rawpy LINEAR", rawpy.DemosaicAlgorithm.LINEAR),
                                 ("rawpy AHD", rawpy.DemosaicAlgorithm.AHD)):
-            def libraw(algorithm=algorithm):
-                with rawpy.imread(str(dng)) as handle:
-                    return handle.postprocess(demosaic_algorithm=algorithm, use_camera_wb=True, gamma=(1, 1),
-                                              no_auto_bright=True, output_bps=16, adjust_maximum_thr=0,
-                                              output_color=rawpy.ColorSpace.XYZ, user_flip=0)
-
-            xyz, seconds = _best_of(args.repeats, libraw)
-            linear = (xyz.astype(np.float32) / 65535.0) @ xyz_to_srgb.T.astype(np.float32)
+            xyz, seconds = timed(libraw_xyz, dng, algorithm, repeats=args.repeats)
+            linear = xyz_to_linear_srgb(xyz / 65535.0)
+            del xyz
             rows.append({"pipeline": name, "seconds": seconds,
                          "delta_e2000": colorchecker_delta_e(linear, truth, patches)["mean"]})
         for method in ("bilinear", "malvar2004"):
             for label, source, matrix in (("fitted", raw, "auto"), ("dng", from_dng, "dng")):
                 isp = ISPConfig(demosaic=method, colour_matrix=matrix, tone="srgb")
-                developed, seconds = _best_of(args.repeats, lambda: develop(source, isp))
+                developed, seconds = timed(develop, source, isp, repeats=args.repeats)
                 rows.append({"pipeline": f"ours {method} ({label} matrix)", "seconds": seconds,
                              "delta_e2000": colorchecker_delta_e(developed.linear, truth, patches)["mean"]})
     baseline = next(r["seconds"] for r in rows if r["pipeline"] == "rawpy AHD")
     for row in rows:
         row["time_vs_rawpy_ahd"] = row["seconds"] / baseline
         row["megapixels"] = width * height / 1e6
-    with open(out / "bench_isp.csv", "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    fig, ax = plt.subplots(figsize=(7, 4.2), dpi=110)
-    for row in rows:
-        ax.scatter(row["time_vs_rawpy_ahd"], row["delta_e2000"])
-        ax.annotate(row["pipeline"], (row["time_vs_rawpy_ahd"], row["delta_e2000"]), fontsize=7,
-                    xytext=(3, 3), textcoords="offset points")
-    ax.set_xscale("log")
-    ax.set_xlabel(f"develop time / rawpy AHD ({baseline:.2f} s, {width}×{height})")
-    ax.set_ylabel("mean ΔE2000, ColorChecker, ISO 100 with noise")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.set_title("12 MP develop: our ISP vs LibRaw on the same DNG", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(out / "bench_isp.png")
+    write_rows(rows, out / "bench_isp.csv")
+    pareto_chart(rows, out / "bench_isp.png", x="time_vs_rawpy_ahd", y="delta_e2000", label="pipeline",
+                 xlabel=f"develop time / rawpy AHD ({baseline:.2f} s, {width}×{height})",
+                 ylabel="mean ΔE2000, ColorChecker, ISO 100 with noise",
+                 title="12 MP develop: our ISP vs LibRaw on the same DNG", front=False)
     for row in rows:
         print(f"{row['pipeline']:34s} {row['seconds']:7.3f} s  ×{row['time_vs_rawpy_ahd']:.2f} of AHD  "
               f"ΔE2000 {row['delta_e2000']:.3f}")

@@ -22,7 +22,6 @@ References
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import platform
 import statistics
@@ -36,15 +35,13 @@ import numpy as np
 def build_cube(width: int, height: int, seed: int = 0):
     """A 31-band radiance cube: D65-lit ColorChecker-like spectra, randomly placed, with a
     smooth illumination gradient (float32, W·m⁻²·sr⁻¹ per band)."""
-    from spectral_cam import spectra
+    from spectral_cam.charts import lambertian_radiance, reflectance_set
     from spectral_cam.image import SpectralImage
+    from spectral_cam.spectra import parse_bands
 
-    bands = spectra.parse_bands("400:700:10")
-    wl, irradiance = spectra.absolute_irradiance("D65", 1000.0)
-    patches = np.stack([spectra.sample(sd, np.asarray(bands.centres_nm)) for sd in
-                        spectra.colorchecker_reflectances().values()])  # (24, 31)
-    white = spectra.band_integrals(irradiance / np.pi, wl, bands)  # (31,)
-    palette = (patches * white).astype(np.float32)
+    bands = parse_bands("400:700:10")
+    palette = lambertian_radiance("D65", reflectance_set("colorchecker").sds, illuminance_lux=1000.0,
+                                  bands=bands).astype(np.float32)  # (24, 31)
     rng = np.random.default_rng(seed)
     block = 16
     labels = rng.integers(0, len(palette), size=(height // block + 1, width // block + 1))
@@ -56,9 +53,10 @@ def build_cube(width: int, height: int, seed: int = 0):
 
 
 def time_floor(cube: np.ndarray) -> float:
-    t0 = time.perf_counter()
-    cube.sum()
-    return time.perf_counter() - t0
+    """Seconds of one NumPy pass over the cube (the memory-bandwidth floor)."""
+    from spectral_cam.apps.bench.common import timed
+
+    return timed(cube.sum)[1]
 
 
 def main(argv=None) -> int:
@@ -69,11 +67,9 @@ def main(argv=None) -> int:
     parser.add_argument("--height", type=int, default=3000)
     args = parser.parse_args(argv)
 
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     from spectral_cam import sensor as S
-    from spectral_cam.io import atomic_path
+    from spectral_cam import viz
+    from spectral_cam.apps.bench.common import write_rows
     from spectral_cam.scene import scene_from_dict
 
     radiance = build_cube(args.width, args.height)
@@ -113,14 +109,9 @@ def main(argv=None) -> int:
         row["ratio_to_floor"] = row["seconds"] / row["floor_s"] if row["floor_s"] == row["floor_s"] else ""
 
     args.outdir.mkdir(parents=True, exist_ok=True)
-    with atomic_path(args.outdir / "bench_sensor.csv") as tmp, open(tmp, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=["variant", "workers", "method", "run", "seconds", "floor_s",
-                                                    "ratio_to_floor"])
-        writer.writeheader()
-        writer.writerows(rows)
+    write_rows(rows, args.outdir / "bench_sensor.csv")
 
-    figure = Figure(figsize=(9, 4.5), layout="constrained")
-    FigureCanvasAgg(figure)
+    figure = viz.figure(9, 4.5)
     ax = figure.subplots()
     stages = ["electron_rates", "auto_exposure", "noise_chain", "colour", "setup"]
     names = [name for name, _, _ in variants]
@@ -135,8 +126,7 @@ def main(argv=None) -> int:
     ax.set_title(f"Sensor simulation, {args.width}×{args.height} px × 31 bands "
                  f"({cube.nbytes / 2 ** 30:.2f} GiB cube), {os.cpu_count()} CPUs")
     ax.legend(fontsize=8)
-    with atomic_path(args.outdir / "bench_sensor.png") as tmp:
-        figure.savefig(tmp, format="png", dpi=110)
+    viz.save_png(figure, args.outdir / "bench_sensor.png", dpi=110)
 
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, python {sys.version.split()[0]}")
     print(f"cube {args.width}x{args.height}x31 float32 = {cube.nbytes / 2 ** 30:.2f} GiB; "

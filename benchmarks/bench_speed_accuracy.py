@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from spectral_cam.bench import BENCHMARKS, run_benchmarks
+from spectral_cam.apps.bench import BENCHMARKS, run_benchmarks
 
 
 def main() -> None:

@@ -99,9 +99,18 @@ def format_number(value: Any, *, digits: int = 4) -> str:
 
 
 def exact_number(value: Any) -> str:
-    """A number for a CSV that keeps every digit (``repr`` of the float); ``""`` for None."""
+    """A number for a CSV that keeps every digit: whole numbers as written, floats as their
+    ``repr``; ``""`` for None.
+
+    Examples
+    --------
+    >>> exact_number(4), exact_number(np.float64(0.1)), exact_number(None)
+    ('4', '0.1', '')
+    """
     if value is None:
         return ""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return str(int(value))
     value = float(value)
     return "nan" if math.isnan(value) else repr(value)
 

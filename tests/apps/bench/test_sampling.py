@@ -1,20 +1,12 @@
-"""The speed-vs-accuracy benchmarks: the Pareto front, and a quick run writing its charts."""
+"""The sampling benchmarks: a quick ``bands`` run writing its CSV and charts."""
 
 from __future__ import annotations
 
 import csv
 
-import numpy as np
 import pytest
 
-from spectral_cam.bench import pareto_front, run_benchmarks
-
-
-def test_pareto_front_keeps_only_undominated_points():
-    cost = np.array([1.0, 2.0, 3.0, 4.0, 2.5])
-    error = np.array([5.0, 3.0, 3.5, 1.0, 2.0])
-    # (3, 3.5) is beaten by (2, 3); every other point is best for its cost
-    assert pareto_front(cost, error).tolist() == [0, 1, 4, 3]
+from spectral_cam.apps.bench import run_benchmarks
 
 
 @pytest.mark.timeout(300)

@@ -1,0 +1,1 @@
+"""Applications on top of the simulation core: stress studies, validation, datasets, benchmarks."""

@@ -1,0 +1,149 @@
+"""What every benchmark shares: the Pareto front, best-of timing, the ColorChecker scene it
+renders, its CSV and its chart of time against error.
+
+Times are reported as ratios to a baseline measured in the same run (machines differ, ratios
+travel); each chart draws every group's Pareto front, the points no other point of the group
+beats in both time and error (docs/design.md, "Where to make a change").
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from ...records import exact_number, write_csv
+from ...scene import SceneConfig, scene_from_dict
+
+__all__ = ["pareto_front", "mark_front", "timed", "chart_scene", "NOISE_FREE", "write_rows", "pareto_chart"]
+
+#: Scene overrides that switch off every sensor noise term (the noise-free RAW).
+NOISE_FREE = {"sensor.shot_noise": False, "sensor.read_noise_e": 0.0, "sensor.dark_current_e_per_s": 0.0,
+              "sensor.dsnu_e": 0.0, "sensor.prnu": 0.0}
+
+
+def pareto_front(cost, error) -> np.ndarray:
+    """Indices of the points no other point beats in both cost and error (lower is better).
+
+    Parameters
+    ----------
+    cost, error : array_like
+        One value per point.
+
+    Returns
+    -------
+    numpy.ndarray
+        Integer indices of the front, sorted by cost (ties: the lower error first).
+
+    Examples
+    --------
+    >>> pareto_front([1.0, 2.0, 3.0], [2.0, 1.0, 1.5]).tolist()
+    [0, 1]
+    """
+    cost, error = np.asarray(cost, float), np.asarray(error, float)
+    order = np.lexsort((error, cost))
+    front, best = [], np.inf
+    for index in order:
+        if error[index] < best:
+            front.append(int(index))
+            best = error[index]
+    return np.asarray(front, dtype=int)
+
+
+def mark_front(rows: list[dict], x: str, y: str) -> None:
+    """Set ``row["pareto"]`` to whether each row is on the Pareto front of ``x`` against ``y``."""
+    front = set(pareto_front([r[x] for r in rows], [r[y] for r in rows]).tolist())
+    for index, row in enumerate(rows):
+        row["pareto"] = index in front
+
+
+def timed(func: Callable, *args, repeats: int = 1, **kwargs) -> tuple[Any, float]:
+    """Call ``func(*args, **kwargs)`` ``repeats`` times.
+
+    Returns
+    -------
+    (object, float)
+        The last result and the shortest wall-clock time, seconds.
+    """
+    best, result = np.inf, None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        result = func(*args, **kwargs)
+        best = min(best, time.perf_counter() - t0)
+    return result, best
+
+
+def chart_scene(width: int, height: int, **overrides) -> SceneConfig:
+    """The benchmarks' scene: the ``colorchecker`` preset through a pinhole, no vignetting,
+    no diffraction, ``width`` × ``height`` pixels; ``overrides`` are dotted scene keys."""
+    base = {
+        "scene": {"preset": "colorchecker", "fill": 0.95, "gap": 0.2},
+        "lens": {"model": "pinhole"},
+        "sensor": {"width_px": width, "height_px": height, "vignetting": False},
+        "render": {"diffraction": "off", "max_depth": 2},
+    }
+    return scene_from_dict(base, overrides=overrides)
+
+
+def write_rows(rows: Sequence[dict], path: str | Path) -> Path:
+    """Write benchmark rows as a CSV (columns in the order of the first row's keys, every
+    digit kept), atomically."""
+    return write_csv(rows, path, list(rows[0]), number=exact_number)
+
+
+def pareto_chart(rows: Sequence[dict], path: str | Path, *, x: str, y: str, label: str, title: str,
+                 group: str | None = None, xlabel: str | None = None, ylabel: str | None = None,
+                 front: bool = True) -> Path:
+    """Chart ``y`` against ``x`` (log scale) for benchmark rows, each point labelled, with
+    each group's Pareto front drawn as a staircase from its cheapest to its most accurate
+    point; written as a PNG (:mod:`spectral_cam.viz`, no pyplot).
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        One point per row.
+    path : path-like
+        PNG to write.
+    x, y, label : str
+        Keys of the cost, the error and the point label.
+    title : str
+        Chart title.
+    group : str, optional
+        Key whose values split the points into coloured groups, each with its front.
+    xlabel, ylabel : str, optional
+        Axis labels (default the keys).
+    front : bool
+        Draw the fronts.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    from ... import viz
+
+    fig = viz.figure(7, 4.5, dpi=110)
+    ax = fig.subplots()
+    groups = sorted({r[group] for r in rows}) if group else [None]
+    for number, name in enumerate(groups):
+        subset = [r for r in rows if group is None or r[group] == name]
+        colour = f"C{number}"
+        cost = np.array([r[x] for r in subset], float)
+        error = np.array([r[y] for r in subset], float)
+        ax.scatter(cost, error, label=name, s=30, zorder=3, color=colour)
+        if front:
+            on_front = pareto_front(cost, error)
+            ax.step(cost[on_front], error[on_front], where="post", color=colour, lw=1, ls="--", zorder=2,
+                    label="Pareto front" if number == 0 else None)
+    ax.set_xscale("log")
+    ax.set_xlabel(xlabel or x)
+    ax.set_ylabel(ylabel or y)
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    if group or front:
+        ax.legend(fontsize=8)
+    ax.margins(y=0.15)  # head room for labels nudged upwards
+    ax.get_xlim(), ax.get_ylim()  # settle the autoscaled limits before placing labels
+    viz.label_points(ax, [r[x] for r in rows], [r[y] for r in rows], [str(r[label]) for r in rows])
+    return viz.save_png(fig, path, dpi=110)

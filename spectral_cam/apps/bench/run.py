@@ -1,0 +1,73 @@
+"""Which benchmarks there are (:data:`BENCHMARKS`) and running them (:func:`run_benchmarks`).
+
+Adding a benchmark is one function ``bench_<name>(out, *, quick) -> rows`` in the module of
+its family and one entry here (docs/design.md, "Where to make a change").
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Callable
+
+from ...registry import Registry
+from .isp import bench_isp, bench_rawpy
+from .sampling import bench_bands, bench_spp
+
+__all__ = ["BENCHMARKS", "run_benchmarks"]
+
+#: Every benchmark: name → ``function(out: Path, *, quick: bool) -> list[dict]``, which writes
+#: ``out/<name>.csv`` and its charts and returns the rows.
+BENCHMARKS = Registry("benchmark")
+BENCHMARKS.add("spp", bench_spp, description="samples per pixel: render time vs Monte-Carlo noise and ΔE2000")
+BENCHMARKS.add("bands", bench_bands, description="camera film and 8/16/31 bands vs a 1-nm reference: time vs "
+                                                 "ΔE2000 and channel bias")
+BENCHMARKS.add("isp", bench_isp, description="demosaic methods and denoisers: develop time vs PSNR and ΔE2000")
+BENCHMARKS.add("rawpy", bench_rawpy, description="our ISP vs LibRaw (LINEAR, AHD, DCB) on the same DNG: time vs "
+                                                 "ΔE2000")
+
+
+def run_benchmarks(output: str | Path, *, quick: bool = False, only: list[str] | None = None,
+                   log: Callable[[str], None] = print) -> dict[str, list[dict]]:
+    """Run the benchmarks, each in this process so every time ratio has its baseline
+    measured in the same run, and write their CSVs and PNG charts.
+
+    Parameters
+    ----------
+    output : path-like
+        Folder for ``<name>.csv`` and ``<name>*.png`` (created; files in it are replaced).
+    quick : bool
+        Small sizes (about 10 s on 2 cores).
+    only : list of str, optional
+        Names from :data:`BENCHMARKS` to run (default all, in registry order).
+    log : callable
+        Receives one line per finished benchmark.
+
+    Returns
+    -------
+    dict
+        Benchmark name → its rows.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown benchmark name (listing the valid ones).
+
+    References
+    ----------
+    .. [1] docs/design.md, "CLI" (``spectral-cam bench``).
+    """
+    from ...errors import ConfigError
+
+    names = list(only or BENCHMARKS)
+    unknown = [n for n in names if n not in BENCHMARKS]
+    if unknown:
+        raise ConfigError(f"unknown benchmark(s) {', '.join(unknown)}; valid: {', '.join(BENCHMARKS)}")
+    out = Path(output)
+    out.mkdir(parents=True, exist_ok=True)
+    results = {}
+    for name in names:
+        t0 = time.perf_counter()
+        results[name] = BENCHMARKS[name](out, quick=quick)
+        log(f"bench {name}: {len(results[name])} rows in {time.perf_counter() - t0:.1f} s -> {out}/{name}*.png")
+    return results
