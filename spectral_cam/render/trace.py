@@ -147,3 +147,31 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
                       "diffraction": diffraction_s},
     }
     return SpectralImage(data, wavelengths, edges, depth, meta, channels, lens)
+
+
+def light_trace(config: SceneConfig, *, spp: int, seed: int, lens: ThinLens | None = None) -> tuple[np.ndarray, float]:
+    """Luminance image (arbitrary units) of Mitsuba's particle tracer (``ptracer``: paths
+    traced from the emitters to the thin lens) and its render time in seconds.
+
+    ``ptracer`` accepts RGB/luminance films only, not ``specfilm``, so this is a comparison
+    tool for the noise of defocused sources, not a spectral render.
+
+    References
+    ----------
+    .. [1] Veach, E. (1997). Robust Monte Carlo Methods for Light Transport Simulation. PhD
+       thesis, Stanford, §10.2 (light tracing).
+    """
+    import mitsuba as mi
+
+    from .variants import choose_variant
+
+    mi.set_variant(choose_variant(config.render.variant))
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    width, height = config.sensor.width_px, config.sensor.height_px
+    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+            "pixel_format": "luminance", "component_format": "float32"}
+    loaded, _, _ = build_scene(mi, config, lens, camera_dict(mi, lens, "thin", film, spp),
+                               {"type": "ptracer", "max_depth": config.render.max_depth})
+    started = time.perf_counter()
+    image = np.asarray(mi.render(loaded, seed=seed, spp=spp), dtype=np.float64).reshape(height, width, -1)[..., 0]
+    return image, time.perf_counter() - started

@@ -33,6 +33,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...render.defocus import aperture_fraction, render_layered
+from ...render.trace import light_trace
 from ...viz import figure, save_png
 from .optics import band_sum, bokeh_scene
 from .settings import StressSettings
@@ -48,27 +49,6 @@ BOKEH_CASE = dict(pixel_pitch_um=6.0, focal_length_mm=8.0, f_number=1.4, focus_d
                   source_depth_m=3.0, source_radius_m=0.0012)
 #: Independent remedy renders per spp (its error is a random level error: averaged in quadrature).
 BOKEH_REMEDY_REPEATS = 3
-
-
-def _light_tracer(config, *, spp: int, seed: int) -> tuple[np.ndarray, float]:
-    """Luminance image (arbitrary units) of Mitsuba's particle tracer through the thin lens
-    (``ptracer`` accepts RGB/luminance films only, not ``specfilm``) and its render time (s)."""
-    import mitsuba as mi
-
-    from ...optics import ThinLens
-    from ...render import choose_variant
-    from ...render.scene_dict import build_scene, camera_dict
-
-    mi.set_variant(choose_variant(config.render.variant))
-    lens = ThinLens.from_config(config.lens, config.sensor)
-    width, height = config.sensor.width_px, config.sensor.height_px
-    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
-            "pixel_format": "luminance", "component_format": "float32"}
-    loaded, _, _ = build_scene(mi, config, lens, camera_dict(mi, lens, "thin", film, spp),
-                               {"type": "ptracer", "max_depth": config.render.max_depth})
-    started = time.perf_counter()
-    image = np.asarray(mi.render(loaded, seed=seed, spp=spp), dtype=np.float64).reshape(height, width, -1)[..., 0]
-    return image, time.perf_counter() - started
 
 
 def disc_mask(size: int, diameter_px: float, *, inset_px: float = 1.5) -> np.ndarray:
@@ -135,7 +115,7 @@ def bokeh_study(settings: StressSettings) -> dict:
     # warm-up: Mitsuba compiles its kernels on first use; not part of any method's time
     thin(settings.bokeh_thin_spp[0], 1)
     render_layered(bokeh_scene(model="pinhole", spp=settings.bokeh_remedy_spp[0], seed=2, **case))
-    _light_tracer(base, spp=settings.bokeh_tracer_spp[0], seed=3)
+    light_trace(base, spp=settings.bokeh_tracer_spp[0], seed=3)
 
     reference_a, _ = thin(settings.bokeh_reference_spp, settings.seed_for(6, 1))
     reference_b, _ = thin(settings.bokeh_reference_spp, settings.seed_for(6, 2))
@@ -174,7 +154,7 @@ def bokeh_study(settings: StressSettings) -> dict:
         entry["error"].append(raw), entry["error_corrected"].append(corrected)
         images[f"thin lens, {spp} spp"] = total
     for index, spp in enumerate(settings.bokeh_tracer_spp):
-        image, seconds = _light_tracer(base, spp=spp, seed=settings.seed_for(8, index))
+        image, seconds = light_trace(base, spp=spp, seed=settings.seed_for(8, index))
         entry = data["tracer"]
         entry["spp"].append(spp), entry["seconds"].append(seconds)
         entry["noise"].append(float(image[disc].std() / image[disc].mean()))
