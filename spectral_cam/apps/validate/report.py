@@ -2,10 +2,11 @@
 
 :func:`write_report` writes, into a report folder,
 
-- ``report.html``: one page, no scripts, images inline as base64 PNG (matplotlib, Agg):
-  the pass/fail summary, ΔE2000 heatmaps (illuminant × camera, one panel per pipeline, for
-  every reflectance set and exposure), and per cell the patch swatches — ground truth and
-  pipeline side by side — with each patch's ΔE2000;
+- ``report.html``: one page, no scripts, images inline as PNG data: URLs
+  (:func:`spectral_cam.viz.png_data_uri`): the pass/fail summary, ΔE2000 heatmaps
+  (illuminant × camera, one panel per pipeline, for every reflectance set and exposure), and
+  per cell the patch swatches — ground truth and pipeline side by side — with each patch's
+  ΔE2000;
 - ``cells.csv``: one row per cell (set, illuminant, camera, exposure, pipeline) with the
   status, ΔE2000 mean / 95th percentile / max, white-balance angular error, SNR summary,
   exposure, gain and run time;
@@ -13,7 +14,8 @@
   sRGB, their CIELAB (D65), ΔE2000 and SNR.
 
 Swatches are shown sRGB-encoded (IEC 61966-2-1 OETF) and clipped to the display range;
-the numbers in the CSVs are unclipped linear values.
+the numbers in the CSVs are unclipped linear values at full precision
+(:func:`spectral_cam.records.exact_number`).
 
 References
 ----------
@@ -21,24 +23,25 @@ References
 .. [2] Sharma, G., Wu, W., & Dalal, E. N. (2005). The CIEDE2000 color-difference formula.
    Color Research & Application 30(1), 21–30.
 .. [3] WHATWG HTML Living Standard (data: URLs for inline images, RFC 2397).
+.. [4] docs/design.md, "Errors, outputs, provenance" (atomic files, one CSV writer).
 """
 
 from __future__ import annotations
 
-import base64
-import csv
 import html
-import io
 import math
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 
-from .io import atomic_path
+from ...io import atomic_path
+from ...records import exact_number, write_csv
+from ...viz import figure, png_data_uri
 
-__all__ = ["write_report", "write_cells_csv", "write_patches_csv", "heatmap_png", "swatches_png", "render_html"]
+__all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "write_report", "write_cells_csv", "write_patches_csv",
+           "heatmap_figure", "swatches_figure", "render_html"]
 
 CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "n_patches",
                 "delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
@@ -47,16 +50,9 @@ PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_i
                  "reference_r", "reference_g", "reference_b", "test_r", "test_g", "test_b",
                  "reference_L", "reference_a", "reference_b_star", "test_L", "test_a", "test_b_star",
                  "delta_e2000", "snr", "snr_db")
-
-
-def _number(value) -> str:
-    """CSV text of a number: full precision (repr) so nothing is lost; '' for missing."""
-    if value is None:
-        return ""
-    value = float(value)
-    if math.isnan(value):
-        return "nan"
-    return repr(value)
+#: Cell statistics written as they are, in CELL_COLUMNS order.
+_STAT_COLUMNS = ("delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
+                 "exposure_scale")
 
 
 def _role(cell, index: int) -> str:
@@ -65,67 +61,54 @@ def _role(cell, index: int) -> str:
     return "white reference"
 
 
+def _coordinates(cell) -> dict:
+    return {"set": cell.set_name, "illuminant": cell.illuminant, "camera": cell.camera, "exposure": cell.exposure,
+            "pipeline": cell.pipeline}
+
+
+def _cell_rows(result) -> Iterator[dict]:
+    for c in result.cells:
+        # whole numbers and the rounded run time as text: exact_number writes every number as a float
+        yield {**_coordinates(c), "status": c.status, "failures": "; ".join(c.failures), "n_patches": str(c.n_set),
+               **{k: c.stats.get(k) for k in _STAT_COLUMNS}, "exposure_s": c.exposure_s, "iso": c.iso,
+               "K_dn_per_e": c.gain_dn_per_e, "runtime_s": f"{c.runtime_s:.4f}", "dng": c.dng}
+
+
 def write_cells_csv(result, path: str | Path) -> Path:
-    """One row per cell (see :data:`CELL_COLUMNS`), written atomically."""
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        with tmp.open("w", newline="", encoding="utf-8") as handle:
-            writer = csv.writer(handle)
-            writer.writerow(CELL_COLUMNS)
-            for c in result.cells:
-                s = c.stats
-                writer.writerow([c.set_name, c.illuminant, c.camera, c.exposure, c.pipeline, c.status,
-                                 "; ".join(c.failures), c.n_set,
-                                 *(_number(s.get(k)) for k in ("delta_e_mean", "delta_e_p95", "delta_e_max",
-                                                               "wb_angular_error_deg", "snr_median", "snr_min",
-                                                               "exposure_scale")),
-                                 _number(c.exposure_s), _number(c.iso), _number(c.gain_dn_per_e),
-                                 f"{c.runtime_s:.4f}", c.dng])
-    return path
+    """One row per cell (see :data:`CELL_COLUMNS`), every number at full precision, written atomically."""
+    return write_csv(_cell_rows(result), path, CELL_COLUMNS, number=exact_number)
+
+
+def _snr_db(snr: float) -> float:
+    if snr > 0 and math.isfinite(snr):
+        return 20 * math.log10(snr)
+    return math.inf if snr > 0 else math.nan
+
+
+def _patch_rows(result) -> Iterator[dict]:
+    from ...metrics.image_quality import linear_srgb_to_lab
+
+    for c in result.cells:
+        if c.test is None:
+            continue
+        ref_lab = linear_srgb_to_lab(c.reference)
+        test_lab = linear_srgb_to_lab(c.test)
+        for i, name in enumerate(c.patch_names):
+            snr = float(c.snr[i])
+            values = (*c.reference[i], *c.test[i], *ref_lab[i], *test_lab[i], c.delta_e[i], snr, _snr_db(snr))
+            yield {**_coordinates(c), "patch_index": str(i), "patch": name, "role": _role(c, i),
+                   **dict(zip(PATCH_COLUMNS[8:], (float(v) for v in values)))}
 
 
 def write_patches_csv(result, path: str | Path) -> Path:
     """One row per cell and patch (see :data:`PATCH_COLUMNS`), written atomically."""
-    from .metrics.image_quality import linear_srgb_to_lab
-
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        with tmp.open("w", newline="", encoding="utf-8") as handle:
-            writer = csv.writer(handle)
-            writer.writerow(PATCH_COLUMNS)
-            for c in result.cells:
-                if c.test is None:
-                    continue
-                ref_lab = linear_srgb_to_lab(c.reference)
-                test_lab = linear_srgb_to_lab(c.test)
-                for i, name in enumerate(c.patch_names):
-                    snr = float(c.snr[i])
-                    snr_db = 20 * math.log10(snr) if snr > 0 and math.isfinite(snr) else (math.inf if snr > 0 else math.nan)
-                    writer.writerow([c.set_name, c.illuminant, c.camera, c.exposure, c.pipeline, i, name,
-                                     _role(c, i), *map(_number, c.reference[i]), *map(_number, c.test[i]),
-                                     *map(_number, ref_lab[i]), *map(_number, test_lab[i]),
-                                     _number(c.delta_e[i]), _number(snr), _number(snr_db)])
-    return path
+    return write_csv(_patch_rows(result), path, PATCH_COLUMNS, number=exact_number)
 
 
 # ----------------------------------------------------------------------------- figures
-def _figure_png(fig) -> str:
-    """A matplotlib figure as a base64 PNG string (Agg canvas; pyplot's state untouched)."""
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=fig.dpi, bbox_inches="tight")
-    return base64.b64encode(buffer.getvalue()).decode("ascii")
-
-
-def _figure(**kwargs):
-    """A stand-alone matplotlib Figure (no pyplot, so no GUI backend is involved)."""
-    from matplotlib.figure import Figure
-
-    return Figure(**kwargs)
-
-
-def heatmap_png(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str], columns: Sequence[str],
-                titles: Sequence[str], vmax: float, suptitle: str) -> str:
-    """Heatmaps of mean ΔE2000, one panel per pipeline, as a base64 PNG.
+def heatmap_figure(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str], columns: Sequence[str],
+                   titles: Sequence[str], vmax: float, suptitle: str):
+    """Heatmaps of mean ΔE2000, one panel per pipeline.
 
     Parameters
     ----------
@@ -144,8 +127,7 @@ def heatmap_png(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str], 
 
     Returns
     -------
-    str
-        Base64 PNG.
+    matplotlib.figure.Figure
     """
     import matplotlib
     from matplotlib.patches import Rectangle
@@ -153,7 +135,7 @@ def heatmap_png(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str], 
     count = values.shape[0]
     width = max(2.6, 1.15 * len(columns) + 1.6)
     height = max(2.0, 0.55 * len(rows) + 1.4)
-    fig = _figure(figsize=(width * count + 0.8, height), dpi=90, layout="constrained")
+    fig = figure(width * count + 0.8, height, dpi=90)
     axes = fig.subplots(1, count, squeeze=False)
     cmap = matplotlib.colormaps["RdYlGn_r"].with_extremes(bad="#bbbbbb")
     image = None
@@ -172,17 +154,17 @@ def heatmap_png(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str], 
         ax.set_title(titles[p], fontsize=9)
     fig.colorbar(image, ax=axes[0].tolist(), label="mean ΔE2000", shrink=0.9)
     fig.suptitle(suptitle, fontsize=10)
-    return _figure_png(fig)
+    return fig
 
 
 def _display(linear: np.ndarray) -> np.ndarray:
     """Linear sRGB → sRGB-encoded, clipped to [0, 1] for display."""
-    import colour
+    from ...isp.tone import srgb_oetf
 
-    return np.clip(np.asarray(colour.cctf_encoding(np.clip(linear, 0.0, None), function="sRGB")), 0.0, 1.0)
+    return np.clip(srgb_oetf(np.clip(linear, 0.0, None)), 0.0, 1.0)
 
 
-def swatches_png(cell, *, title: str) -> str:
+def swatches_figure(cell, *, title: str):
     """Patch swatches of one cell: ground truth (left half) vs pipeline (right half).
 
     Parameters
@@ -194,9 +176,9 @@ def swatches_png(cell, *, title: str) -> str:
 
     Returns
     -------
-    str
-        Base64 PNG; each swatch is labelled with its ΔE2000 (the white reference of a set
-        that is not a ColorChecker is marked "ref").
+    matplotlib.figure.Figure
+        Each swatch is labelled with its ΔE2000 (the white reference of a set that is not a
+        ColorChecker is marked "ref").
     """
     count = len(cell.patch_names)
     columns = 6 if count <= 25 else int(math.ceil(math.sqrt(1.5 * count)))
@@ -210,7 +192,7 @@ def swatches_png(cell, *, title: str) -> str:
         canvas[top:top + size, left:left + size // 2] = reference[i]
         canvas[top:top + size, left + size // 2 + 1:left + size] = test[i]
     scale = 0.5 if count <= 25 else 0.36
-    fig = _figure(figsize=(columns * scale * 2.0 + 0.4, rows * scale * 2.0 + 0.6), dpi=80)
+    fig = figure(columns * scale * 2.0 + 0.4, rows * scale * 2.0 + 0.6, dpi=80)
     ax = fig.subplots()
     ax.imshow(canvas, interpolation="nearest")
     font = 8 if count <= 25 else 6
@@ -221,7 +203,7 @@ def swatches_png(cell, *, title: str) -> str:
                 ha="center", va="center", fontsize=font, color="white")
     ax.set_axis_off()
     ax.set_title(title, fontsize=8)
-    return _figure_png(fig)
+    return fig
 
 
 # ----------------------------------------------------------------------------- HTML
@@ -241,7 +223,8 @@ def _status_class(status: str) -> str:
     return {"pass": "pass", "fail": "fail"}.get(status, "error")
 
 
-def _fmt(value, digits: int = 2) -> str:
+def _cell_text(value, digits: int = 2) -> str:
+    """A table cell's number: fixed ``digits`` decimals, "–" for NaN, "∞" for infinity."""
     if value is None:
         return ""
     value = float(value)
@@ -252,11 +235,10 @@ def _fmt(value, digits: int = 2) -> str:
     return f"{value:.{digits}f}"
 
 
-def _heatmaps(result) -> list[tuple[str, str]]:
-    """(caption, base64 PNG) per reflectance set × exposure."""
+def _heatmaps(result) -> Iterator[tuple[str, str]]:
+    """(caption, PNG data: URI) per reflectance set × exposure."""
     plan = result.plan
     thresholds = plan.thresholds
-    out = []
     names = [p.name for p in plan.pipelines]
     by_key = {c.key: c for c in result.cells}
     finite = [c.stats["delta_e_mean"] for c in result.cells if c.stats]
@@ -276,10 +258,10 @@ def _heatmaps(result) -> list[tuple[str, str]]:
                             values[p, r, c] = cell.stats["delta_e_mean"]
                         failed[p, r, c] = cell.status != "pass"
             caption = f"{refset.name} ({len(refset)} patches), exposure {exposure.name}"
-            png = heatmap_png(values, failed, rows=[_short(i) for i in plan.illuminants], columns=list(plan.cameras),
-                              titles=names, vmax=top, suptitle=f"mean ΔE2000 — {caption}")
-            out.append((caption, png))
-    return out
+            fig = heatmap_figure(values, failed, rows=[_short(i) for i in plan.illuminants],
+                                 columns=list(plan.cameras), titles=names, vmax=top,
+                                 suptitle=f"mean ΔE2000 — {caption}")
+            yield caption, png_data_uri(fig, dpi=90)
 
 
 def _short(text: str) -> str:
@@ -350,18 +332,18 @@ def render_html(result, *, generated: str | None = None) -> str:
             f'<tr class="{_status_class(c.status)}"><td>{esc(c.set_name)}</td><td>{esc(_short(c.illuminant))}</td>'
             f"<td>{esc(c.camera)}</td><td>{esc(c.exposure)}</td><td>{esc(c.pipeline)}</td>"
             f"<td>{esc(c.status.upper())}</td>"
-            f'<td class="num">{_fmt(s.get("delta_e_mean"))}</td><td class="num">{_fmt(s.get("delta_e_p95"))}</td>'
-            f'<td class="num">{_fmt(s.get("delta_e_max"))}</td>'
-            f'<td class="num">{_fmt(s.get("wb_angular_error_deg"))}</td>'
-            f'<td class="num">{_fmt(s.get("snr_median"), 1)}</td><td class="num">{c.exposure_s:.4g}</td>'
+            f'<td class="num">{_cell_text(s.get("delta_e_mean"))}</td>'
+            f'<td class="num">{_cell_text(s.get("delta_e_p95"))}</td>'
+            f'<td class="num">{_cell_text(s.get("delta_e_max"))}</td>'
+            f'<td class="num">{_cell_text(s.get("wb_angular_error_deg"))}</td>'
+            f'<td class="num">{_cell_text(s.get("snr_median"), 1)}</td><td class="num">{c.exposure_s:.4g}</td>'
             f'<td class="num">{c.iso:g}</td><td class="num">{c.runtime_s:.2f}</td>'
             f"<td>{esc('; '.join(c.failures))}</td></tr>")
     parts.append("</table>")
     parts.append("<h2>ΔE2000 across illuminant × camera</h2>")
-    for caption, png in _heatmaps(result):
-        parts.append(f'<figure><img alt="heatmap of mean ΔE2000, {esc(caption)}" '
-                     f'src="data:image/png;base64,{png}"><figcaption class="small">{esc(caption)}; '
-                     "outlined cells do not pass.</figcaption></figure>")
+    for caption, uri in _heatmaps(result):
+        parts.append(f'<figure><img alt="heatmap of mean ΔE2000, {esc(caption)}" src="{uri}">'
+                     f'<figcaption class="small">{esc(caption)}; outlined cells do not pass.</figcaption></figure>')
     if plan.swatches != "none":
         parts.append("<h2>Patches: ground truth (left) vs pipeline (right)</h2>")
         parts.append('<p class="small">Display sRGB, clipped; each swatch labelled with its ΔE2000.</p>')
@@ -370,11 +352,11 @@ def render_html(result, *, generated: str | None = None) -> str:
                 continue
             title = (f"{c.set_name} · {_short(c.illuminant)} · {c.camera} · {c.exposure} · {c.pipeline}: "
                      f"mean ΔE {c.stats['delta_e_mean']:.2f}")
-            png = swatches_png(c, title=title)
+            uri = png_data_uri(swatches_figure(c, title=title), dpi=80)
             opened = " open" if c.status != "pass" else ""
             parts.append(f'<details{opened}><summary class="{_status_class(c.status)}">{esc(title)} — '
                          f"{esc(c.status.upper())}</summary>"
-                         f'<img alt="patch swatches, {esc(title)}" src="data:image/png;base64,{png}"></details>')
+                         f'<img alt="patch swatches, {esc(title)}" src="{uri}"></details>')
     parts.append("</body></html>")
     return "\n".join(parts)
 

@@ -1,0 +1,414 @@
+"""Pipelines under test: the :data:`PIPELINES` registry of pipeline types a plan's ``[[pipeline]]``
+``type`` may name.
+
+- ``ours``: :func:`spectral_cam.isp.develop` with any ISP settings (``isp = {...}``); its linear
+  sRGB before the tone curve is measured. It develops the exposed RAW in memory, which carries
+  the fitted colour corrections the ``"fitted"``/``"root_polynomial"`` colour matrices need (a
+  DNG read back does not).
+- ``rawpy``: LibRaw through rawpy, always linear (gamma 1), 16-bit, without auto brightening or
+  LibRaw's maximum adjustment.
+- ``callable``: ``function = "module:function"``, called as ``function(raw_path)`` and returning
+  an (H, W, 3) array in the space ``output`` names (:data:`OUTPUT_SPACES`); ``python_path``
+  lists folders (relative to the plan) to import it from.
+- ``command``: ``command`` with ``{input}`` (the DNG) and ``{output}`` (a file with suffix
+  ``output_suffix``, :data:`OUTPUT_SUFFIXES`) placeholders, run without a shell.
+
+A pipeline type is one class registered with :func:`pipeline_type`, which names the plan keys
+it accepts (besides ``name`` and ``type``); its constructor takes those keys as keyword
+arguments and validates them. Plan parsing, ``plan.json`` and the error messages read the
+registry (docs/design.md, "Registries").
+
+References
+----------
+.. [1] rawpy API, ``RawPy.postprocess`` (LibRaw output parameters).
+.. [2] docs/design.md, "Ground truth and metrics" (what is measured: ``.linear``, tone curve off).
+"""
+
+from __future__ import annotations
+
+import abc
+import importlib
+import shlex
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from ...errors import ConfigError
+from ...registry import Registry
+
+__all__ = ["PIPELINES", "Pipeline", "pipeline_type", "OursPipeline", "RawpyPipeline", "CallablePipeline",
+           "CommandPipeline", "OUTPUT_SPACES", "OUTPUT_SUFFIXES", "RAWPY_WHITE_BALANCE", "RAWPY_OUTPUT_COLOURS"]
+
+#: Pipeline types: name → the class; its entry's ``options`` are the plan keys it accepts.
+PIPELINES = Registry("pipeline type")
+#: What a user pipeline returns: linear sRGB, CIE XYZ (D65-relative) or sRGB-encoded values.
+OUTPUT_SPACES = ("linear_srgb", "xyz", "srgb")
+#: Files a command pipeline may write.
+OUTPUT_SUFFIXES = (".npy", ".tif", ".tiff", ".png", ".exr")
+#: LibRaw white balance: AsShotNeutral, LibRaw's automatic estimate, its daylight
+#: multipliers (from the D65 matrix), or ``wb_gains``.
+RAWPY_WHITE_BALANCE = ("camera", "auto", "daylight", "manual")
+#: LibRaw output spaces measured (both relative to D65 in LibRaw).
+RAWPY_OUTPUT_COLOURS = ("XYZ", "sRGB")
+RAWPY_HIGHLIGHT_MODES = ("clip", "ignore", "blend", "reconstruct")
+RAWPY_FBDD = ("off", "light", "full")
+
+
+def pipeline_type(name: str, *, options: tuple[str, ...], description: str):
+    """Class decorator: register a :class:`Pipeline` subclass in :data:`PIPELINES` under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        The plan's ``type``.
+    options : tuple of str
+        Plan keys the type accepts besides ``name`` and ``type``: its constructor's keyword
+        arguments and attributes (``plan.json`` lists them).
+    description : str
+        One line for messages.
+    """
+
+    def decorate(cls):
+        cls.kind = name
+        PIPELINES.add(name, cls, options=options, description=description)
+        return cls
+
+    return decorate
+
+
+class Pipeline(abc.ABC):
+    """A pipeline under test: turns one RAW into a linear sRGB image of the whole frame."""
+
+    #: The registered type name (set by :func:`pipeline_type`).
+    kind = ""
+    #: Plan keys a type cannot do without → how to write them (for the error message).
+    required: dict[str, str] = {}
+
+    def __init__(self, name: str):
+        self.name = name
+
+    @classmethod
+    def from_table(cls, name: str, options: Mapping[str, Any], *, base_dir: Path, where: str) -> "Pipeline":
+        """The pipeline of a plan's ``[[pipeline]]`` table (``options``: its keys but ``name``
+        and ``type``, already checked against the registry)."""
+        for key, hint in cls.required.items():
+            if key not in options:
+                raise ConfigError(f"{where}: a {cls.kind} pipeline needs {hint}")
+        return cls(name, **options)
+
+    @abc.abstractmethod
+    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+        """Develop a RAW.
+
+        Parameters
+        ----------
+        raw : RawImage
+            The exposed RAW in memory (with the simulator's metadata).
+        dng_path : pathlib.Path
+            The same RAW written as a DNG.
+        workdir : pathlib.Path
+            A scratch folder.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W, 3) linear sRGB (D65), unclipped; any exposure scale.
+        """
+
+    @abc.abstractmethod
+    def describe(self) -> str:
+        """One line for the report."""
+
+    def to_dict(self) -> dict:
+        """JSON-friendly settings (for plan.json): name, type and every option of the type."""
+        out: dict[str, Any] = {"name": self.name, "type": self.kind}
+        for key in PIPELINES[self.kind].options:
+            value = getattr(self, key)
+            out[key] = value.to_dict() if hasattr(value, "to_dict") else list(value) if isinstance(value, tuple) \
+                else value
+        return out
+
+
+@pipeline_type("ours", options=("isp",), description="spectral_cam's own ISP (isp = {...} settings)")
+class OursPipeline(Pipeline):
+    """spectral_cam's own ISP with the given :class:`~spectral_cam.isp.ISPConfig`.
+
+    The measured image is :attr:`DevelopedImage.linear` (linear sRGB before tone curve and
+    sharpening), so ΔE is measured with the tone curve off, as docs/design.md prescribes.
+    """
+
+    def __init__(self, name: str, *, isp=None):
+        from ...isp import ISPConfig
+
+        super().__init__(name)
+        self.isp = ISPConfig() if isp is None else isp
+
+    @classmethod
+    def from_table(cls, name: str, options: Mapping[str, Any], *, base_dir: Path, where: str) -> "OursPipeline":
+        from ...isp import ISPConfig
+
+        isp = options.get("isp", {})
+        if not isinstance(isp, Mapping):
+            raise ConfigError(f"{where}: isp must be a table of ISP settings, e.g. isp = {{ demosaic = 'menon2007' }}")
+        return cls(name, isp=ISPConfig.from_dict(dict(isp)))
+
+    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+        from ...isp import develop
+
+        return np.asarray(develop(raw, self.isp).linear, dtype=np.float64)
+
+    def describe(self) -> str:
+        from ...isp import ISPConfig
+
+        default = ISPConfig().to_dict()
+        changed = {k: v for k, v in self.isp.to_dict().items() if default.get(k) != v}
+        return "spectral_cam ISP" + (f" ({', '.join(f'{k}={v}' for k, v in changed.items())})" if changed else "")
+
+
+def _choice(name: str, key: str, value: Any, valid: Sequence[str], *, fold: bool = False, note: str = "",
+            after: str = "") -> str:
+    """``value`` if it is one of ``valid`` (any case with ``fold``, then spelled as ``valid``
+    spells it), else a :class:`ConfigError` listing the valid ones."""
+    spelled = {(v.casefold() if fold else v): v for v in valid}
+    key_of = str(value).casefold() if fold else value
+    if not isinstance(key_of, str) or key_of not in spelled:
+        raise ConfigError(f"pipeline {name!r}: {key} = {value!r}; valid{note}: {', '.join(valid)}{after}")
+    return spelled[key_of]
+
+
+@pipeline_type("rawpy", options=("demosaic", "white_balance", "wb_gains", "output_color", "highlight_mode",
+                                 "fbdd_noise_reduction", "median_filter_passes"),
+               description="LibRaw through rawpy, linear 16-bit output")
+class RawpyPipeline(Pipeline):
+    """LibRaw (rawpy) development of the DNG, linear 16-bit output, measured as is.
+
+    References
+    ----------
+    .. [1] rawpy API, ``RawPy.postprocess`` (LibRaw output parameters).
+    """
+
+    def __init__(self, name: str, *, demosaic: str = "AHD", white_balance: str = "camera",
+                 wb_gains: Sequence[float] = (), output_color: str = "XYZ", highlight_mode: str = "clip",
+                 fbdd_noise_reduction: str = "off", median_filter_passes: int = 0):
+        import rawpy
+
+        super().__init__(name)
+        supported = [a.name for a in rawpy.DemosaicAlgorithm if a.isSupported]
+        self.demosaic = _choice(name, "demosaic", demosaic, supported, fold=True, note=" (this LibRaw)")
+        self.white_balance = _choice(name, "white_balance", white_balance, RAWPY_WHITE_BALANCE)
+        self.wb_gains = tuple(float(g) for g in wb_gains)
+        if white_balance == "manual" and (len(self.wb_gains) != 3 or not all(g > 0 for g in self.wb_gains)):
+            raise ConfigError(f"pipeline {name!r}: white_balance = 'manual' needs wb_gains = [r, g, b] (all > 0)")
+        self.output_color = _choice(name, "output_color", output_color, RAWPY_OUTPUT_COLOURS, fold=True,
+                                    after=" (LibRaw's D65-relative spaces)")
+        self.highlight_mode = _choice(name, "highlight_mode", highlight_mode, RAWPY_HIGHLIGHT_MODES)
+        self.fbdd_noise_reduction = _choice(name, "fbdd_noise_reduction", fbdd_noise_reduction, RAWPY_FBDD)
+        if isinstance(median_filter_passes, bool) or not isinstance(median_filter_passes, int) \
+                or not 0 <= median_filter_passes <= 10:
+            raise ConfigError(f"pipeline {name!r}: median_filter_passes = {median_filter_passes!r}; "
+                              "must be a whole number in 0..10")
+        self.median_filter_passes = median_filter_passes
+
+    def _postprocess_options(self) -> dict:
+        import rawpy
+
+        highlight = {"clip": rawpy.HighlightMode.Clip, "ignore": rawpy.HighlightMode.Ignore,
+                     "blend": rawpy.HighlightMode.Blend, "reconstruct": rawpy.HighlightMode.ReconstructDefault}
+        fbdd = {"off": rawpy.FBDDNoiseReductionMode.Off, "light": rawpy.FBDDNoiseReductionMode.Light,
+                "full": rawpy.FBDDNoiseReductionMode.Full}
+        options = dict(
+            demosaic_algorithm=rawpy.DemosaicAlgorithm[self.demosaic],
+            output_color=rawpy.ColorSpace[self.output_color],
+            gamma=(1, 1), no_auto_bright=True, adjust_maximum_thr=0.0, output_bps=16, user_flip=0,
+            highlight_mode=highlight[self.highlight_mode], fbdd_noise_reduction=fbdd[self.fbdd_noise_reduction],
+            median_filter_passes=self.median_filter_passes,
+            use_camera_wb=self.white_balance == "camera", use_auto_wb=self.white_balance == "auto",
+        )
+        if self.white_balance == "manual":
+            r, g, b = self.wb_gains
+            options["user_wb"] = [r, g, b, g]
+        return options
+
+    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+        import rawpy
+
+        from ...colorimetry import xyz_to_linear_srgb
+
+        with rawpy.imread(str(dng_path)) as handle:
+            image = handle.postprocess(**self._postprocess_options()).astype(np.float64) / 65535.0
+        return xyz_to_linear_srgb(image) if self.output_color == "XYZ" else image
+
+    def describe(self) -> str:
+        import rawpy
+
+        return (f"LibRaw {'.'.join(map(str, rawpy.libraw_version))} via rawpy "
+                f"({self.demosaic}, wb {self.white_balance}, {self.output_color} output)")
+
+
+def _to_linear_srgb(image, space: str) -> np.ndarray:
+    """(H, W, 3) values in ``space`` → linear sRGB (unclipped)."""
+    import colour
+
+    from ...colorimetry import xyz_to_linear_srgb
+
+    if space == "xyz":
+        return xyz_to_linear_srgb(image)
+    if space == "srgb":
+        return np.asarray(colour.cctf_decoding(image, function="sRGB"), dtype=np.float64)
+    return image
+
+
+def _check_output(image, name: str) -> np.ndarray:
+    try:
+        array = np.asarray(image, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"pipeline {name!r} returned something that is not a numeric array ({exc})") from None
+    if array.ndim == 3 and array.shape[-1] == 4:
+        array = array[..., :3]  # drop alpha
+    if array.ndim != 3 or array.shape[-1] != 3:
+        raise ConfigError(f"pipeline {name!r} returned shape {array.shape}; expected (H, W, 3)")
+    if not np.all(np.isfinite(array)):
+        raise ConfigError(f"pipeline {name!r} returned NaN or infinite values")
+    return array
+
+
+@pipeline_type("callable", options=("function", "output", "python_path"),
+               description="a Python function(raw_path) -> (H, W, 3) array")
+class CallablePipeline(Pipeline):
+    """A user's Python function ``function(raw_path) -> (H, W, 3) array``."""
+
+    required = {"function": "function = 'module:function'"}
+
+    def __init__(self, name: str, *, function: str, output: str = "linear_srgb",
+                 python_path: Sequence[str] = (), base_dir: Path = Path(".")):
+        super().__init__(name)
+        if not isinstance(function, str) or function.count(":") != 1 or not all(function.split(":")):
+            raise ConfigError(f"pipeline {name!r}: function = {function!r}; use 'module:function' "
+                              "(e.g. 'my_isp:develop')")
+        self.function, self.output = function, _choice(name, "output", output, OUTPUT_SPACES)
+        paths = [python_path] if isinstance(python_path, str) else list(python_path)
+        self.python_path = [str((base_dir / Path(p).expanduser()).resolve()) for p in paths]
+        self._callable = self._resolve()
+
+    @classmethod
+    def from_table(cls, name: str, options: Mapping[str, Any], *, base_dir: Path, where: str) -> "CallablePipeline":
+        return super().from_table(name, {**options, "base_dir": base_dir}, base_dir=base_dir, where=where)
+
+    def _resolve(self) -> Callable:
+        module_name, attribute = self.function.split(":")
+        for entry in reversed(self.python_path):
+            if entry not in sys.path:
+                sys.path.insert(0, entry)
+        try:
+            module = importlib.import_module(module_name)
+        except Exception as exc:
+            raise ConfigError(f"pipeline {self.name!r}: cannot import module {module_name!r} "
+                              f"({type(exc).__name__}: {exc}); add its folder to python_path") from None
+        target = module
+        for part in attribute.split("."):
+            target = getattr(target, part, None)
+        if not callable(target):
+            raise ConfigError(f"pipeline {self.name!r}: {self.function!r} is not a callable in {module_name!r}")
+        return target
+
+    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+        image = _check_output(self._callable(str(dng_path)), self.name)
+        return _to_linear_srgb(image, self.output)
+
+    def describe(self) -> str:
+        return f"Python callable {self.function} → {self.output}"
+
+
+def _read_image_file(path: Path) -> np.ndarray:
+    """Read a command's output: .npy (as is), TIFF/PNG (integers scaled to [0, 1]), EXR."""
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        return np.load(path, allow_pickle=False)
+    if suffix in (".tif", ".tiff"):
+        import tifffile
+
+        data = tifffile.imread(path)
+    elif suffix == ".png":
+        import cv2
+
+        data = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        if data is None:
+            raise ConfigError(f"{path} is not a readable PNG")
+        if data.ndim == 3:
+            data = data[..., 2::-1] if data.shape[-1] in (3, 4) else data
+    elif suffix == ".exr":
+        import OpenEXR
+
+        with OpenEXR.File(str(path)) as exr:
+            channels = exr.channels()
+            if "RGB" in channels or "RGBA" in channels:
+                data = np.asarray(channels.get("RGB", channels.get("RGBA")).pixels)
+            else:
+                missing = [c for c in "RGB" if c not in channels]
+                if missing:
+                    raise ConfigError(f"{path}: EXR without channels {', '.join(missing)}")
+                data = np.stack([np.asarray(channels[c].pixels) for c in "RGB"], axis=-1)
+    else:
+        raise ConfigError(f"cannot read {path.name}; valid output suffixes: {', '.join(OUTPUT_SUFFIXES)}")
+    data = np.asarray(data)
+    if np.issubdtype(data.dtype, np.integer):
+        return data.astype(np.float64) / float(np.iinfo(data.dtype).max)
+    return data.astype(np.float64)
+
+
+@pipeline_type("command", options=("command", "output", "output_suffix", "timeout_s"),
+               description="an external program: command = '... {input} ... {output} ...'")
+class CommandPipeline(Pipeline):
+    """An external program run as ``command`` with ``{input}``/``{output}`` placeholders.
+
+    The command line is split like a POSIX shell would (``shlex``) and run without a
+    shell; ``{input}`` becomes the DNG path, ``{output}`` a fresh file path with
+    ``output_suffix``, which the program must write.
+    """
+
+    required = {"command": "command = '... {input} ... {output} ...'"}
+
+    def __init__(self, name: str, *, command: str, output: str = "linear_srgb", output_suffix: str = ".tiff",
+                 timeout_s: float = 300.0):
+        super().__init__(name)
+        if not isinstance(command, str) or "{input}" not in command or "{output}" not in command:
+            raise ConfigError(f"pipeline {name!r}: command = {command!r}; it must contain the {{input}} and "
+                              "{output} placeholders")
+        try:
+            self.argv = shlex.split(command)
+        except ValueError as exc:
+            raise ConfigError(f"pipeline {name!r}: cannot split command ({exc})") from None
+        output = _choice(name, "output", output, OUTPUT_SPACES)
+        suffix = str(output_suffix).lower()
+        if not suffix.startswith("."):
+            suffix = "." + suffix
+        if suffix not in OUTPUT_SUFFIXES:
+            raise ConfigError(f"pipeline {name!r}: output_suffix = {output_suffix!r}; valid: {', '.join(OUTPUT_SUFFIXES)}")
+        if isinstance(timeout_s, bool) or not isinstance(timeout_s, (int, float)) or not timeout_s > 0:
+            raise ConfigError(f"pipeline {name!r}: timeout_s = {timeout_s!r}; must be a number of seconds > 0")
+        self.command, self.output, self.output_suffix, self.timeout_s = command, output, suffix, float(timeout_s)
+
+    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+        with tempfile.TemporaryDirectory(prefix=f"{self.name}-", dir=workdir) as folder:
+            out = Path(folder) / f"output{self.output_suffix}"
+            argv = [arg.replace("{input}", str(dng_path)).replace("{output}", str(out)) for arg in self.argv]
+            try:
+                done = subprocess.run(argv, capture_output=True, text=True, timeout=self.timeout_s)
+            except FileNotFoundError:
+                raise ConfigError(f"pipeline {self.name!r}: program {argv[0]!r} not found") from None
+            except subprocess.TimeoutExpired:
+                raise ConfigError(f"pipeline {self.name!r}: no result within {self.timeout_s:g} s") from None
+            if done.returncode != 0:
+                tail = (done.stderr or done.stdout or "").strip()[-500:]
+                raise ConfigError(f"pipeline {self.name!r}: exit status {done.returncode}: {tail}")
+            if not out.is_file():
+                raise ConfigError(f"pipeline {self.name!r}: the command wrote no {{output}} file ({out.name})")
+            image = _check_output(_read_image_file(out), self.name)
+        return _to_linear_srgb(image, self.output)
+
+    def describe(self) -> str:
+        return f"command `{self.command}` → {self.output}"

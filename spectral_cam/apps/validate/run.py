@@ -1,0 +1,472 @@
+"""Running a plan: charts, exposures, pipelines and the patch statistics of every cell.
+
+For every reflectance set × illuminant × camera × exposure the chart (a synthetic one from
+:func:`spectral_cam.charts.synthetic_chart`, or the ColorChecker preset rendered with
+Mitsuba, :func:`rendered_chart`) is exposed on the camera's curves and written as a DNG;
+every pipeline develops it, and :func:`evaluate_patches` compares its linear sRGB, patch by
+patch, with the ground truth of :mod:`spectral_cam.colorimetry`:
+
+- the pipeline's patch means (interiors, :data:`PATCH_MARGIN` left out on every side) are
+  scaled so the white reference has the ground truth's luminance (exposure matching);
+- ΔE2000 per patch (CIELAB under D65; mean, 95th percentile — NumPy's linear interpolation —
+  and maximum over the set's patches);
+- white-balance error: the angle (degrees) between the pipeline's and the ground truth's
+  linear sRGB of the white reference (the recovery angular error, :func:`angular_error_deg`);
+- noise: SNR = mean / standard deviation of the luminance Y over each patch's interior.
+
+Auto exposure (``time_s = "auto"``) puts the brightest patch — the white reference, or a
+fluorescent sample brighter than white — at ``auto_fraction`` of saturation. Temporal noise
+is seeded by ``[render] seed`` and the fixed patterns by ``[sensor] seed``, as in a render,
+so every cell of a plan sees the same noise realisation (common random numbers make
+pipelines directly comparable).
+
+References
+----------
+.. [1] docs/design.md, "Ground truth and metrics".
+.. [2] Sharma, G., Wu, W., & Dalal, E. N. (2005). The CIEDE2000 color-difference formula.
+   Color Research & Application 30(1), 21–30.
+.. [3] Hordley, S. D., & Finlayson, G. D. (2006). Reevaluation of color constancy algorithm
+   performance. JOSA A 23(5), 1008–1020 (angular error).
+.. [4] ISO 15739:2017, Photography — Electronic still-picture imaging — Noise measurements
+   (SNR of uniform patches).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import re
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+
+from ...charts import Chart, ReflectanceSet, synthetic_chart
+from ...colorimetry import white_patch_index
+from ...errors import ConfigError, SpectralCamError
+from .plan import ExposureSpec, Plan
+
+__all__ = ["PATCH_MARGIN", "CellResult", "ValidationResult", "run_plan", "evaluate_patches",
+           "angular_error_deg", "rendered_chart"]
+
+#: Fraction of each patch's size left out on every side when averaging (edges, demosaicing).
+PATCH_MARGIN = 0.2
+
+
+def rendered_chart(config) -> Chart:
+    """The ``colorchecker`` scene preset rendered with Mitsuba under ``config``.
+
+    Parameters
+    ----------
+    config : SceneConfig
+        A scene with ``scene.preset = "colorchecker"`` (its illuminant, lens, sensor size
+        and render settings are used as they are).
+
+    Returns
+    -------
+    Chart
+        The render (tiny negative round-off set to 0) with the preset's patches.
+
+    References
+    ----------
+    .. [1] Jakob, W., et al. (2022). Mitsuba 3 renderer (spectral variants, ``specfilm``).
+    """
+    from ... import spectra
+    from ...presets import colorchecker_patches
+    from ...render import render
+
+    if config.scene.preset != "colorchecker" or config.scene.mitsuba_xml:
+        raise ConfigError("validate.chart = 'render' renders the 'colorchecker' scene preset; "
+                          "set [scene] preset = 'colorchecker' (and no mitsuba_xml)")
+    image = render(config, with_depth=False)
+    image.data = np.maximum(image.data, 0.0)
+    patches = colorchecker_patches(config)
+    names = [p.name for p in patches]
+    sds = list(spectra.colorchecker_reflectances().values())
+    return Chart(image, patches, len(patches), white_patch_index(names), sds, "render")
+
+
+# ============================================================================ metrics
+def angular_error_deg(test_rgb, reference_rgb) -> float:
+    """Angle between two RGB vectors, degrees (the recovery angular error).
+
+    Parameters
+    ----------
+    test_rgb, reference_rgb : array_like
+        (3,) linear RGB.
+
+    Returns
+    -------
+    float
+        arccos(a·b / (|a||b|)) in degrees (NaN when a vector is zero).
+
+    References
+    ----------
+    .. [1] Hordley & Finlayson (2006), JOSA A 23(5), 1008–1020.
+
+    Examples
+    --------
+    >>> round(angular_error_deg([1, 0, 0], [0, 1, 0]), 6), angular_error_deg([1, 1, 1], [2, 2, 2]) < 1e-6
+    (90.0, True)
+    """
+    a = np.asarray(test_rgb, dtype=float)
+    b = np.asarray(reference_rgb, dtype=float)
+    norm = np.linalg.norm(a) * np.linalg.norm(b)
+    if not norm > 0:
+        return float("nan")
+    return float(np.degrees(np.arccos(np.clip(a @ b / norm, -1.0, 1.0))))
+
+
+def evaluate_patches(linear: np.ndarray, chart: Chart, reference: np.ndarray) -> dict:
+    """Patch statistics of a pipeline's linear sRGB image against the ground truth.
+
+    Parameters
+    ----------
+    linear : numpy.ndarray
+        (H, W, 3) linear sRGB, unclipped, the chart's size.
+    chart : Chart
+    reference : numpy.ndarray
+        (N, 3) ground-truth linear sRGB of every chart patch (perfect diffuser Y = 1).
+
+    Returns
+    -------
+    dict
+        ``test`` (N, 3) exposure-matched patch means, ``delta_e`` (N,) ΔE2000,
+        ``snr`` (N,) mean/σ of Y, ``wb_angular_error_deg``, ``exposure_scale``, and the
+        set statistics ``delta_e_mean``, ``delta_e_p95``, ``delta_e_max``, ``snr_median``,
+        ``snr_min``.
+
+    Raises
+    ------
+    ConfigError
+        If the image is the wrong size or black at the white reference.
+
+    References
+    ----------
+    .. [1] Sharma, Wu & Dalal (2005) (CIEDE2000); ISO 15739:2017 (SNR); Hordley & Finlayson
+       (2006) (angular error); docs/design.md, "Ground truth and metrics".
+    """
+    import colour
+
+    from ...metrics.image_quality import delta_e2000, patch_means
+
+    height, width = chart.radiance.data.shape[:2]
+    if linear.shape != (height, width, 3):
+        raise ConfigError(f"the pipeline's image is {linear.shape}; the chart needs ({height}, {width}, 3) — "
+                          "a pipeline must return the whole frame, uncropped and unrotated")
+    weights = np.asarray(colour.models.RGB_COLOURSPACE_sRGB.matrix_RGB_to_XYZ)[1]
+    means = patch_means(linear, chart.patches, margin=PATCH_MARGIN)
+    w = chart.white_index
+    y_test = float(means[w] @ weights)
+    if not y_test > 0:
+        raise ConfigError("the pipeline's image is black (or negative) at the white reference")
+    scale = float(reference[w] @ weights) / y_test
+    test = means * scale
+    delta = delta_e2000(test, reference)
+    snr = np.empty(len(chart.patches))
+    for i, patch in enumerate(chart.patches):
+        luminance = linear[patch.interior(PATCH_MARGIN)].reshape(-1, 3) @ weights
+        sigma = float(np.std(luminance, ddof=1)) if luminance.size > 1 else 0.0
+        snr[i] = float(np.mean(luminance)) / sigma if sigma > 0 else math.inf
+    n = chart.n_set
+    return {
+        "test": test,
+        "delta_e": delta,
+        "snr": snr,
+        "exposure_scale": scale,
+        "wb_angular_error_deg": angular_error_deg(test[w], reference[w]),
+        "delta_e_mean": float(np.mean(delta[:n])),
+        "delta_e_p95": float(np.percentile(delta[:n], 95)),
+        "delta_e_max": float(np.max(delta[:n])),
+        "snr_median": float(np.median(snr[:n])),
+        "snr_min": float(np.min(snr[:n])),
+    }
+
+
+# ============================================================================ results
+@dataclass
+class CellResult:
+    """One pipeline on one illuminant × camera × exposure × reflectance set.
+
+    Attributes
+    ----------
+    set_name, illuminant, camera, exposure, pipeline : str
+        The cell's coordinates.
+    status : str
+        ``"pass"``, ``"fail"`` (a threshold broken) or ``"error"`` (the pipeline failed).
+    failures : list of str
+        Broken criteria, or the error message.
+    patch_names : list of str
+        Every chart patch (the set's first ``n_set``).
+    n_set, white_index : int
+    reference, test : numpy.ndarray or None
+        (N, 3) ground truth and exposure-matched pipeline linear sRGB.
+    delta_e, snr : numpy.ndarray or None
+        (N,) ΔE2000 and SNR per patch.
+    stats : dict
+        ``delta_e_mean``, ``delta_e_p95``, ``delta_e_max``, ``wb_angular_error_deg``,
+        ``snr_median``, ``snr_min``, ``exposure_scale``.
+    exposure_s, iso, gain_dn_per_e : float
+        What the sensor did.
+    runtime_s : float
+        Seconds the pipeline took.
+    dng : str
+        The RAW the pipeline developed (relative to the report folder).
+    """
+
+    set_name: str
+    illuminant: str
+    camera: str
+    exposure: str
+    pipeline: str
+    status: str
+    failures: list
+    patch_names: list
+    n_set: int
+    white_index: int
+    reference: np.ndarray | None
+    test: np.ndarray | None
+    delta_e: np.ndarray | None
+    snr: np.ndarray | None
+    stats: dict
+    exposure_s: float
+    iso: float
+    gain_dn_per_e: float
+    runtime_s: float
+    dng: str
+
+    @property
+    def key(self) -> tuple[str, str, str, str, str]:
+        return (self.set_name, self.illuminant, self.camera, self.exposure, self.pipeline)
+
+    def summary(self, done: int, total: int) -> str:
+        """One progress line: ``[3/32] set · illuminant · camera · exposure · pipeline: ΔE00 ...``."""
+        where = f"[{done}/{total}] {self.set_name} · {self.illuminant} · {self.camera} · {self.exposure} · {self.pipeline}"
+        if self.status == "error":
+            return f"{where}: ERROR {self.failures[0]}"
+        s = self.stats
+        return (f"{where}: ΔE00 mean {s['delta_e_mean']:.2f}, p95 {s['delta_e_p95']:.2f}, "
+                f"max {s['delta_e_max']:.2f}; WB {s['wb_angular_error_deg']:.2f}°  {self.status.upper()}")
+
+
+@dataclass
+class ValidationResult:
+    """Everything a plan run measured.
+
+    Attributes
+    ----------
+    plan : Plan
+    cells : list of CellResult
+    elapsed_s : float
+        Wall-clock seconds of the whole run.
+    output_dir : pathlib.Path or None
+        Where the report, CSVs and DNGs were written.
+    versions : dict
+        Python, LibRaw and package versions (:func:`spectral_cam.records.package_versions`).
+    """
+
+    plan: Plan
+    cells: list
+    elapsed_s: float
+    output_dir: Path | None
+    versions: dict
+
+    @property
+    def passed(self) -> bool:
+        return all(cell.status == "pass" for cell in self.cells)
+
+    def cell(self, **where: str) -> CellResult:
+        """The one cell matching ``set_name=..., illuminant=..., camera=..., exposure=..., pipeline=...``."""
+        found = [c for c in self.cells if all(getattr(c, k) == v for k, v in where.items())]
+        if len(found) != 1:
+            raise KeyError(f"{len(found)} cells match {where}")
+        return found[0]
+
+
+# ============================================================================ running
+@dataclass
+class _Exposed:
+    """One exposed chart: what every pipeline of a cell develops."""
+
+    refset: ReflectanceSet
+    illuminant: str
+    camera: str
+    exposure: ExposureSpec
+    chart: Chart
+    reference: np.ndarray
+    raw: object
+    dng_name: str
+
+
+def _slug(text: str) -> str:
+    text = Path(text).stem if str(text).lower().endswith(".csv") else str(text)
+    return re.sub(r"[^A-Za-z0-9.+-]+", "_", text).strip("_") or "x"
+
+
+def _exposure_mask(chart: Chart, camera: str, illuminant: str, config) -> np.ndarray:
+    """Interior of the patch with the largest camera response (normally the white)."""
+    from ...sensor import calibration
+
+    responses = calibration.camera_responses(camera, illuminant, chart.sds,
+                                             transmission=(config.lens.transmission, config.sensor.ir_cut))
+    brightest = int(np.argmax(responses.max(axis=1)))
+    if responses.max(axis=1)[brightest] <= responses.max(axis=1)[chart.white_index] * (1 + 1e-9):
+        brightest = chart.white_index
+    height, width = chart.radiance.data.shape[:2]
+    mask = np.zeros((height, width), dtype=bool)
+    mask[chart.patches[brightest].interior(PATCH_MARGIN)] = True
+    return mask
+
+
+def _render_key(config, illuminant: str, camera: str, exposure: ExposureSpec) -> tuple:
+    """Renders are shared by cameras and exposures unless the film holds the camera's own
+    curves, or ``spp = "auto"`` sizes the render by the sensor's noise at the exposure."""
+    render = config.render
+    bands = getattr(render, "bands", "400:700:10")
+    camera_film = bands == "camera" or (bands == "auto" and not getattr(render, "spectral_output", True))
+    auto_spp = render.spp == "auto"
+    return (illuminant, camera if camera_film or auto_spp else None, exposure.name if auto_spp else None)
+
+
+def _exposed_charts(plan: Plan) -> Iterator[_Exposed]:
+    """Every chart of the plan, exposed, in report order (set, illuminant, camera, exposure)."""
+    from ... import colorimetry
+    from ...sensor import expose
+
+    render_cache: dict = {}
+    for s, refset in enumerate(plan.reflectance_sets):
+        for i, illuminant in enumerate(plan.illuminants):
+            synthetic = None
+            if plan.chart == "synthetic":
+                synthetic = synthetic_chart(refset, illuminant, illuminance_lux=plan.illuminance_lux,
+                                            bands=plan.bands, patch_px=plan.patch_px, gap_px=plan.gap_px)
+                reference = colorimetry.patch_linear_srgb(illuminant, synthetic.sds)
+            for camera in plan.cameras:
+                for e, exposure in enumerate(plan.exposures):
+                    chart = synthetic
+                    if chart is None:
+                        config = plan.scene_config(illuminant, camera, exposure)
+                        key = _render_key(config, illuminant, camera, exposure)
+                        if key not in render_cache:
+                            render_cache[key] = rendered_chart(config)
+                        chart = render_cache[key]
+                        reference = colorimetry.patch_linear_srgb(illuminant, chart.sds)
+                    config = plan.scene_config(illuminant, camera, exposure, chart)
+                    raw = expose(chart.radiance, config, white_mask=_exposure_mask(chart, camera, illuminant, config))
+                    # positions keep names unique (two CSVs may share a file name)
+                    dng_name = (f"{s:02d}-{_slug(refset.name)}__{i:02d}-{_slug(illuminant)}__"
+                                f"{_slug(camera)}__{e:02d}-{_slug(exposure.name)}.dng")
+                    yield _Exposed(refset, illuminant, camera, exposure, chart, reference, raw, dng_name)
+
+
+def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan: Plan) -> CellResult:
+    """One pipeline on one exposed chart; a pipeline that fails gives an ``"error"`` cell."""
+    chart, raw = exposed.chart, exposed.raw
+    meta = raw.meta or {}
+    common = dict(set_name=exposed.refset.name, illuminant=exposed.illuminant, camera=exposed.camera,
+                  exposure=exposed.exposure.name, pipeline=pipeline.name, patch_names=[p.name for p in chart.patches],
+                  n_set=chart.n_set, white_index=chart.white_index, reference=exposed.reference,
+                  exposure_s=float(meta.get("exposure_s", float("nan"))),
+                  iso=float(meta.get("iso", exposed.exposure.iso)),
+                  gain_dn_per_e=float(meta.get("K_dn_per_e", float("nan"))), dng=f"raw/{exposed.dng_name}")
+    t0 = time.perf_counter()
+    try:
+        linear = pipeline.develop(raw, dng_path, work_dir)
+        runtime = time.perf_counter() - t0
+        measured = evaluate_patches(np.asarray(linear, dtype=np.float64), chart, exposed.reference)
+    except Exception as exc:  # a user's pipeline may fail in any way; record it, go on
+        message = str(exc) if isinstance(exc, SpectralCamError) else f"{type(exc).__name__}: {exc}"
+        return CellResult(status="error", failures=[message], test=None, delta_e=None, snr=None, stats={},
+                          runtime_s=time.perf_counter() - t0, **common)
+    stats = {k: measured[k] for k in ("delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg",
+                                      "snr_median", "snr_min", "exposure_scale")}
+    failures = plan.thresholds.failures(stats)
+    return CellResult(status="fail" if failures else "pass", failures=failures, test=measured["test"],
+                      delta_e=measured["delta_e"], snr=measured["snr"], stats=stats, runtime_s=runtime, **common)
+
+
+@contextlib.contextmanager
+def _workspace(output_dir: str | Path | None, force: bool) -> Iterator[Path]:
+    """The report's staging folder (published whole at the end), or a temporary one."""
+    from ...io import staged_directory
+
+    if output_dir is not None:
+        with staged_directory(output_dir, force=force) as stage:
+            yield stage
+        return
+    with tempfile.TemporaryDirectory(prefix="spectral-cam-validate-") as folder:
+        yield Path(folder)
+
+
+def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = False,
+             progress: Callable[[str], None] | None = None) -> ValidationResult:
+    """Run every cell of a plan; write the report, CSVs and DNGs into ``output_dir``.
+
+    Parameters
+    ----------
+    plan : Plan
+    output_dir : str or path-like, optional
+        Report folder (written atomically: it appears complete or not at all); None runs
+        in a temporary folder and writes nothing.
+    force : bool
+        Replace an existing ``output_dir``.
+    progress : callable, optional
+        Called with one line of text per finished cell (e.g.
+        :meth:`spectral_cam.progress.ProgressLine.log`).
+
+    Returns
+    -------
+    ValidationResult
+
+    Raises
+    ------
+    ConfigError
+        If ``output_dir`` exists without ``force``. A pipeline that fails does not stop
+        the run: its cells get status ``"error"`` with the message.
+
+    References
+    ----------
+    .. [1] See the module docstring (ground truth, ΔE2000, angular error, SNR).
+
+    Examples
+    --------
+    >>> from spectral_cam.apps.validate import plan_from_dict
+    >>> plan = plan_from_dict({"validate": {"patch_px": 8},
+    ...                        "pipeline": [{"type": "ours", "isp": {"tone": "linear"}}]})
+    >>> result = run_plan(plan)  # nothing written
+    >>> cell = result.cells[0]
+    >>> len(result.cells), cell.status, cell.stats["delta_e_mean"] < 3.0
+    (1, 'pass', True)
+    """
+    from ...raw import write_dng
+    from ...records import package_versions, write_json
+
+    started = time.perf_counter()
+    versions = package_versions()
+    cells: list[CellResult] = []
+    total = (len(plan.reflectance_sets) * len(plan.illuminants) * len(plan.cameras) * len(plan.exposures)
+             * len(plan.pipelines))
+    with _workspace(output_dir, force) as stage:
+        raw_dir = stage / "raw"
+        raw_dir.mkdir(parents=True, exist_ok=True)
+        work_dir = Path(tempfile.mkdtemp(prefix=".work-", dir=stage))
+        for exposed in _exposed_charts(plan):
+            dng_path = write_dng(exposed.raw, raw_dir / exposed.dng_name)
+            for pipeline in plan.pipelines:
+                cells.append(_run_cell(pipeline, exposed, dng_path, work_dir, plan))
+                if progress is not None:
+                    progress(cells[-1].summary(len(cells), total))
+        shutil.rmtree(work_dir, ignore_errors=True)
+        result = ValidationResult(plan, cells, time.perf_counter() - started,
+                                  Path(output_dir) if output_dir is not None else None, versions)
+        if output_dir is not None:
+            from .report import write_report
+
+            write_json({"plan": plan.to_dict(), "versions": versions}, stage / "plan.json")
+            write_report(result, stage)
+    result.elapsed_s = time.perf_counter() - started
+    return result

@@ -1,0 +1,84 @@
+"""Fixtures shared by the validation tests: the example plan's run, CSV reading, the headless
+Chromium probe, and the configuration of the ISP's own ColorChecker test."""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spectral_cam.apps.validate import load_plan, run_plan
+from spectral_cam.scene import scene_from_dict
+from tests.support.chromium import load_in_chromium
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+@pytest.fixture(scope="session")
+def example_plan_path() -> Path:
+    """plans/validate_example.toml."""
+    return ROOT / "plans" / "validate_example.toml"
+
+
+@pytest.fixture(scope="session")
+def example(tmp_path_factory, example_plan_path):
+    """The example plan run into a report folder: ``(result, folder, seconds)``."""
+    out = tmp_path_factory.mktemp("validate") / "report"
+    started = time.perf_counter()
+    result = run_plan(load_plan(example_plan_path), out)
+    return result, out, time.perf_counter() - started
+
+
+@pytest.fixture(scope="session")
+def read_csv():
+    """``read_csv(path)`` → list of dicts (one per row)."""
+
+    def read(path):
+        with open(path, newline="", encoding="utf-8") as handle:
+            return list(csv.DictReader(handle))
+
+    return read
+
+
+@pytest.fixture(scope="session")
+def chromium():
+    """:func:`tests.support.chromium.load_in_chromium`: ``chromium(url) -> (page, errors)``."""
+    return load_in_chromium
+
+
+@pytest.fixture(scope="session")
+def noise_off() -> dict:
+    """[sensor] keys that switch every noise term off."""
+    return {"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, "dsnu_e": 0.0, "prnu": 0.0}
+
+
+@pytest.fixture(scope="session")
+def isp_colour_setup(noise_off) -> dict:
+    """The configuration of the ISP's own ColorChecker test (tests/isp/test_colour.py, its
+    noise-free ``chart``): the scene tables, the SceneConfig, and that test's ΔE2000 —
+    colour-science directly, white-matched — as ``delta_e(test_rgb, reference_rgb, white)``."""
+    tables = {
+        "scene": {"preset": "colorchecker"},
+        "illuminant": {"spd": "D65"},
+        "lens": {"model": "pinhole"},
+        "sensor": {"width_px": 144, "height_px": 96, **noise_off},
+        "exposure": {"time_s": "auto", "iso": 100, "auto_fraction": 0.8},
+        "render": {"spp": 256, "seed": 1},
+    }
+
+    def delta_e(test_rgb, reference_rgb, white):
+        import colour
+
+        space = colour.models.RGB_COLOURSPACE_sRGB
+        y = np.asarray(space.matrix_RGB_to_XYZ)[1]
+        test = np.asarray(test_rgb, float) * (reference_rgb[white] @ y) / (np.asarray(test_rgb, float)[white] @ y)
+
+        def lab(rgb):
+            return colour.XYZ_to_Lab(colour.RGB_to_XYZ(np.asarray(rgb, float), space), space.whitepoint)
+
+        return np.asarray(colour.delta_E(lab(test), lab(reference_rgb), method="CIE 2000"))
+
+    return {"tables": tables, "config": scene_from_dict(tables), "delta_e": delta_e}

@@ -1,0 +1,128 @@
+"""Pipeline types (spectral_cam.apps.validate.pipelines): broken user pipelines are flagged,
+failing programs become error cells, external commands are measured like our ISP, and each
+type accepts the plan keys its registry entry declares."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spectral_cam.apps.validate import PIPELINES, plan_from_dict
+from spectral_cam.cli import main
+from spectral_cam.errors import ConfigError
+
+BROKEN_ISP = '''
+import spectral_cam as sc
+from spectral_cam.isp import ISPConfig
+
+
+def swapped(raw_path):
+    """A correct development whose red and blue channels are then swapped."""
+    linear = sc.develop(sc.read_raw(raw_path), ISPConfig(tone="linear")).linear
+    return linear[..., ::-1]
+
+
+def crashes(raw_path):
+    raise RuntimeError("this ISP is broken")
+'''
+
+
+@pytest.fixture(scope="module")
+def user_pipelines(tmp_path_factory, read_csv):
+    folder = tmp_path_factory.mktemp("user_isp")
+    (folder / "broken_isp.py").write_text(BROKEN_ISP)
+    cli = Path(sys.executable).with_name("spectral-cam")
+    assert cli.is_file(), f"the spectral-cam console script is missing next to {sys.executable}"
+    plan = f'''
+[validate]
+illuminants = ["D65"]
+cameras = ["nikon_d850"]
+reflectance_sets = ["colorchecker"]
+patch_px = 12
+
+[[pipeline]]
+name = "ours-dng"
+type = "ours"
+isp = {{ colour_matrix = "dng", tone = "linear" }}
+
+[[pipeline]]
+name = "swapped-rb"
+type = "callable"
+function = "broken_isp:swapped"
+python_path = ["."]
+output = "linear_srgb"
+
+[[pipeline]]
+name = "crashes"
+type = "callable"
+function = "broken_isp:crashes"
+python_path = ["."]
+
+[[pipeline]]
+name = "cli-develop"
+type = "command"
+command = "'{cli}' develop {{input}} -o {{output}} -q"
+output_suffix = ".exr"
+output = "linear_srgb"
+
+[[pipeline]]
+name = "exits-1"
+type = "command"
+command = "'{sys.executable}' -c 'import sys; sys.exit(\\"no {{input}} today\\")' {{output}}"
+'''
+    (folder / "plan.toml").write_text(plan)
+    out = folder / "report"
+    status = main(["validate", str(folder / "plan.toml"), "-o", str(out), "-q"])
+    return status, out, read_csv(out / "cells.csv"), read_csv(out / "patches.csv")
+
+
+@pytest.mark.timeout(120)
+def test_swapped_red_and_blue_is_flagged_failing(user_pipelines):
+    status, out, cells, patches = user_pipelines
+    assert status == 1  # some cell does not pass
+    by_name = {row["pipeline"]: row for row in cells}
+    assert by_name["ours-dng"]["status"] == "pass"
+    swapped = by_name["swapped-rb"]
+    assert swapped["status"] == "fail"
+    assert float(swapped["delta_e_mean"]) > 10.0  # measured ≈ 17
+    assert float(swapped["delta_e_max"]) > 30.0
+    assert "delta_e_mean" in swapped["failures"]
+    # a near-neutral white stays near neutral when R and B swap (measured 2.2°)...
+    assert float(swapped["wb_angular_error_deg"]) < 5.0
+    # ...but the chromatic patches move far: blue and red swap roles
+    blue = next(p for p in patches if p["pipeline"] == "swapped-rb" and p["patch"] == "blue")
+    assert float(blue["delta_e2000"]) > 30.0
+    html = (out / "report.html").read_text()
+    assert "swapped-rb" in html and "FAIL" in html
+
+
+@pytest.mark.timeout(120)
+def test_failing_programs_are_errors_and_commands_are_measured(user_pipelines):
+    status, out, cells, patches = user_pipelines
+    by_name = {row["pipeline"]: row for row in cells}
+    assert by_name["crashes"]["status"] == "error" and "this ISP is broken" in by_name["crashes"]["failures"]
+    assert by_name["exits-1"]["status"] == "error" and "exit status 1" in by_name["exits-1"]["failures"]
+    # `spectral-cam develop` run as an external command on the DNG = our ISP on the RAW
+    ours = np.array([float(p["delta_e2000"]) for p in patches if p["pipeline"] == "ours-dng"])
+    command = np.array([float(p["delta_e2000"]) for p in patches if p["pipeline"] == "cli-develop"])
+    assert by_name["cli-develop"]["status"] == "pass"
+    np.testing.assert_allclose(command, ours, atol=0.02)
+
+
+@pytest.mark.timeout(60)
+def test_each_type_takes_the_keys_its_registry_entry_declares(tmp_path):
+    assert list(PIPELINES) == ["ours", "rawpy", "callable", "command"]
+    with pytest.raises(ConfigError, match="unknown key.*'demosaic'.*valid: name, type, isp"):
+        plan_from_dict({"validate": {}, "pipeline": [{"type": "ours", "demosaic": "AHD"}]}, base_dir=tmp_path)
+    with pytest.raises(ConfigError, match="a callable pipeline needs function = 'module:function'"):
+        plan_from_dict({"validate": {}, "pipeline": [{"type": "callable"}]}, base_dir=tmp_path)
+    plan = plan_from_dict({"validate": {}, "pipeline": [
+        {"name": "libraw", "type": "rawpy", "demosaic": "ahd", "white_balance": "manual", "wb_gains": [2, 1, 1.5]}]})
+    described = plan.to_dict()["pipelines"][0]
+    assert described == {"name": "libraw", "type": "rawpy", "demosaic": "AHD", "white_balance": "manual",
+                         "wb_gains": [2.0, 1.0, 1.5], "output_color": "XYZ", "highlight_mode": "clip",
+                         "fbdd_noise_reduction": "off", "median_filter_passes": 0}
+    assert list(described)[2:] == list(PIPELINES["rawpy"].options)
