@@ -6,9 +6,9 @@ under several cameras, illuminants, ISOs, apertures and focus distances; 256 × 
 clean camera RGB; each item is a thin-lens render, a pinhole render and a depth render,
 two sensor exposures and ISP runs, and its files) in three modes:
 
-- ``loop``: :func:`spectral_cam.dataset.render_item` called item after item in this
+- ``loop``: :func:`spectral_cam.apps.dataset.render_item` called item after item in this
   process, Mitsuba using every core;
-- ``dask ×K``: :func:`spectral_cam.dataset.generate_dataset` on a warm LocalCluster of K
+- ``dask ×K``: :func:`spectral_cam.apps.dataset.generate_dataset` on a warm LocalCluster of K
   spawned workers (one render each, Mitsuba using cores/K threads), K = 1 and 2 by default.
 
 Each mode first makes a timed first pass over the items (``warmup_s``: Mitsuba compiles a
@@ -87,7 +87,7 @@ def _cores() -> int:
 
 def loop_pass(spec, folder: Path, items: int) -> float:
     """Render the items through render_item in this process; wall seconds."""
-    from spectral_cam.dataset import item_task, render_item
+    from spectral_cam.apps.dataset import item_task, render_item
 
     shutil.rmtree(folder, ignore_errors=True)
     started = time.perf_counter()
@@ -100,7 +100,7 @@ def loop_pass(spec, folder: Path, items: int) -> float:
 
 def dask_pass(spec, folder: Path, items: int, executor, threads: int) -> float:
     """Render the items through generate_dataset on a warm cluster; wall seconds."""
-    from spectral_cam.dataset import generate_dataset
+    from spectral_cam.apps.dataset import generate_dataset
 
     shutil.rmtree(folder, ignore_errors=True)
     summary = generate_dataset(spec, folder, n=items, executor=executor, progress=False, render_threads=threads)
@@ -112,7 +112,7 @@ def dask_pass(spec, folder: Path, items: int, executor, threads: int) -> float:
 def start_cluster(stack: contextlib.ExitStack, spec, folder: Path, items: int, workers: int) -> dict:
     """Start a LocalCluster (timed) and run a first pass over the items on it (timed: the
     workers import, compile or load Mitsuba kernels and fill their caches)."""
-    from spectral_cam.dataset import local_cluster
+    from spectral_cam.apps.dataset import local_cluster
 
     threads = max(1, _cores() // workers)
     t0 = time.perf_counter()
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    from spectral_cam.dataset import load_spec
+    from spectral_cam.apps.dataset import load_spec
 
     spec_path = out / "spec.toml"
     spec_path.write_text(SPEC.format(size=args.size, spp=args.spp))

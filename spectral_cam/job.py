@@ -1,6 +1,6 @@
 """One render job: scene → radiance → RAW → developed image, written as a result folder.
 
-This is what ``spectral-cam render`` runs and what dataset generation runs per item:
+This is what ``spectral-cam render`` runs:
 
     OUTDIR/radiance.exr   spectral radiance per nm (Fichet et al. spectral EXR layout)
     OUTDIR/depth.exr      camera-space z (m)
@@ -10,88 +10,92 @@ This is what ``spectral-cam render`` runs and what dataset generation runs per i
     OUTDIR/scene.toml     the resolved scene, every key written out (render it again to reproduce)
 
 The folder appears in one rename when every file is complete (:func:`io.staged_directory`).
+A dataset item (:mod:`spectral_cam.apps.dataset`) is the same job: :func:`simulate` builds the
+lens once and runs render → expose → develop, :func:`write_files` writes its RAW, image,
+radiance and depth, and :func:`write_meta` its meta.json (one layout, :func:`result_meta`).
 
 References
 ----------
-.. [1] ../shared/DESIGN.md, "The scene file and the CLI" (the result folder is a contract).
+.. [1] docs/design.md, "Result folder (job.py)" (the result folder is a contract).
 """
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterable
 
-import numpy as np
-
+from .errors import ConfigError
 from .io import atomic_path, staged_directory
+from .records import package_versions, write_json
 from .scene import SceneConfig
 
-__all__ = ["run_render_job", "simulate", "Simulation", "result_meta", "write_json", "package_versions"]
-
-_PACKAGES = ("spectral_cam", "mitsuba", "drjit", "colour-science", "numpy", "OpenEXR", "rawpy",
-             "tifffile", "opencv-python-headless", "scikit-image", "matplotlib")
-
-
-def package_versions() -> dict[str, str]:
-    """Versions of Python, LibRaw and the packages a result depends on (provenance for
-    meta.json, validation reports and stress results)."""
-    import platform
-
-    import rawpy
-
-    out = {"python": platform.python_version(), "LibRaw": ".".join(map(str, rawpy.libraw_version))}
-    for name in _PACKAGES:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    return out
-
-
-def _json_default(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    if callable(value):
-        return getattr(value, "__name__", type(value).__name__)
-    raise TypeError(f"cannot serialise {type(value).__name__}")
-
-
-def write_json(data: dict, path: str | Path) -> Path:
-    """Write JSON atomically (numpy values converted)."""
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(data, indent=2, default=_json_default, ensure_ascii=False) + "\n")
-    return path
+__all__ = ["run_render_job", "simulate", "Simulation", "write_files", "result_meta", "write_meta", "RESULT_FILES"]
 
 
 @dataclass
 class Simulation:
-    """One scene through the whole chain, in memory."""
+    """One scene through the whole chain, in memory.
 
+    Attributes
+    ----------
+    config : SceneConfig
+        The scene simulated.
+    lens : ThinLens
+        The lens built once for the job: the render and the sensor used it.
+    radiance : SpectralImage
+        The render.
+    raw : RawImage
+        The exposure.
+    developed : DevelopedImage
+        The ISP's result.
+    timings_s : dict
+        Seconds per stage (``render_*``, ``sensor``, ``isp``).
+    """
+
+    config: SceneConfig
+    lens: "ThinLens"  # noqa: F821
     radiance: "SpectralImage"  # noqa: F821
     raw: "RawImage"  # noqa: F821
     developed: "DevelopedImage"  # noqa: F821
     timings_s: dict
 
 
-def simulate(config: SceneConfig, *, progress: Callable[[int, int, float], None] | None = None) -> Simulation:
-    """Render, expose (auto exposure on the ColorChecker's white patch where there is one)
-    and develop one scene; per-stage timings in seconds."""
+def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, float], None] | None = None,
+             with_depth: bool = True) -> Simulation:
+    """Render, expose and develop one scene; per-stage timings in seconds.
+
+    Parameters
+    ----------
+    config
+        The validated scene.
+    lens : ThinLens, optional
+        The job's lens, built once (default ``ThinLens.from_config(config.lens, config.sensor)``);
+        the render and the sensor's camera equation both use it.
+    progress
+        Render progress callback (spp done, spp total, seconds).
+    with_depth
+        Also render the depth map.
+
+    Returns
+    -------
+    Simulation
+
+    Notes
+    -----
+    ``exposure.time_s = "auto"`` exposes for the ColorChecker's white patch where the scene has
+    one (:func:`spectral_cam.presets.white_reference_mask`), else for the 99th percentile.
+    """
     from .isp import develop
+    from .optics import ThinLens
     from .presets import white_reference_mask
     from .render import render
     from .sensor import expose
 
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     timings: dict[str, float] = {}
-    radiance = render(config, progress=progress)
+    radiance = render(config, progress=progress, with_depth=with_depth, lens=lens)
     timings.update({f"render_{k}": v for k, v in radiance.meta["timings_s"].items()})
     t0 = time.perf_counter()
     raw = expose(radiance, config, white_mask=white_reference_mask(config))
@@ -99,16 +103,102 @@ def simulate(config: SceneConfig, *, progress: Callable[[int, int, float], None]
     t0 = time.perf_counter()
     developed = develop(raw, config.isp)
     timings["isp"] = time.perf_counter() - t0
-    return Simulation(radiance, raw, developed, timings)
+    return Simulation(config, lens, radiance, raw, developed, timings)
 
 
-def result_meta(config: SceneConfig, sim: Simulation, files, timings: dict, **extra) -> dict:
+def _write_radiance(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    from .spectral_exr import write_spectral_exr
+
+    return [write_spectral_exr(sim.radiance, folder / "radiance.exr")]
+
+
+def _write_depth(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    from .spectral_exr import write_depth_exr
+
+    return [write_depth_exr(sim.radiance.depth_m, folder / "depth.exr")]
+
+
+def _write_raw(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    from .raw import write_dng
+
+    return [write_dng(sim.raw, folder / "raw.dng")]
+
+
+def _write_image(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    from .isp.encode import write_outputs
+
+    isp = sim.config.isp
+    return write_outputs(sim.developed, folder, isp.outputs, stem=stem, quality=isp.jpeg_quality)
+
+
+def _write_scene(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    with atomic_path(folder / "scene.toml") as tmp:  # the resolved scene: re-render with it
+        tmp.write_text(sim.config.to_toml(), encoding="utf-8")
+    return [folder / "scene.toml"]
+
+
+_WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
+            "scene": _write_scene}
+#: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
+#: ``<stem>.<isp.outputs>`` and scene.toml.
+RESULT_FILES = tuple(_WRITERS)
+
+
+def write_files(sim: Simulation, folder: str | Path, names: Iterable[str], *, image_stem: str = "image") -> list[Path]:
+    """Write the named files of a simulation into a folder.
+
+    Parameters
+    ----------
+    sim
+        From :func:`simulate`.
+    folder
+        Where the files go (usually a staging folder of :func:`spectral_cam.io.staged_directory`).
+    names
+        Among :data:`RESULT_FILES`: ``"radiance"`` (radiance.exr; the render must hold a
+        spectrum, not camera-film channels), ``"depth"`` (depth.exr), ``"raw"`` (raw.dng),
+        ``"image"`` (``<image_stem>`` in every ``isp.outputs`` format), ``"scene"``
+        (scene.toml, the resolved scene).
+    image_stem
+        File name of the developed image without suffix.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+
+    Raises
+    ------
+    ConfigError
+        For a name not in :data:`RESULT_FILES`.
+    """
+    folder = Path(folder)
+    written: list[Path] = []
+    for name in names:
+        if name not in _WRITERS:
+            raise ConfigError(f"unknown result file {name!r}; valid: {', '.join(RESULT_FILES)}")
+        written += _WRITERS[name](sim, folder, image_stem)
+    return written
+
+
+def result_meta(sim: Simulation, files: Iterable[str | Path], timings: dict, **extra) -> dict:
     """The meta.json of a result folder: config, optics, render, sensor and ISP records,
-    model decisions, files, timings and package versions (``extra`` keys go first)."""
+    model decisions, files, timings and package versions (``extra`` keys go first).
+
+    Parameters
+    ----------
+    sim
+        From :func:`simulate`.
+    files
+        The files of the folder besides meta.json (names or paths).
+    timings
+        Seconds per stage.
+    **extra
+        Keys written before the common ones (``scene_file``, ``dataset``).
+    """
     radiance, developed = sim.radiance, sim.developed
     return {
         **extra,
-        "config": config.to_dict(),
+        "config": sim.config.to_dict(),
         "optics": radiance.meta["optics"],
         "render": {k: v for k, v in radiance.meta.items() if k not in ("optics", "timings_s", "model_decisions")},
         "sensor": sim.raw.meta,
@@ -118,6 +208,13 @@ def result_meta(config: SceneConfig, sim: Simulation, files, timings: dict, **ex
         "timings_s": timings,
         "versions": package_versions(),
     }
+
+
+def write_meta(sim: Simulation, folder: str | Path, files: Iterable[str | Path], timings: dict, **extra) -> dict:
+    """Write ``<folder>/meta.json`` (:func:`result_meta`, strict JSON) and return its content."""
+    meta = result_meta(sim, files, timings, **extra)
+    write_json(meta, Path(folder) / "meta.json")
+    return meta
 
 
 def run_render_job(
@@ -145,29 +242,18 @@ def run_render_job(
         Write radiance.exr (the spectral cube); default ``render.spectral_output``. A
         camera-film render (``render.bands = "camera"``) has no spectrum to write.
     """
-    from .isp.encode import write_outputs
-    from .raw import write_dng
-    from .spectral_exr import write_depth_exr, write_spectral_exr
-
     started = time.perf_counter()
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
     with staged_directory(output, force=force) as stage:
         sim = simulate(config, progress=progress)
         timings = dict(sim.timings_s)
         t0 = time.perf_counter()
-        written = []
+        names = ["depth", "raw", "image", "scene"]
         if spectral_output and sim.radiance.channels is None:
-            written.append(write_spectral_exr(sim.radiance, stage / "radiance.exr"))
-        written.append(write_depth_exr(sim.radiance.depth_m, stage / "depth.exr"))
-        written.append(write_dng(sim.raw, stage / "raw.dng"))
-        written += write_outputs(sim.developed, stage, config.isp.outputs, stem="image",
-                                 quality=config.isp.jpeg_quality)
+            names.insert(0, "radiance")
+        written = write_files(sim, stage, names)
         timings["write"] = time.perf_counter() - t0
         timings["total"] = time.perf_counter() - started
-        with atomic_path(stage / "scene.toml") as tmp:  # the resolved scene: re-render with it
-            tmp.write_text(config.to_toml(), encoding="utf-8")
-        written.append(stage / "scene.toml")
         scene = str(Path(scene_file).resolve()) if scene_file else None
-        meta = result_meta(config, sim, written, timings, scene_file=scene)
-        write_json(meta, stage / "meta.json")
+        meta = write_meta(sim, stage, written, timings, scene_file=scene)
     return meta

@@ -1,0 +1,400 @@
+"""Dataset labels: what an item writes beside its RAW, one :data:`LABELS` entry each.
+
+``[dataset] outputs`` names entries of :data:`LABELS`; an item renders its scene once
+(:func:`spectral_cam.job.simulate`) and every entry it names writes its files into the item's
+staging folder. Adding a label is one entry here::
+
+    @LABELS.register("normals", options=("normals",), description="normals.exr: ...")
+    def _normals(item: Item, folder: Path) -> list[Path]:
+        ...                                       # write folder / "normals.exr"
+        item.records["normals"] = {"file": "normals.exr", ...}   # its meta.json entry
+        return [folder / "normals.exr"]
+
+An entry's ``options`` are the meta.json keys it records (each None in an item without the
+label). The physics of the labels lives here too: the signed defocus map
+(:func:`defocus_map_px`), the noise-free camera RGB (:func:`clean_camera_rgb`) and the blur
+measured against depth (:func:`measure_scene_blur`).
+
+References
+----------
+.. [1] docs/design.md, "Registries" and "Result folder (job.py)".
+.. [2] Ray, S. F. (2002). Applied Photographic Optics, 3rd ed., ch. 10 (circle of confusion).
+.. [3] EMVA Standard 1288, Release 4.0 Linear (2021), §2 (mean photo-electrons).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ...errors import ConfigError
+from ...io import atomic_path, staged_directory
+from ...job import Simulation, result_meta, simulate, write_files
+from ...metrics.blur import measure_blur
+from ...records import write_json
+from ...registry import Registry
+from ...scene import SceneConfig
+
+__all__ = ["LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "defocus_map_px",
+           "clean_camera_rgb", "measure_scene_blur"]
+
+#: What an item can write besides meta.json: ``[dataset] outputs`` name → entry (a function
+#: ``(item, folder) -> files``; ``options``: the meta.json keys it records). Their order here
+#: is the order of ``outputs`` in dataset.json and meta.json.
+LABELS = Registry("dataset output")
+#: Presets whose blur the item measures (per depth) when it renders the all-in-focus image.
+BLUR_PRESETS = ("dof_targets", "point_sources")
+
+
+@dataclass
+class Item:
+    """One dataset item in memory while its labels are written.
+
+    Attributes
+    ----------
+    sim : Simulation
+        The item's scene through render → expose → develop (its ``lens`` built once).
+    measure_blur : bool
+        Measure blur against depth (a sweep of a :data:`BLUR_PRESETS` scene).
+    records : dict
+        meta.json entries the labels record (keys declared in their ``options``).
+    timings : dict
+        Seconds per stage; a label that times itself records ``timings[name]`` (its time
+        is then not counted under ``"write"``).
+    """
+
+    sim: Simulation
+    measure_blur: bool = False
+    records: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def config(self) -> SceneConfig:
+        """The item's scene."""
+        return self.sim.config
+
+    @property
+    def exposure_s(self) -> float:
+        """The exposure the RAW was made with (s)."""
+        return float(self.sim.raw.meta["exposure_s"])
+
+    @functools.cached_property
+    def clean_rgb(self) -> np.ndarray:
+        """The noise-free camera RGB of the main render (:func:`clean_camera_rgb`)."""
+        return clean_camera_rgb(self.sim.radiance, self.config, exposure_s=self.exposure_s)
+
+
+# ----------------------------------------------------------------------------- the labels
+def _result_file(item: Item, folder: Path, *, name: str) -> list[Path]:
+    """A file of the render job's result folder (:func:`spectral_cam.job.write_files`)."""
+    return write_files(item.sim, folder, [name])
+
+
+for _name, _description in (
+        ("raw", "raw.dng: the simulated RAW"),
+        ("image", "image.<isp.outputs>: the developed sRGB image (every isp.outputs format)"),
+        ("radiance", "radiance.exr: spectral radiance per nm, Fichet et al. layout (opt-in)"),
+        ("depth", "depth.exr: camera-space z (m)")):
+    LABELS.add(_name, functools.partial(_result_file, name=_name), description=_description)
+
+
+@LABELS.register("defocus", options=("defocus",),
+                 description="defocus.exr: signed thin-lens CoC diameter in pixels, channel CoC")
+def _defocus(item: Item, folder: Path) -> list[Path]:
+    path = _write_exr({"CoC": defocus_map_px(item.sim.lens, item.sim.radiance.depth_m)}, folder / "defocus.exr",
+                      {"spectral_cam_units": "signed CoC diameter, pixels (+ behind focus)"})
+    item.records["defocus"] = {"file": "defocus.exr", "channel": "CoC", "units": "px",
+                               "formula": "A*f*(z - z_f)/(z*(z_f - f))/pixel_pitch, A = f/N",
+                               "sign": "+ behind the focus plane, - in front"}
+    return [path]
+
+
+@LABELS.register("all_in_focus", options=("all_in_focus", "blur"),
+                 description="all_in_focus.<isp.outputs>: the same pose through a pinhole at the same exposure")
+def _all_in_focus(item: Item, folder: Path) -> list[Path]:
+    t0 = time.perf_counter()
+    config, exposure_s = item.config, item.exposure_s
+    sharp_config = config.replace(**{"lens.model": "pinhole", "exposure.time_s": exposure_s})
+    sharp = simulate(sharp_config, lens=item.sim.lens, with_depth=False)
+    files = write_files(sharp, folder, ["image"], image_stem="all_in_focus")
+    item.timings["all_in_focus"] = time.perf_counter() - t0
+    item.records["all_in_focus"] = {
+        "lens_model": "pinhole", "exposure_s": exposure_s, "files": sorted(p.name for p in files),
+        "render": {k: v for k, v in sharp.radiance.meta.items() if k not in ("optics", "timings_s", "model_decisions")},
+        "model_decisions": sharp.radiance.meta.get("model_decisions", {})}
+    if item.measure_blur and config.scene.preset in BLUR_PRESETS and not config.scene.mitsuba_xml:
+        t0 = time.perf_counter()
+        pinhole = clean_camera_rgb(sharp.radiance, sharp_config, exposure_s=exposure_s).sum(axis=-1)
+        item.records["blur"] = measure_scene_blur(config, item.sim.radiance.depth_m, pinhole,
+                                                  item.clean_rgb.sum(axis=-1), lens=item.sim.lens)
+        item.timings["blur_measurement"] = time.perf_counter() - t0
+    return files
+
+
+@LABELS.register("clean_rgb", options=("clean_rgb",),
+                 description="clean_rgb.exr: noise-free linear camera RGB (1 = white level - black level)")
+def _clean_rgb(item: Item, folder: Path) -> list[Path]:
+    sensor = item.config.sensor
+    channels = ("Y",) if sensor.cfa == "none" else ("R", "G", "B")
+    clean = item.clean_rgb
+    path = _write_exr({name: clean[..., i] for i, name in enumerate(channels)}, folder / "clean_rgb.exr",
+                      {"spectral_cam_units": "linear camera RGB, 1 = white level - black level"})
+    item.records["clean_rgb"] = {
+        "file": "clean_rgb.exr", "channels": list(channels), "units": "linear camera RGB; 1 = white level - black level",
+        "electrons_per_unit": (2 ** sensor.bit_depth - 1 - sensor.black_level_dn) / item.sim.raw.meta["K_dn_per_e"],
+        "excludes": "shot, read, dark and fixed-pattern noise, dark signal, clipping, quantisation"}
+    return [path]
+
+
+#: Outputs of an item unless the spec's ``[dataset] outputs`` says otherwise (the spectral
+#: cube, 31 float32 channels, is opt-in).
+DEFAULT_OUTPUTS = ("raw", "image", "depth", "defocus", "all_in_focus", "clean_rgb")
+
+
+def _write_exr(channels: dict[str, np.ndarray], path: Path, attributes: dict[str, str]) -> Path:
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attributes}
+    with atomic_path(path) as tmp:
+        with OpenEXR.File(header, {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}) as exr:
+            exr.write(str(tmp))
+    return path
+
+
+def write_item(config: SceneConfig, target: str | Path, *, outputs: Sequence[str], measure_blur: bool = False,
+               dataset: Mapping[str, Any] | None = None) -> dict:
+    """Render one item and write its folder atomically: the labels, then meta.json.
+
+    Parameters
+    ----------
+    config
+        The item's validated scene.
+    target
+        The item folder; it appears in one rename when complete (an older one is replaced).
+    outputs
+        Names of :data:`LABELS` to write.
+    measure_blur
+        Measure blur against depth when the all-in-focus image is rendered (blur presets).
+    dataset
+        The item's record in meta.json (``index``, ``id``, ``seed``, ``spec_hash``, ``params``,
+        ``outputs``).
+
+    Returns
+    -------
+    dict
+        The meta.json content: :func:`spectral_cam.job.result_meta` with ``dataset`` first
+        and each label's records last.
+    """
+    for name in outputs:
+        LABELS.check(name, key="dataset.outputs")
+    started = time.perf_counter()
+    with staged_directory(target, force=True) as stage:
+        item = Item(simulate(config), measure_blur=measure_blur)
+        written: list[Path] = []
+        write_s = 0.0
+        for name in outputs:
+            t0 = time.perf_counter()
+            written += LABELS[name](item, stage)
+            if name not in item.timings:
+                write_s += time.perf_counter() - t0
+        timings = {**item.sim.timings_s, "write": write_s, **item.timings}
+        timings["total"] = time.perf_counter() - started
+        meta = result_meta(item.sim, written, timings, dataset=dict(dataset or {}))
+        meta.update({key: item.records.get(key) for entry in LABELS.values() for key in entry.options})
+        write_json(meta, stage / "meta.json")
+    return meta
+
+
+# ----------------------------------------------------------------------------- label physics
+def defocus_map_px(lens, depth_m: np.ndarray) -> np.ndarray:
+    """Signed circle-of-confusion diameter in pixels at every pixel of a depth map.
+
+    ``c = A·f·(z − z_f) / (z·(z_f − f)) / p`` with aperture diameter A = f/N, pixel pitch
+    p and camera-space depth z: positive behind the focus plane (z > z_f), negative in
+    front of it, zero on it; where nothing was hit (z = ∞) the limit A·f/(z_f − f)/p.
+
+    Parameters
+    ----------
+    lens : ThinLens
+        The item's lens and sensor geometry (:meth:`spectral_cam.optics.ThinLens.from_config`).
+    depth_m : numpy.ndarray
+        (H, W) camera-space z (m), ``inf`` where no surface was hit.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) float32 signed CoC diameter (pixels).
+
+    Examples
+    --------
+    >>> from spectral_cam.optics import ThinLens
+    >>> lens = ThinLens(0.025, 2.5, 2.0, 0.006, 0.004, 1000, 667)   # f = 25 mm, f/2.5, 6 µm pixels
+    >>> defocus_map_px(lens, np.array([[1.0, 2.0, 4.0]])).round(2)
+    array([[-21.1 ,   0.  ,  10.55]], dtype=float32)
+
+    References
+    ----------
+    .. [1] Ray, S. F. (2002). Applied Photographic Optics, 3rd ed., ch. 10.
+    .. [2] Potmesil, M., & Chakravarty, I. (1981). A lens and aperture camera model for
+       synthetic image generation. SIGGRAPH '81, 297–305 (signed CoC for depth of field).
+    """
+    z = np.asarray(depth_m, dtype=np.float64)
+    magnitude = lens.coc_diameter_px(z)
+    sign = np.where(np.isinf(z), 1.0, np.sign(z - lens.focus_distance_m))
+    return (sign * magnitude).astype(np.float32)
+
+
+def clean_camera_rgb(radiance, config: SceneConfig, *, exposure_s: float) -> np.ndarray:
+    """Noise-free linear camera RGB: every channel at every pixel, before CFA sampling.
+
+    ``x_c = t·cos⁴θ·Σ_b L_b·w_b,c · K / (W − B)``: the mean photo-electrons of channel c
+    through the sensor's own signal model (:func:`spectral_cam.sensor.signal_model`: band
+    weights of the measured QE, lens and filter transmission, camera equation; or the
+    photon-weighted camera film), scaled so that 1 is the white level above black, the
+    scale of the RAW after black subtraction and normalisation. No shot, read, dark or
+    fixed-pattern noise, no dark signal, no clipping (values above 1 are beyond
+    saturation), no quantisation.
+
+    Parameters
+    ----------
+    radiance : SpectralImage
+        Band integrals of radiance (W·m⁻²·sr⁻¹), (H, W, B), or camera film channels.
+    config : SceneConfig
+        The item's scene (sensor, lens, ISO).
+    exposure_s : float
+        Exposure time (s), the one the RAW was exposed with.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W, 3) float32 (camera r, g, b), or (H, W, 1) for a monochrome sensor.
+
+    References
+    ----------
+    .. [1] EMVA Standard 1288, Release 4.0 Linear (2021), §2.1–2.2 (μ_e = η·μ_p, gain K).
+    """
+    from ...sensor import signal_model, system_gain
+
+    sensor = config.sensor
+    model = signal_model(radiance, config)
+    scale = exposure_s * system_gain(sensor, config.exposure.iso) / (2 ** sensor.bit_depth - 1 - sensor.black_level_dn)
+    rgb = np.asarray(radiance.data, dtype=np.float64) @ (np.asarray(model.weights, dtype=np.float64) * scale)
+    if model.cos4 is not None:
+        rgb *= np.asarray(model.cos4, dtype=np.float64)[..., None]
+    return rgb.astype(np.float32)
+
+
+def measure_scene_blur(config: SceneConfig, depth_m: np.ndarray, sharp: np.ndarray,
+                       blurred: np.ndarray, *, lens=None) -> list[dict]:
+    """Measured and thin-lens blur per depth of a ``dof_targets`` or ``point_sources`` item.
+
+    ``dof_targets``: the pixels of each plane (from the depth map), shrunk by the largest
+    predicted blur radius + 2 px so that no other plane's blur and no frame edge reaches
+    them. ``point_sources``: each source is a connected blob of the all-in-focus image above 1 %
+    of its peak (the background is black), its depth the depth map's median over the blob; the region is a
+    disc of radius (predicted blur radius + blob radius + 3 px) around it, measured only
+    when it lies inside the frame and no other source's blur spot reaches it. The
+    prediction only sizes the regions; the measurement is
+    :func:`spectral_cam.metrics.blur.measure_blur` between the all-in-focus (pinhole) and
+    the main image.
+
+    Both images are rendered at the sensor's resolution, so a hard edge in the pinhole image
+    aliases (its harmonics above Nyquist fold back), which the disc model cannot blur away
+    as the lens did: on the 8-px checkers of ``dof_targets`` the measured diameter reads
+    about 0.5, 0.25, 0.13 and 0.07 px high at 1.5, 3.3, 6.6 and 10 px (the same bias
+    appears on synthetic, 16×-supersampled checkers); on ``point_sources`` it stays within
+    the Monte-Carlo scatter (≈1–2 %).
+
+    Parameters
+    ----------
+    config
+        The item's scene.
+    depth_m
+        (H, W) camera-space z (m).
+    sharp, blurred
+        (H, W) linear all-in-focus and main images at the same exposure.
+    lens : ThinLens, optional
+        The lens the item was rendered through (default: built from ``config``).
+
+    Returns
+    -------
+    list of dict
+        ``{"depth_m", "predicted_coc_px", "measured_coc_px", "pixels", "note"}`` per depth,
+        nearest first (``measured_coc_px`` None, with the reason in ``note``, where no
+        usable region was left).
+
+    Raises
+    ------
+    ConfigError
+        For a scene of another preset.
+
+    References
+    ----------
+    .. [1] Ray, S. F. (2002). Applied Photographic Optics, 3rd ed., ch. 10.
+    """
+    from scipy import ndimage
+
+    from ...optics import ThinLens
+
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    depth = np.asarray(depth_m, dtype=np.float64)
+    finite = np.isfinite(depth)
+    height, width = depth.shape
+    results = []
+    if config.scene.preset == "dof_targets":
+        depths = sorted(set(float(z) for z in config.scene.depths_m))
+        predicted = {z: float(lens.coc_diameter_px(z)) for z in depths}
+        margin = 0.5 * max(predicted.values()) + 2.0
+        for z in depths:
+            region = finite & (np.abs(depth - z) <= 1e-3 * z)
+            padded = np.pad(region, 1, constant_values=False)
+            inner = ndimage.distance_transform_edt(padded)[1:-1, 1:-1] > margin
+            results.append(_blur_row(z, predicted[z], sharp, blurred, inner,
+                                     None if inner.any() else f"no pixels {margin:.1f} px inside the plane"))
+        return results
+    if config.scene.preset != "point_sources":
+        raise ConfigError(f"blur is measured on {', '.join(BLUR_PRESETS)} scenes; got "
+                          f"scene.preset = {config.scene.preset!r}")
+    sharp_image = np.asarray(sharp, dtype=np.float64)
+    # the background is black; diffraction's faint skirt aside, a source is above 1 % of the peak
+    labels, count = ndimage.label(sharp_image > 0.01 * sharp_image.max(), structure=np.ones((3, 3), dtype=bool))
+    sources = []
+    for label in range(1, count + 1):
+        blob = labels == label
+        blob_depth = depth[blob & finite]
+        if blob_depth.size == 0:
+            continue  # a sub-pixel source the one-sample depth render missed: no depth to test
+        rows, cols = np.nonzero(blob)
+        weights = sharp_image[blob]
+        z = float(np.median(blob_depth))
+        sources.append({"z": z, "row": float(rows @ weights / weights.sum()),
+                        "col": float(cols @ weights / weights.sum()),
+                        "r_img": math.sqrt(blob.sum() / math.pi), "c": float(lens.coc_diameter_px(z))})
+    yy, xx = np.mgrid[0:height, 0:width]
+    for source in sources:
+        reach = 0.5 * source["c"] + source["r_img"] + 3.0
+        row, col = source["row"], source["col"]
+        note = None
+        if not (reach <= row + 0.5 and reach <= col + 0.5 and row + reach <= height - 0.5
+                and col + reach <= width - 0.5):
+            note = "blur spot leaves the frame"
+        elif any(math.hypot(row - o["row"], col - o["col"]) < reach + 0.5 * o["c"] + o["r_img"]
+                 for o in sources if o is not source):
+            note = "blur spot overlaps another source's"
+        region = ((yy - row) ** 2 + (xx - col) ** 2 <= reach * reach) if note is None else np.zeros_like(finite)
+        results.append(_blur_row(source["z"], source["c"], sharp, blurred, region, note))
+    return sorted(results, key=lambda r: r["depth_m"])
+
+
+def _blur_row(depth: float, predicted: float, sharp, blurred, region, note: str | None) -> dict:
+    pixels = int(region.sum())
+    measured = measure_blur(sharp, blurred, region, max_diameter_px=2.0 * predicted + 6.0) if pixels else None
+    return {"depth_m": depth, "predicted_coc_px": predicted,
+            "measured_coc_px": None if measured is None or not math.isfinite(measured) else measured,
+            "pixels": pixels, "note": note}

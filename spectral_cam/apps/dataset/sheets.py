@@ -1,0 +1,217 @@
+"""Dataset summaries drawn from a finished folder: the contact sheet and the blur chart.
+
+Both read only what a run wrote (``manifest.jsonl``, ``dataset.json``, the items' images and
+meta.json), so they can be redrawn at any time. Figures are matplotlib ``Figure`` objects
+(:mod:`spectral_cam.viz`): drawing one never changes a user's matplotlib backend.
+
+References
+----------
+.. [1] docs/design.md, "Result folder (job.py)" and "Optics (optics.py)" (the thin-lens CoC).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ...errors import ConfigError
+from ...records import exact_number, format_number, read_json, write_csv
+from ...viz import figure, save_png
+
+__all__ = ["CONTACT_SHEET_MAX", "write_contact_sheet", "write_blur_chart"]
+
+#: Items on the contact sheet of a dataset (the first ones; a sweep's grid is usually smaller).
+CONTACT_SHEET_MAX = 64
+
+
+def _manifest_rows(output: Path) -> list[dict]:
+    path = output / "manifest.jsonl"
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+
+
+def _format(value: Any) -> str:
+    """A parameter for a label: three significant figures, whole numbers from 100 up."""
+    if isinstance(value, list):
+        return "[" + ", ".join(_format(v) for v in value) + "]"
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+        return format_number(value, digits=max(3, len(f"{abs(value):.0f}")))
+    return format_number(value)
+
+
+def _label(params: Mapping[str, Any], keys: Sequence[str], *, per_line: int = 1) -> str:
+    """``key=value`` of the given parameters (short key names), ``per_line`` to a line."""
+    parts = [f"{key.split('.', 1)[1]}={_format(params.get(key))}" for key in keys]
+    return "\n".join("  ".join(parts[i:i + per_line]) for i in range(0, len(parts), per_line))
+
+
+def _thumbnail(path: Path) -> np.ndarray:
+    """An 8-bit RGB array of a developed image (PNG 8/16-bit, JPEG, TIFF)."""
+    import cv2
+
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise ConfigError(f"{path} is not a readable image")
+    if image.dtype == np.uint16:
+        image = (image // 257).astype(np.uint8)
+    if image.ndim == 2:
+        return np.repeat(image[..., None], 3, axis=-1)
+    return np.ascontiguousarray(image[..., 2::-1])
+
+
+def write_contact_sheet(output: str | Path, path: str | Path | None = None, *,
+                        columns: int | None = None, limit: int = CONTACT_SHEET_MAX,
+                        keys: Sequence[str] | None = None) -> Path | None:
+    """A PNG grid of the items' developed images, labelled with their swept/sampled values.
+
+    Parameters
+    ----------
+    output
+        The dataset folder (reads manifest.jsonl and dataset.json).
+    path
+        The PNG (default ``<output>/contact_sheet.png``).
+    columns
+        Grid columns (default: the last sweep axis' length for a two-axis sweep, else up
+        to 6).
+    limit
+        Items shown at most (the first ones).
+    keys
+        Parameters in each label (default: the sweep keys, else the sampled keys; at most
+        six, two to a line).
+
+    Returns
+    -------
+    pathlib.Path or None
+        The PNG, or None when the items have no developed images.
+
+    References
+    ----------
+    .. [1] Matplotlib ``Figure.subplots`` and ``Axes.imshow``.
+    """
+    output = Path(output)
+    path = Path(path) if path else output / "contact_sheet.png"
+    rows = _manifest_rows(output)[:limit]
+    info = read_json(output / "dataset.json") or {}
+    sweeps = info.get("spec", {}).get("sweeps", [])
+    if keys is None:
+        keys = [s["key"] for s in sweeps] or sorted(info.get("spec", {}).get("distributions", {}))
+    keys = list(keys)[:6]
+    images = []
+    for row in rows:
+        names = {Path(f).name: f for f in row.get("files") or []}
+        found = [names[n] for n in ("image.png", "image.jpg", "image.16bit.png", "image.tif") if n in names]
+        images.append(output / found[0] if found else None)
+    if not any(images):
+        return None
+    if columns is None:
+        two_axes = len(sweeps) == 2 and info.get("per_grid_point") == 1
+        columns = len(sweeps[-1]["values"]) if two_axes else min(6, len(rows))
+    columns = max(1, min(columns, len(rows)))
+    lines = max(1, (len(rows) + columns - 1) // columns)
+    sample = _thumbnail(next(p for p in images if p))
+    aspect = sample.shape[0] / sample.shape[1]
+    label_lines = (len(keys) + 1) // 2
+    fig = figure(2.4 * columns, (2.4 * aspect + 0.15 * (label_lines + 1) + 0.1) * lines)
+    axes = fig.subplots(lines, columns, squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for ax, row, image in zip(axes.ravel(), rows, images):
+        if image is not None:
+            ax.imshow(_thumbnail(image), interpolation="nearest")
+        else:
+            ax.text(0.5, 0.5, "failed" if row.get("status") == "failed" else "missing", ha="center",
+                    va="center", color="crimson", transform=ax.transAxes)
+        title = f"#{row['id']}"
+        if keys:
+            title += "\n" + _label(row.get("params") or {}, keys, per_line=2)
+        ax.set_title(title, fontsize=6.5)
+    return save_png(fig, path, dpi=110)
+
+
+def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
+                     csv_path: str | Path | None = None) -> Path | None:
+    """Measured blur against depth beside the thin-lens prediction, one series per item.
+
+    Reads each finished item's ``meta.json`` ``blur`` rows (from
+    :func:`spectral_cam.apps.dataset.labels.measure_scene_blur`) and draws the predicted
+    |CoC|(z) curve of its lens with the measured diameters as markers; writes the numbers as
+    CSV too (every digit kept).
+
+    Parameters
+    ----------
+    output
+        The dataset folder.
+    png, csv_path
+        Outputs (default ``<output>/blur_vs_depth.png`` and ``.csv``).
+
+    Returns
+    -------
+    pathlib.Path or None
+        The PNG, or None when no item measured its blur.
+
+    References
+    ----------
+    .. [1] Ray, S. F. (2002). Applied Photographic Optics, 3rd ed., ch. 10.
+    """
+    import matplotlib
+    import matplotlib.ticker
+
+    from ...optics import ThinLens
+    from ...scene import scene_from_dict
+
+    output = Path(output)
+    png = Path(png) if png else output / "blur_vs_depth.png"
+    csv_path = Path(csv_path) if csv_path else output / "blur_vs_depth.csv"
+    info = read_json(output / "dataset.json") or {}
+    keys = [s["key"] for s in info.get("spec", {}).get("sweeps", [])]
+    series = []
+    for row in _manifest_rows(output):
+        if row.get("status") != "done":
+            continue
+        meta = read_json(output / row["path"] / "meta.json")
+        if not isinstance(meta, dict) or not meta.get("blur"):
+            continue
+        series.append((row, meta))
+    if not series:
+        return None
+    table = []
+    fig = figure(7.5, 4.8)
+    ax = fig.subplots()
+    colours = matplotlib.colormaps["viridis"](np.linspace(0.0, 0.9, len(series)))
+    for (row, meta), colour in zip(series, colours):
+        config = scene_from_dict(meta["config"])
+        lens = ThinLens.from_config(config.lens, config.sensor)
+        depths = [b["depth_m"] for b in meta["blur"]]
+        z = np.geomspace(min(depths) * 0.8, max(depths) * 1.25, 200)
+        label = _label(row.get("params") or {}, keys).replace("\n", ", ") or f"#{row['id']}"
+        ax.plot(z, lens.coc_diameter_px(z), color=colour, lw=1.2, label=f"{label} (thin lens)")
+        measured = [(b["depth_m"], b["measured_coc_px"]) for b in meta["blur"] if b["measured_coc_px"] is not None]
+        if measured:
+            ax.plot(*zip(*measured), "o", color=colour, ms=5, mfc="none")
+        for b in meta["blur"]:
+            table.append({"id": row["id"], **{k: (row.get("params") or {}).get(k) for k in keys},
+                          "depth_m": b["depth_m"], "predicted_coc_px": b["predicted_coc_px"],
+                          "measured_coc_px": b["measured_coc_px"], "pixels": b["pixels"]})
+    ax.plot([], [], "o", color="grey", mfc="none", label="measured (rendered image vs. all-in-focus)")
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax.tick_params(axis="x", which="minor", labelsize=7)
+    ax.set_xlabel("depth z (m)")
+    ax.set_ylabel("blur diameter |CoC| (pixels)")
+    ax.set_title("Measured defocus blur vs. thin-lens prediction")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=6.5, ncol=2 if len(series) > 6 else 1)
+    save_png(fig, png, dpi=120)
+    write_csv(table, csv_path, list(table[0]), number=_csv_number)
+    return png
+
+
+def _csv_number(value) -> str:
+    """Whole numbers as such, other numbers with every digit (:func:`spectral_cam.records.exact_number`)."""
+    return str(value) if isinstance(value, (int, np.integer)) else exact_number(value)

@@ -1,0 +1,108 @@
+"""Dataset labels: the defocus map is the thin-lens CoC, clean RGB is the noise-free RAW,
+the blur fit recovers known discs, and an item writes exactly the labels it is asked for."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from spectral_cam.apps.dataset import LABELS, clean_camera_rgb, write_item
+from spectral_cam.metrics.blur import measure_blur
+
+from .reading import read_exr, read_manifest
+
+pytestmark = pytest.mark.timeout(300)
+
+
+def test_defocus_map_is_the_thin_lens_coc(first_run):
+    checked = 0
+    for row in read_manifest(first_run.out):
+        item = first_run.out / row["path"]
+        meta = json.loads((item / "meta.json").read_text())
+        lens, sensor = meta["config"]["lens"], meta["config"]["sensor"]
+        f = lens["focal_length_mm"] * 1e-3
+        aperture = f / lens["f_number"]
+        z_f = lens["focus_distance_m"]
+        pitch = sensor["pixel_pitch_um"] * 1e-6
+        depth = read_exr(item / "depth.exr")["Z"]
+        defocus = read_exr(item / "defocus.exr")["CoC"]
+        assert defocus.shape == depth.shape == (16, 24)
+        for r, c in [(0, 0), (8, 12), (15, 23), (4, 3), (11, 20)]:
+            z = float(depth[r, c])
+            assert math.isfinite(z)
+            expected = aperture * f * (z - z_f) / (z * (z_f - f)) / pitch  # signed, + behind focus
+            assert defocus[r, c] == pytest.approx(expected, rel=1e-5, abs=1e-6)
+            checked += 1
+        assert np.abs(defocus).max() > 0.1
+    assert checked == 30
+
+
+def test_clean_rgb_is_the_noise_free_raw(make_scene):
+    """With every noise term off, the RAW is the clean camera RGB through the CFA, quantised."""
+    from spectral_cam import spectra
+    from spectral_cam.image import SpectralImage
+    from spectral_cam.sensor import expose
+
+    config = make_scene(sensor={"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0,
+                                "dsnu_e": 0.0, "prnu": 0.0, "cfa": "GRBG"},
+                        exposure={"time_s": 0.01}, lens={"f_number": 4.0})
+    bands = spectra.parse_bands("400:700:10")
+    rng = np.random.default_rng(1)
+    cube = rng.uniform(0.0, 0.02, (16, 24, len(bands.centres_nm))).astype(np.float32)
+    radiance = SpectralImage(cube, np.asarray(bands.centres_nm), np.asarray(bands.edges_nm))
+    raw = expose(radiance, config)
+    clean = clean_camera_rgb(radiance, config, exposure_s=0.01)
+    assert clean.shape == (16, 24, 3) and 0.05 < clean.max() < 1.0
+    layout = ((1, 0), (2, 1))  # GRBG
+    through_cfa = np.empty((16, 24))
+    for a in (0, 1):
+        for b in (0, 1):
+            through_cfa[a::2, b::2] = clean[a::2, b::2, layout[a][b]]
+    span = raw.white_level - raw.black_level
+    measured = (raw.mosaic.astype(float) - raw.black_level) / span
+    np.testing.assert_allclose(measured, through_cfa, atol=0.5 / span + 1e-6)
+
+
+def test_measure_blur_recovers_a_disc_on_supersampled_texture():
+    """A smooth texture rendered at 16× and box-averaged (as the renderer integrates pixels),
+    blurred by known discs before averaging: the fit recovers the diameters."""
+    import cv2
+
+    ss, height, width = 16, 40, 48
+    rng = np.random.default_rng(0)
+    coarse = rng.uniform(0.1, 0.9, (height // 4 + 2, width // 4 + 2)).astype(np.float32)
+    fine = cv2.resize(coarse, ((width // 4 + 2) * 4 * ss, (height // 4 + 2) * 4 * ss),
+                      interpolation=cv2.INTER_CUBIC)[:height * ss, :width * ss]
+
+    def down(image):
+        return image.reshape(height, ss, width, ss).mean(axis=(1, 3))
+
+    sharp = down(fine)
+    mask = np.zeros((height, width), dtype=bool)
+    mask[10:-10, 10:-10] = True
+    for diameter in (0.0, 2.5, 6.0):
+        radius = diameter / 2 * ss
+        reach = int(math.ceil(radius)) + 1
+        yy, xx = np.mgrid[-reach:reach + 1, -reach:reach + 1]
+        kernel = ((xx ** 2 + yy ** 2) <= radius ** 2).astype(np.float32)
+        kernel /= kernel.sum()
+        blurred = down(cv2.filter2D(fine, -1, kernel, borderType=cv2.BORDER_REFLECT))
+        measured = measure_blur(sharp, blurred, mask, max_diameter_px=12.0)
+        assert measured == pytest.approx(diameter, abs=0.03 + 0.02 * diameter)
+    assert math.isnan(measure_blur(sharp, sharp, np.zeros_like(mask), max_diameter_px=4.0))
+
+
+def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
+    """Each output is one LABELS entry; the records of labels not written are None."""
+    config = make_scene(scene={"preset": "dof_targets"}, render={"spp": 2}, lens={"model": "thin"})
+    meta = write_item(config, tmp_path / "item", outputs=["raw", "defocus"], dataset={"id": "x"})
+    assert {p.name for p in (tmp_path / "item").iterdir()} == {"raw.dng", "defocus.exr", "meta.json"}
+    assert meta["files"] == ["defocus.exr", "raw.dng", "meta.json"] and meta["dataset"] == {"id": "x"}
+    assert meta["defocus"]["channel"] == "CoC"
+    recorded = {key for entry in LABELS.values() for key in entry.options}
+    assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb"}
+    assert all(meta[key] is None for key in recorded - {"defocus"})
+    assert json.loads((tmp_path / "item" / "meta.json").read_text())["files"] == meta["files"]

@@ -1,0 +1,200 @@
+"""Running a dataset (issue 8): a LocalCluster renders tiny items; resume, regeneration,
+a worker killed mid-item, poison items, the CLI on a scheduler address and the progress
+bar behave as specified."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spectral_cam.apps.dataset import ProgressBar, generate_dataset, load_spec, render_item, spec_from_dict
+from spectral_cam.errors import ConfigError
+from spectral_cam.io import staged_directory
+
+from .reading import item_pixels, read_exr, read_manifest, without_timings
+
+ITEM_FILES = {"raw.dng", "image.png", "radiance.exr", "depth.exr", "defocus.exr", "all_in_focus.png",
+              "clean_rgb.exr", "meta.json"}
+
+
+@pytest.mark.timeout(300)
+def test_six_items_write_manifest_and_files(first_run):
+    out, summary = first_run.out, first_run.summary
+    assert (summary.items, summary.rendered, summary.resumed, summary.failed) == (6, 6, 0, 0)
+    rows = read_manifest(out)
+    assert [r["index"] for r in rows] == list(range(6))
+    assert all(r["status"] == "done" and r["error"] is None and not r["resumed"] for r in rows)
+    assert len({r["seed"] for r in rows}) == 6
+    for row in rows:
+        item = out / row["path"]
+        assert {Path(f).name for f in row["files"]} == ITEM_FILES == {p.name for p in item.iterdir()}
+        assert all((out / f).is_file() for f in row["files"])
+        params = row["params"]
+        assert set(params) == {"sensor.model", "lens.f_number", "lens.focus_distance_m", "exposure.iso"}
+        assert 1.4 <= params["lens.f_number"] <= 8.0 and 0.8 <= params["lens.focus_distance_m"] <= 4.0
+        assert params["exposure.iso"] in (100, 400)
+        # the plan is a pure function of (spec, index): seeds and draws are reproducible
+        plan = first_run.spec.plan_item(row["index"])
+        assert (plan.seed, plan.params) == (row["seed"], params)
+        meta = json.loads((item / "meta.json").read_text())
+        assert meta["dataset"]["seed"] == row["seed"] == meta["config"]["render"]["seed"]
+        assert meta["config"]["lens"]["f_number"] == pytest.approx(params["lens.f_number"])
+        assert meta["config"]["lens"]["model"] == "thin" and meta["render"]["lens_model"] == "thin"
+        # the all-in-focus image: same pose through a pinhole at the main item's exposure
+        assert meta["all_in_focus"]["lens_model"] == "pinhole"
+        assert meta["all_in_focus"]["exposure_s"] == meta["sensor"]["exposure_s"]
+        clean = read_exr(item / "clean_rgb.exr")
+        assert set(clean) == {"R", "G", "B"} and clean["G"].shape == (16, 24) and clean["G"].max() > 0
+    assert (out / "contact_sheet.png").is_file()
+    info = json.loads((out / "dataset.json").read_text())
+    assert info["spec_hash"] == first_run.spec.hash and info["items"] == 6
+    assert not [p for p in (out / "items").iterdir() if p.name.startswith(".")]
+
+
+@pytest.mark.timeout(300)
+def test_rerun_skips_all_six(first_run, cluster, tmp_path):
+    out = tmp_path / "copy"
+    shutil.copytree(first_run.out, out)
+    before = {p: p.stat().st_mtime_ns for p in (out / "items").rglob("*")}
+    summary = generate_dataset(first_run.spec, out, n=6, executor=cluster.executor, progress=False)
+    assert (summary.rendered, summary.resumed, summary.failed) == (0, 6, 0)
+    assert all(r["resumed"] and r["status"] == "done" for r in read_manifest(out))
+    assert before == {p: p.stat().st_mtime_ns for p in (out / "items").rglob("*")}
+    # another spec is refused for this folder
+    other = spec_from_dict({"dataset": {"seed": 8}, "sensor": {"width_px": 24, "height_px": 16}})
+    with pytest.raises(ConfigError, match="another spec"):
+        generate_dataset(other, out, n=1, executor=cluster.executor, progress=False)
+
+
+@pytest.mark.timeout(300)
+def test_deleted_item_regenerates_identically(first_run, cluster, tmp_path):
+    out = tmp_path / "copy"
+    shutil.copytree(first_run.out, out)
+    item = out / "items" / "000003"
+    old_pixels = item_pixels(item)
+    old_meta = json.loads((item / "meta.json").read_text())
+    shutil.rmtree(item)
+    (out / "items" / "000004" / "defocus.exr").unlink()  # an incomplete folder is not finished either
+    summary = generate_dataset(first_run.spec, out, n=6, executor=cluster.executor, progress=False)
+    assert (summary.rendered, summary.resumed, summary.failed) == (2, 4, 0)
+    assert [r["index"] for r in read_manifest(out) if not r["resumed"]] == [3, 4]
+    new_pixels = item_pixels(item)
+    assert new_pixels.keys() == old_pixels.keys()
+    for name, pixels in old_pixels.items():
+        np.testing.assert_array_equal(new_pixels[name], pixels, err_msg=name)
+    assert without_timings(json.loads((item / "meta.json").read_text())) == without_timings(old_meta)
+
+
+@pytest.mark.timeout(300)
+def test_killed_worker_is_retried(cluster, spec_file):
+    out = cluster.base / "killed"
+    target = out / "items" / "000001"
+    marker = cluster.base / "killed.marker"
+
+    def kill_first_attempt(task):
+        """The first attempt at item 000001 dies mid-item (SIGKILL of its worker), leaving a
+        half-written staging folder; every other attempt renders normally."""
+        if task["id"] == "000001":
+            try:
+                fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+            except FileExistsError:
+                pass
+            else:
+                os.close(fd)
+                with staged_directory(task["path"], force=True) as stage:
+                    (stage / "raw.dng").write_bytes(b"half an item")
+                    os.kill(os.getpid(), signal.SIGKILL)
+        return render_item(task)
+
+    spec = load_spec(spec_file, overrides=["render.spp=2"])
+    summary = generate_dataset(spec, out, n=3, executor=cluster.executor, progress=False,
+                               item_function=kill_first_attempt)
+    assert marker.is_file(), "the worker was not killed"
+    assert (summary.rendered, summary.failed, summary.retried) == (3, 0, 1)
+    rows = read_manifest(out)
+    assert [r["status"] for r in rows] == ["done"] * 3
+    assert [r["attempts"] for r in rows] == [1, 2, 1]
+    assert (target / "meta.json").is_file()
+    assert not [p for p in (out / "items").iterdir() if p.name.startswith(".")]
+
+
+@pytest.mark.timeout(300)
+def test_poison_items_fail_and_the_rest_complete(cluster, tmp_path):
+    (tmp_path / "broken.xml").write_text("<scene version='3.0.0'><shape type='no_such_plugin'/></scene>")
+    spec_path = tmp_path / "poison.toml"
+    spec_path.write_text("""
+[dataset]
+outputs = ["raw", "image", "depth", "defocus"]
+[dataset.sweep]
+"scene.mitsuba_xml" = ["", "broken.xml"]
+"lens.focus_distance_m" = [0.01, 2.0]
+[sensor]
+width_px = 24
+height_px = 16
+[render]
+spp = 2
+[lens]
+focal_length_mm = 25.0
+""")
+    out = tmp_path / "poison"
+    summary = generate_dataset(load_spec(spec_path), out, executor=cluster.executor, progress=False)
+    rows = read_manifest(out)
+    assert [(r["params"]["scene.mitsuba_xml"], r["params"]["lens.focus_distance_m"]) for r in rows] == [
+        ("", 0.01), ("", 2.0), ("broken.xml", 0.01), ("broken.xml", 2.0)]
+    assert [r["status"] for r in rows] == ["failed", "done", "failed", "failed"]
+    assert (summary.rendered, summary.failed) == (1, 3)
+    for index in (0, 2):  # impossible values: rejected before rendering, with what would be valid
+        assert "lens.focus_distance_m" in rows[index]["error"] and "focal length" in rows[index]["error"]
+        assert rows[index]["attempts"] == 0
+    assert rows[3]["error"].startswith("RenderError") and rows[3]["attempts"] == 1
+    assert rows[1]["error"] is None and (out / "items" / "000001" / "raw.dng").is_file()
+    assert not (out / "items" / "000003").exists()
+
+
+@pytest.mark.timeout(300)
+def test_cli_sweep_on_a_scheduler_address(cluster, points_spec_file, tmp_path, capsys):
+    from spectral_cam import cli
+
+    spec = points_spec_file
+    out = tmp_path / "sweep"
+    status = cli.main(["dataset", str(spec), "-o", str(out), "--sweep", "lens.focus_distance_m=1:2:2",
+                       "--scheduler", cluster.client.scheduler.address])
+    assert status == 0, capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "2 items, 2 rendered, 0 resumed, 0 failed" in err and "items/min" in err
+    assert [r["params"] for r in read_manifest(out)] == [{"lens.focus_distance_m": 1.0},
+                                                         {"lens.focus_distance_m": 2.0}]
+    assert (out / "contact_sheet.png").is_file() and (out / "blur_vs_depth.png").is_file()
+    # a bad sweep is a user error: one message, exit 2
+    assert cli.main(["dataset", str(spec), "-o", str(out), "--sweep", "lens.nope=1:2:2"]) == 2
+    assert "unknown key 'lens.nope'" in capsys.readouterr().err
+    # two items per grid point re-plans which index gets which focus: resume must re-render
+    # the items whose planned parameters changed, never relabel an old folder
+    status = cli.main(["dataset", str(spec), "-o", str(out), "-n", "2", "--sweep", "lens.focus_distance_m=1:2:2",
+                       "--scheduler", cluster.client.scheduler.address])
+    assert status == 0, capsys.readouterr().err
+    for row in read_manifest(out):
+        meta = json.loads((out / row["path"] / "meta.json").read_text())
+        assert meta["config"]["lens"]["focus_distance_m"] == row["params"]["lens.focus_distance_m"]
+    # items 0 and 1 held f = 1 m and 2 m; now 0 and 1 are 1 m, 2 and 3 are 2 m
+    assert [r["resumed"] for r in read_manifest(out)] == [True, False, False, False]
+
+
+@pytest.mark.timeout(60)
+def test_progress_bar_shows_rate_and_eta():
+    stream = io.StringIO()
+    bar = ProgressBar(10, resumed=2, stream=stream, every_s=0.0)
+    bar.started -= 60.0  # one minute in
+    bar.update(done=3, failed=1)
+    bar.close()
+    lines = stream.getvalue().splitlines()
+    assert lines[-1].startswith("dataset [") and "6/10 items" in lines[-1]
+    assert "2 resumed" in lines[-1] and "1 failed" in lines[-1]
+    assert "4.0 items/min" in lines[-1] and "ETA 1 min 00 s" in lines[-1]

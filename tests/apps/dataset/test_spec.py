@@ -1,0 +1,73 @@
+"""Dataset specs: draws, sweeps, item plans and the errors of a bad spec."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from spectral_cam.apps.dataset import parse_sweep, spec_from_dict
+from spectral_cam.errors import ConfigError
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def test_spec_draws_sweeps_and_errors(tmp_path):
+    spec = spec_from_dict({
+        "dataset": {"seed": 3, "n": 50},
+        "sensor": {"width_px": {"uniform": [20, 40]}, "height_px": 16},
+        "scene": {"preset": "dof_targets", "depths_m": {"uniform": [[0.5, 1.0, 2.0], [1.0, 3.0, 8.0]]}},
+        "lens": {"f_number": {"log_uniform": [1.4, 16.0]}},
+    })
+    plans = [spec.plan_item(i) for i in range(50)]
+    assert all(p.error is None for p in plans)
+    widths = [p.params["sensor.width_px"] for p in plans]
+    assert all(isinstance(w, int) and 20 <= w <= 40 for w in widths) and len(set(widths)) > 5
+    depths = np.array([p.params["scene.depths_m"] for p in plans])
+    assert np.all(depths >= [0.5, 1.0, 2.0]) and np.all(depths <= [1.0, 3.0, 8.0])
+    logs = np.log([p.params["lens.f_number"] for p in plans])
+    assert np.log(1.4) <= logs.min() and logs.max() <= np.log(16.0)
+    # an item's draw does not depend on how many items there are, nor on the outputs
+    more = spec_from_dict({**{"dataset": {"seed": 3, "outputs": ["raw"]}},
+                           "sensor": {"width_px": {"uniform": [20, 40]}, "height_px": 16},
+                           "scene": {"preset": "dof_targets",
+                                     "depths_m": {"uniform": [[0.5, 1.0, 2.0], [1.0, 3.0, 8.0]]}},
+                           "lens": {"f_number": {"log_uniform": [1.4, 16.0]}}})
+    assert more.hash == spec.hash and more.plan_item(7).params == plans[7].params
+    assert spec_from_dict({"dataset": {"seed": 4}}).hash != spec_from_dict({"dataset": {"seed": 3}}).hash
+
+    sweep = parse_sweep("lens.f_number=1.4:5.6:3:log")
+    assert sweep.values == pytest.approx((1.4, 2.8, 5.6))
+    assert parse_sweep("lens.focus_distance_m=0.5:5:10").values[-1] == 5.0
+    assert parse_sweep("sensor.width_px=[32, 48]").values == (32, 48)
+    grid = spec_from_dict({}, sweeps=["lens.f_number=[2.0, 4.0]", "lens.focus_distance_m=1:3:3"])
+    assert grid.item_count(2) == 12
+    assert [grid.plan_item(i, 2).params for i in (0, 1, 2, 11)] == [
+        {"lens.f_number": 2.0, "lens.focus_distance_m": 1.0}, {"lens.f_number": 2.0, "lens.focus_distance_m": 1.0},
+        {"lens.f_number": 2.0, "lens.focus_distance_m": 2.0}, {"lens.f_number": 4.0, "lens.focus_distance_m": 3.0}]
+
+    bad = [
+        ({"lens": {"f_numbr": 2.0}}, "unknown key 'lens.f_numbr'"),
+        ({"lens": {"f_number": {"gaussian": [1, 2]}}}, "exactly one of uniform, log_uniform, choice"),
+        ({"lens": {"f_number": {"log_uniform": [0, 2]}}}, "must be > 0"),
+        ({"lens": {"f_number": {"uniform": [4, 2]}}}, "low <= high"),
+        ({"sensor": {"model": {"choice": ["a", "b"], "weights": [1]}}}, "weights must be 2 numbers"),
+        ({"dataset": {"outputs": ["raw", "jpeg"]}}, "unknown output 'jpeg'"),
+        ({"dataset": {"sede": 1}}, "valid keys of \\[dataset\\]"),
+        ({"render": {"spectral_output": True}}, "add or remove 'radiance'"),
+    ]
+    for data, message in bad:
+        with pytest.raises(ConfigError, match=message):
+            spec_from_dict(data)
+    for text, message in [("lens.f_number=1:2", "start:stop:count"), ("lens.f_number=0:2:3:log", "start, stop > 0"),
+                          ("lens.f_number", "section.key=start:stop:count")]:
+        with pytest.raises(ConfigError, match=message):
+            parse_sweep(text)
+    with pytest.raises(ConfigError, match="both swept and drawn"):
+        spec_from_dict({"lens": {"f_number": {"uniform": [2, 4]}}}, sweeps=["lens.f_number=[2.0]"])
+    with pytest.raises(ConfigError, match="-n N"):
+        spec_from_dict({}).item_count()
+
+
+def test_whole_number_bounds_beyond_float_precision_are_refused():
+    with pytest.raises(ConfigError, match="below 2\\*\\*53"):
+        spec_from_dict({"sensor": {"width_px": {"uniform": [1e30, 2e30]}}})
