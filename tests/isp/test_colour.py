@@ -14,45 +14,32 @@ import pytest
 
 import spectral_cam as sc
 from spectral_cam import colorimetry
-from spectral_cam.sensor import calibration
+from spectral_cam.colorimetry import white_patch_index
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.presets import colorchecker_patches
 from spectral_cam.scene import scene_from_dict
-from spectral_cam.sensor import expose
+from spectral_cam.sensor import calibration, expose
+from tests.support.colorchecker import (
+    HEIGHT,
+    NOISE_OFF,
+    WIDTH,
+    colorchecker_tables,
+    delta_e_white_matched,
+)
 
 pytestmark = pytest.mark.timeout(300)
 
-WIDTH, HEIGHT, SPP = 144, 96, 256
-WHITE = 18  # "white 9.5 (.05 D)"
-NOISE_OFF = {"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, "dsnu_e": 0.0, "prnu": 0.0}
+WHITE = white_patch_index()  # "white 9.5 (.05 D)"
 
 
 def scene(**sensor):
-    return scene_from_dict({
-        "scene": {"preset": "colorchecker"},
-        "illuminant": {"spd": "D65"},
-        "lens": {"model": "pinhole"},
-        "sensor": {"width_px": WIDTH, "height_px": HEIGHT, **sensor},
-        "exposure": {"time_s": "auto", "iso": 100, "auto_fraction": 0.8},
-        "render": {"spp": SPP, "seed": 1},
-    })
+    return scene_from_dict(colorchecker_tables(**sensor))
 
 
 # ----------------------------------------------------------------------------- helpers
-def lab(linear_srgb):
-    import colour
-
-    space = colour.models.RGB_COLOURSPACE_sRGB
-    return colour.XYZ_to_Lab(colour.RGB_to_XYZ(np.asarray(linear_srgb, float), space), space.whitepoint)
-
-
 def delta_e(test_rgb, reference_rgb):
     """ΔE2000 per patch after matching the test's white-patch luminance to the reference's."""
-    import colour
-
-    y = np.asarray(colour.models.RGB_COLOURSPACE_sRGB.matrix_RGB_to_XYZ)[1]
-    test = np.asarray(test_rgb, float) * (reference_rgb[WHITE] @ y) / (np.asarray(test_rgb, float)[WHITE] @ y)
-    return np.asarray(colour.delta_E(lab(test), lab(reference_rgb), method="CIE 2000"))
+    return delta_e_white_matched(test_rgb, reference_rgb, WHITE)
 
 
 def means(image, patches):

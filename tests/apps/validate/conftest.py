@@ -7,12 +7,16 @@ import csv
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from spectral_cam.apps.validate import load_plan, run_plan
 from spectral_cam.scene import scene_from_dict
 from tests.support.chromium import load_in_chromium
+from tests.support.colorchecker import (
+    NOISE_OFF,
+    colorchecker_tables,
+    delta_e_white_matched,
+)
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -52,33 +56,13 @@ def chromium():
 @pytest.fixture(scope="session")
 def noise_off() -> dict:
     """[sensor] keys that switch every noise term off."""
-    return {"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, "dsnu_e": 0.0, "prnu": 0.0}
+    return dict(NOISE_OFF)
 
 
 @pytest.fixture(scope="session")
-def isp_colour_setup(noise_off) -> dict:
+def isp_colour_setup() -> dict:
     """The configuration of the ISP's own ColorChecker test (tests/isp/test_colour.py, its
     noise-free ``chart``): the scene tables, the SceneConfig, and that test's ΔE2000 —
     colour-science directly, white-matched — as ``delta_e(test_rgb, reference_rgb, white)``."""
-    tables = {
-        "scene": {"preset": "colorchecker"},
-        "illuminant": {"spd": "D65"},
-        "lens": {"model": "pinhole"},
-        "sensor": {"width_px": 144, "height_px": 96, **noise_off},
-        "exposure": {"time_s": "auto", "iso": 100, "auto_fraction": 0.8},
-        "render": {"spp": 256, "seed": 1},
-    }
-
-    def delta_e(test_rgb, reference_rgb, white):
-        import colour
-
-        space = colour.models.RGB_COLOURSPACE_sRGB
-        y = np.asarray(space.matrix_RGB_to_XYZ)[1]
-        test = np.asarray(test_rgb, float) * (reference_rgb[white] @ y) / (np.asarray(test_rgb, float)[white] @ y)
-
-        def lab(rgb):
-            return colour.XYZ_to_Lab(colour.RGB_to_XYZ(np.asarray(rgb, float), space), space.whitepoint)
-
-        return np.asarray(colour.delta_E(lab(test), lab(reference_rgb), method="CIE 2000"))
-
-    return {"tables": tables, "config": scene_from_dict(tables), "delta_e": delta_e}
+    tables = colorchecker_tables(**NOISE_OFF)
+    return {"tables": tables, "config": scene_from_dict(tables), "delta_e": delta_e_white_matched}
