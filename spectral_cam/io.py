@@ -16,7 +16,7 @@ from typing import Iterator
 
 from .errors import ConfigError
 
-__all__ = ["atomic_path", "staged_directory"]
+__all__ = ["atomic_path", "staged_directory", "write_exr_channels"]
 
 
 @contextlib.contextmanager
@@ -81,3 +81,32 @@ def _publish(stage: Path, target: Path, *, force: bool) -> None:
             raise
     finally:
         shutil.rmtree(trash, ignore_errors=True)
+
+
+def write_exr_channels(channels, path: str | Path, attributes=None) -> Path:
+    """Write named float32 channels as a ZIP-compressed scanline OpenEXR, atomically.
+
+    Parameters
+    ----------
+    channels : mapping of str to numpy.ndarray
+        Channel name → (H, W) array (converted to float32). OpenEXR stores channels sorted
+        by name.
+    path : path-like
+        Output file.
+    attributes : mapping of str to str, optional
+        Extra header attributes (e.g. the spectral layout's ``spectralLayoutVersion``).
+
+    References
+    ----------
+    .. [1] OpenEXR file layout, https://openexr.com (header attributes, channel lists).
+    """
+    import numpy as np
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **(attributes or {})}
+    data = {name: np.ascontiguousarray(value, dtype=np.float32) for name, value in channels.items()}
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with OpenEXR.File(header, data) as exr:
+            exr.write(str(tmp))
+    return path

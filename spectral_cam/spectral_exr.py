@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import RawFormatError
 from .image import SpectralImage
-from .io import atomic_path
+from .io import write_exr_channels
 
 __all__ = ["write_spectral_exr", "read_spectral_exr", "write_depth_exr", "read_depth_exr", "channel_name"]
 
@@ -52,25 +52,14 @@ def write_spectral_exr(image: SpectralImage, path: str | Path) -> Path:
     >>> bool(np.allclose(back.data, image.data)), back.wavelengths_nm[:3].tolist()
     (True, [400.0, 410.0, 420.0])
     """
-    import OpenEXR
-
     radiance = image.radiance_per_nm.astype(np.float32)
-    channels = {
-        channel_name(w): np.ascontiguousarray(radiance[..., i])
-        for i, w in enumerate(image.wavelengths_nm)
-    }
-    header = {
-        "compression": OpenEXR.ZIP_COMPRESSION,
-        "type": OpenEXR.scanlineimage,
+    channels = {channel_name(w): radiance[..., i] for i, w in enumerate(image.wavelengths_nm)}
+    attributes = {
         "spectralLayoutVersion": "1.0",
         "emissiveUnits": EMISSIVE_UNITS,
         "spectral_cam_band_edges_nm": json.dumps([float(e) for e in image.band_edges_nm]),
     }
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        with OpenEXR.File(header, channels) as exr:
-            exr.write(str(tmp))
-    return path
+    return write_exr_channels(channels, path, attributes)
 
 
 def _open(path: Path) -> tuple[dict, dict]:
@@ -121,14 +110,7 @@ def read_spectral_exr(path: str | Path) -> SpectralImage:
 
 def write_depth_exr(depth_m: np.ndarray, path: str | Path) -> Path:
     """Write camera-space depth (m) as a single float32 channel ``Z``."""
-    import OpenEXR
-
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        with OpenEXR.File(header, {"Z": np.ascontiguousarray(depth_m.astype(np.float32))}) as exr:
-            exr.write(str(tmp))
-    return path
+    return write_exr_channels({"Z": depth_m}, path)
 
 
 def read_depth_exr(path: str | Path) -> np.ndarray:

@@ -18,6 +18,7 @@ import spectral_cam
 pytestmark = pytest.mark.timeout(60)
 
 ROOT = Path(spectral_cam.__file__).parent
+PACKAGE_ROOT = ROOT
 PACKAGE = "spectral_cam"
 
 
@@ -142,3 +143,16 @@ def test_only_apps_and_cli_import_apps_and_cli():
             continue
         upward = [t for t in targets if t.startswith(("spectral_cam.apps", "spectral_cam.cli"))]
         assert not upward, f"{module} imports {upward}"
+
+
+def test_only_the_renderer_imports_mitsuba():
+    # "the sensor knows nothing of Mitsuba": Mitsuba and drjit stay inside render/
+    for path in PACKAGE_ROOT.rglob("*.py"):
+        name = _module_name(path)
+        if name == "spectral_cam.render" or name.startswith("spectral_cam.render."):
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            assert not any(n.split(".")[0] in ("mitsuba", "drjit") for n in names), f"{name} imports {names}"

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ..io import atomic_path
+from ..io import atomic_path, write_exr_channels
 from ..registry import Registry
 
 __all__ = [
@@ -181,15 +181,8 @@ def write_exr(linear: np.ndarray, path: str | Path) -> Path:
     ----------
     .. [1] OpenEXR file layout, https://openexr.com (chromaticities default to Rec. 709 = sRGB).
     """
-    import OpenEXR
-
-    data = _check_rgb(linear).astype(np.float32)
-    channels = {name: np.ascontiguousarray(data[..., i]) for i, name in enumerate("RGB")}
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with atomic_path(path) as tmp:
-        with OpenEXR.File(header, channels) as exr:
-            exr.write(str(tmp))
-    return Path(path)
+    data = _check_rgb(linear)
+    return write_exr_channels({name: data[..., i] for i, name in enumerate("RGB")}, path)
 
 
 def _png8(dev, path, **_):

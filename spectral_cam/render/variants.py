@@ -92,3 +92,18 @@ def choose_variant(requested: str = "auto") -> str:
     if "llvm_ad_spectral" in available and _llvm_usable():
         return "llvm_ad_spectral"
     return "scalar_spectral"
+
+
+def set_render_threads(threads: int | None) -> None:
+    """Limit the renderer's worker threads (drjit's thread pool) to ``threads``; None or 0
+    leaves them as they are. A dataset worker process sets it to its share of the cores.
+
+    References
+    ----------
+    .. [1] drjit documentation, ``drjit.set_thread_count``.
+    """
+    if threads:
+        import drjit
+
+        if drjit.thread_count() != threads:
+            drjit.set_thread_count(int(threads))

@@ -130,13 +130,38 @@ References
 
 """
 
-from .labels import (BLUR_PRESETS, DEFAULT_OUTPUTS, LABELS, Item, clean_camera_rgb, defocus_map_px,
-                     measure_scene_blur, write_item)
-from .run import (MANIFEST_EVERY_S, DatasetSummary, ProgressBar, default_workers, generate_dataset, item_task,
-                  local_cluster, render_item)
+from .labels import (
+                     BLUR_PRESETS,
+                     DEFAULT_OUTPUTS,
+                     LABELS,
+                     Item,
+                     clean_camera_rgb,
+                     defocus_map_px,
+                     measure_scene_blur,
+                     write_item,
+)
+from .run import (
+                     MANIFEST_EVERY_S,
+                     DatasetSummary,
+                     ProgressBar,
+                     default_workers,
+                     generate_dataset,
+                     item_task,
+                     local_cluster,
+                     render_item,
+)
 from .sheets import CONTACT_SHEET_MAX, write_blur_chart, write_contact_sheet
-from .spec import (DISTRIBUTIONS, FORMAT_VERSION, DatasetSpec, Distribution, ItemPlan, Sweep, load_spec,
-                   parse_sweep, spec_from_dict)
+from .spec import (
+                     DISTRIBUTIONS,
+                     FORMAT_VERSION,
+                     DatasetSpec,
+                     Distribution,
+                     ItemPlan,
+                     Sweep,
+                     load_spec,
+                     parse_sweep,
+                     spec_from_dict,
+)
 
 __all__ = [
     "DISTRIBUTIONS", "FORMAT_VERSION", "Distribution", "Sweep", "parse_sweep", "DatasetSpec", "ItemPlan",

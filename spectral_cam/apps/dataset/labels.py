@@ -34,7 +34,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import ConfigError
-from ...io import atomic_path, staged_directory
+from ...io import staged_directory, write_exr_channels
 from ...job import Simulation, result_meta, simulate, write_files
 from ...metrics.blur import measure_blur
 from ...records import write_json
@@ -107,7 +107,7 @@ for _name, _description in (
 @LABELS.register("defocus", options=("defocus",),
                  description="defocus.exr: signed thin-lens CoC diameter in pixels, channel CoC")
 def _defocus(item: Item, folder: Path) -> list[Path]:
-    path = _write_exr({"CoC": defocus_map_px(item.sim.lens, item.sim.radiance.depth_m)}, folder / "defocus.exr",
+    path = write_exr_channels({"CoC": defocus_map_px(item.sim.lens, item.sim.radiance.depth_m)}, folder / "defocus.exr",
                       {"spectral_cam_units": "signed CoC diameter, pixels (+ behind focus)"})
     item.records["defocus"] = {"file": "defocus.exr", "channel": "CoC", "units": "px",
                                "formula": "A*f*(z - z_f)/(z*(z_f - f))/pixel_pitch, A = f/N",
@@ -143,7 +143,7 @@ def _clean_rgb(item: Item, folder: Path) -> list[Path]:
     sensor = item.config.sensor
     channels = ("Y",) if sensor.cfa == "none" else ("R", "G", "B")
     clean = item.clean_rgb
-    path = _write_exr({name: clean[..., i] for i, name in enumerate(channels)}, folder / "clean_rgb.exr",
+    path = write_exr_channels({name: clean[..., i] for i, name in enumerate(channels)}, folder / "clean_rgb.exr",
                       {"spectral_cam_units": "linear camera RGB, 1 = white level - black level"})
     item.records["clean_rgb"] = {
         "file": "clean_rgb.exr", "channels": list(channels), "units": "linear camera RGB; 1 = white level - black level",
@@ -155,16 +155,6 @@ def _clean_rgb(item: Item, folder: Path) -> list[Path]:
 #: Outputs of an item unless the spec's ``[dataset] outputs`` says otherwise (the spectral
 #: cube, 31 float32 channels, is opt-in).
 DEFAULT_OUTPUTS = ("raw", "image", "depth", "defocus", "all_in_focus", "clean_rgb")
-
-
-def _write_exr(channels: dict[str, np.ndarray], path: Path, attributes: dict[str, str]) -> Path:
-    import OpenEXR
-
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attributes}
-    with atomic_path(path) as tmp:
-        with OpenEXR.File(header, {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}) as exr:
-            exr.write(str(tmp))
-    return path
 
 
 def write_item(config: SceneConfig, target: str | Path, *, outputs: Sequence[str], measure_blur: bool = False,

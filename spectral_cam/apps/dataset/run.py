@@ -34,6 +34,7 @@ from ...errors import ConfigError
 from ...io import atomic_path
 from ...progress import ProgressLine, duration
 from ...records import json_ready, read_json, write_json
+from ...render.variants import set_render_threads
 from ...scene import scene_from_dict
 from .labels import write_item
 from .sheets import write_blur_chart, write_contact_sheet
@@ -105,7 +106,7 @@ def render_item(task: Mapping[str, Any]) -> dict:
     started = time.perf_counter()
     row = {"index": task["index"], "id": task["id"], "seed": task["seed"], "params": task["params"]}
     try:
-        _set_render_threads(task.get("render_threads"))
+        set_render_threads(task.get("render_threads"))
         config = scene_from_dict(task["scene"])
         record = {key: task[key] for key in ("index", "id", "seed", "spec_hash", "params")}
         meta = write_item(config, task["path"], outputs=task["outputs"], measure_blur=task.get("measure_blur", False),
@@ -117,14 +118,6 @@ def render_item(task: Mapping[str, Any]) -> dict:
     row["seconds"] = time.perf_counter() - started
     row["worker_pid"] = os.getpid()
     return row
-
-
-def _set_render_threads(threads: int | None) -> None:
-    if threads:
-        import drjit
-
-        if drjit.thread_count() != threads:
-            drjit.set_thread_count(int(threads))
 
 
 # ----------------------------------------------------------------------------- executors

@@ -208,10 +208,5 @@ def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=6.5, ncol=2 if len(series) > 6 else 1)
     save_png(fig, png, dpi=120)
-    write_csv(table, csv_path, list(table[0]), number=_csv_number)
+    write_csv(table, csv_path, list(table[0]), number=exact_number)
     return png
-
-
-def _csv_number(value) -> str:
-    """Whole numbers as such, other numbers with every digit (:func:`spectral_cam.records.exact_number`)."""
-    return str(value) if isinstance(value, (int, np.integer)) else exact_number(value)
