@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from spectral_cam import render
+from spectral_cam.metrics.blur import disc_diameter_from_moments, second_moment
 
 FOCAL_M, F_NUMBER, FOCUS_M, PITCH_M, SIZE_PX = 0.05, 2.0, 2.0, 10e-6, 64
 
@@ -38,24 +39,14 @@ def source_scene(make_scene, depths, radius_m, model="thin", spp=1024, seed=0, s
     )
 
 
-def moments(weights: np.ndarray) -> tuple[float, float, float]:
-    """Centroid (column, row) in pixel coordinates and radial second moment (px²)."""
-    rows, cols = np.indices(weights.shape)
-    total = weights.sum()
-    cx = (weights * (cols + 0.5)).sum() / total
-    cy = (weights * (rows + 0.5)).sum() / total
-    m2 = (weights * ((cols + 0.5 - cx) ** 2 + (rows + 0.5 - cy) ** 2)).sum() / total
-    return cx, cy, m2
-
-
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("depth_m", [1.5, 3.0, 5.0])
 def test_defocus_blur_matches_circle_of_confusion(make_scene, depth_m):
     source_px = 3.0  # source disc radius in the image, px
     radius_m = source_px * PITCH_M * depth_m / image_distance_m()
     image = render(source_scene(make_scene, [depth_m], radius_m), with_depth=False)
-    _, _, m2 = moments(image.data.sum(axis=-1).astype(np.float64))
-    measured = math.sqrt(8.0 * (m2 - source_px ** 2 / 2 - 2 / 12))
+    # a pixel-integrated disc of radius r px has ⟨r²⟩ = r²/2 + 2/12 before the blur
+    measured = disc_diameter_from_moments(image.data.sum(axis=-1), source_px ** 2 / 2 + 2 / 12)
     expected = coc_px(depth_m)
     assert measured == pytest.approx(expected, rel=0.02), f"z = {depth_m} m"
 
@@ -71,13 +62,13 @@ def test_pinhole_renders_every_depth_sharp_with_the_same_field_of_view(make_scen
     for depth, column in zip(depths, expected_columns):
         window = slice(int(column) - 16, int(column) + 16)
         source_px = radius_m * image_distance_m() / depth / PITCH_M
-        cx, cy, m2 = moments(sharp.data[:, window].sum(axis=-1).astype(np.float64))
+        cx, cy, m2 = second_moment(sharp.data[:, window].sum(axis=-1).astype(np.float64))
         cx += window.start
         # sharp: only the source's own image and the pixel box, no defocus
         assert math.sqrt(m2) == pytest.approx(math.sqrt(source_px ** 2 / 2 + 2 / 12), rel=0.05)
         assert (cx, cy) == pytest.approx((column, size / 2), abs=0.1)
         if abs(depth - FOCUS_M) > 0.5:
-            bx, by, bm2 = moments(blurred.data[:, window].sum(axis=-1).astype(np.float64))
+            bx, by, bm2 = second_moment(blurred.data[:, window].sum(axis=-1).astype(np.float64))
             assert (bx + window.start, by) == pytest.approx((column, size / 2), abs=0.5)
             assert bm2 > 4 * m2  # the thin lens blurs the same source
 

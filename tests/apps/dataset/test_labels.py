@@ -1,5 +1,5 @@
 """Dataset labels: the defocus map is the thin-lens CoC, clean RGB is the noise-free RAW,
-the blur fit recovers known discs, and an item writes exactly the labels it is asked for."""
+and an item writes exactly the labels it is asked for."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from spectral_cam.apps.dataset import LABELS, clean_camera_rgb, write_item
-from spectral_cam.metrics.blur import measure_blur
 
 from .reading import read_exr, read_manifest
 
@@ -64,35 +63,6 @@ def test_clean_rgb_is_the_noise_free_raw(make_scene):
     span = raw.white_level - raw.black_level
     measured = (raw.mosaic.astype(float) - raw.black_level) / span
     np.testing.assert_allclose(measured, through_cfa, atol=0.5 / span + 1e-6)
-
-
-def test_measure_blur_recovers_a_disc_on_supersampled_texture():
-    """A smooth texture rendered at 16× and box-averaged (as the renderer integrates pixels),
-    blurred by known discs before averaging: the fit recovers the diameters."""
-    import cv2
-
-    ss, height, width = 16, 40, 48
-    rng = np.random.default_rng(0)
-    coarse = rng.uniform(0.1, 0.9, (height // 4 + 2, width // 4 + 2)).astype(np.float32)
-    fine = cv2.resize(coarse, ((width // 4 + 2) * 4 * ss, (height // 4 + 2) * 4 * ss),
-                      interpolation=cv2.INTER_CUBIC)[:height * ss, :width * ss]
-
-    def down(image):
-        return image.reshape(height, ss, width, ss).mean(axis=(1, 3))
-
-    sharp = down(fine)
-    mask = np.zeros((height, width), dtype=bool)
-    mask[10:-10, 10:-10] = True
-    for diameter in (0.0, 2.5, 6.0):
-        radius = diameter / 2 * ss
-        reach = int(math.ceil(radius)) + 1
-        yy, xx = np.mgrid[-reach:reach + 1, -reach:reach + 1]
-        kernel = ((xx ** 2 + yy ** 2) <= radius ** 2).astype(np.float32)
-        kernel /= kernel.sum()
-        blurred = down(cv2.filter2D(fine, -1, kernel, borderType=cv2.BORDER_REFLECT))
-        measured = measure_blur(sharp, blurred, mask, max_diameter_px=12.0)
-        assert measured == pytest.approx(diameter, abs=0.03 + 0.02 * diameter)
-    assert math.isnan(measure_blur(sharp, sharp, np.zeros_like(mask), max_diameter_px=4.0))
 
 
 def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
