@@ -7,24 +7,12 @@ import json
 
 import pytest
 
-from spectral_cam.apps.validate import REFLECTANCE_SETS, load_plan, plan_from_dict, reflectance_set
+from spectral_cam.apps.validate import (
+    load_plan,
+    plan_from_dict,
+)
 from spectral_cam.cli import main
 from spectral_cam.errors import ConfigError
-
-
-@pytest.mark.timeout(60)
-def test_reflectance_sets_and_csv_sets(tmp_path):
-    sizes = {name: len(reflectance_set(name)) for name in REFLECTANCE_SETS}
-    assert sizes == {"colorchecker": 24, "rawtoaces": 190, "cie2017": 99, "cri": 14, "cqs": 15}
-    path = tmp_path / "mine.csv"
-    path.write_text("wavelength_nm,grey,ramp\n380,0.5,0.1\n780,0.5,0.9\n")
-    mine = reflectance_set("mine.csv", base_dir=tmp_path)
-    assert mine.names == ("grey", "ramp") and len(mine) == 2
-    with pytest.raises(ConfigError, match="per cent"):
-        (tmp_path / "pct.csv").write_text("wavelength_nm,grey\n380,50\n780,50\n")
-        reflectance_set(str(tmp_path / "pct.csv"))
-    with pytest.raises(ConfigError, match="valid: colorchecker, rawtoaces, cie2017, cri, cqs"):
-        reflectance_set("munsell")
 
 
 @pytest.mark.timeout(60)
