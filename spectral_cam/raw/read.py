@@ -133,8 +133,8 @@ def _rational_matrix(value) -> np.ndarray | None:
 def _tungsten_matrix(extras: dict) -> np.ndarray | None:
     """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
     for number in (1, 2):
-        code = extras.get(f"CalibrationIlluminant{number}")
-        if code is not None and int(np.asarray(code).reshape(-1)[0]) in _TUNGSTEN_CODES:
+        codes = np.asarray(extras.get(f"CalibrationIlluminant{number}", []), dtype=float).reshape(-1)
+        if codes.size and codes[0] in _TUNGSTEN_CODES:  # a tag of count 0 (a corrupt file) is no tag
             value = extras.get(f"ColorMatrix{number}")
             return None if value is None else _rational_matrix(value)
     return None

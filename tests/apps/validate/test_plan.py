@@ -1,4 +1,4 @@
-"""Validation plans (spectral_cam.apps.validate.plan): reflectance sets, errors that name what
+"""Validation plans (spectral_cam.apps.validate.plan): errors that name what
 is valid, --set overrides."""
 
 from __future__ import annotations
