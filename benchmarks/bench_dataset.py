@@ -125,12 +125,10 @@ def start_cluster(stack: contextlib.ExitStack, spec, folder: Path, items: int, w
 
 
 def plot(medians: list[dict], rounds: list[dict], path: Path, title: str) -> None:
-    import matplotlib
+    from spectral_cam.viz import figure, save_png
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (left, right) = plt.subplots(1, 2, figsize=(10.5, 4.2))
+    fig = figure(10.5, 4.2)
+    left, right = fig.subplots(1, 2)
     names = [m["mode"] for m in medians]
     rates = [m["items_per_min"] for m in medians]
     bars = left.bar(names, rates, color=["#4c72b0"] + ["#dd8452"] * (len(medians) - 1))
@@ -156,9 +154,7 @@ def plot(medians: list[dict], rounds: list[dict], path: Path, title: str) -> Non
     for ax in (left, right):
         ax.tick_params(axis="x", labelsize=8)
     fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_png(fig, path, dpi=120)
 
 
 def main(argv: list[str] | None = None) -> int:
