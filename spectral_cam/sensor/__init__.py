@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import SensorError
 from ..raw.image import RawImage
 from .colour import _colour_matrix, _fitted_corrections
-from .exposure import _AUTO_FULL_BELOW, _AUTO_STEP, auto_exposure_time, expected_electrons
+from .exposure import auto_exposure_time, expected_electrons, resolve_exposure
 from .noise import (
     HYBRID_POISSON_BELOW_E,
     SHOT_NOISE_METHODS,
@@ -61,7 +61,7 @@ __all__ = [
     "electron_rates", "max_channel_rates", "electrons_per_band_radiance", "system_gain", "saturation_electrons",
     "dark_noise_electrons", "noise_profile", "fixed_patterns", "auto_exposure_time", "simulate_frame",
     "validate_radiance", "signal_model", "SignalModel", "film_curves", "expected_electrons", "CAMERA_CHANNELS",
-    "FILM_REFERENCE_NM", "SHOT_NOISE_METHODS", "HYBRID_POISSON_BELOW_E",
+    "FILM_REFERENCE_NM", "SHOT_NOISE_METHODS", "HYBRID_POISSON_BELOW_E", "resolve_exposure",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -154,23 +154,7 @@ def expose(
     gain = system_gain(sensor, exposure.iso)
     saturation_e = saturation_electrons(sensor, gain)
     t0 = time.perf_counter()
-    reference_rate = None
-    if auto:
-        if white_mask is not None:
-            mask = np.asarray(white_mask, dtype=bool)
-            if mask.shape != rate.shape or not mask.any():
-                raise SensorError(f"white_mask must be a boolean {rate.shape} array with at least one True pixel")
-            reference_rates = max_channel_rates(radiance.data, weights, cos4=cos4, mask=mask)
-            percentile = None
-        else:
-            step = 1 if rate.size <= _AUTO_FULL_BELOW else _AUTO_STEP
-            reference_rates = max_channel_rates(radiance.data, weights, cos4=cos4, step=step)
-            percentile = 99.0
-        exposure_s, reference_rate = auto_exposure_time(
-            reference_rates, saturation_e=saturation_e, fraction=exposure.auto_fraction,
-            dark_current_e_per_s=sensor.dark_current_e_per_s, percentile=percentile)
-    else:
-        exposure_s = float(exposure.time_s)
+    exposure_s, reference_rate = resolve_exposure(radiance, config, model, white_mask=white_mask)
     timings["auto_exposure"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()

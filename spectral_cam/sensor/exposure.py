@@ -78,6 +78,58 @@ def auto_exposure_time(reference_rates: np.ndarray, *, saturation_e: float, frac
     return fraction * saturation_e / (reference + dark_current_e_per_s), reference
 
 
+def resolve_exposure(radiance: "SpectralImage", config: "SceneConfig", model, *,
+                     white_mask: np.ndarray | None = None) -> tuple[float, float | None]:
+    """The exposure time of a frame: ``exposure.time_s``, or, for ``"auto"``, the time that
+    puts the reference region at ``exposure.auto_fraction`` of saturation
+    (:func:`auto_exposure_time`). The reference is the mean max-channel rate over
+    ``white_mask`` (e.g. the ColorChecker's white patch), else the 99th percentile over the
+    frame (every :data:`_AUTO_STEP`-th row above :data:`_AUTO_FULL_BELOW` pixels).
+
+    Parameters
+    ----------
+    radiance : SpectralImage
+        The frame's radiance.
+    config : SceneConfig
+        Uses ``exposure`` and ``sensor``.
+    model : SignalModel
+        The frame's signal model (:func:`spectral_cam.sensor.radiometry.signal_model`).
+    white_mask : numpy.ndarray, optional
+        Boolean (H, W) reference region.
+
+    Returns
+    -------
+    (float, float or None)
+        Exposure time (s) and the reference rate (e⁻/s; None when the time was given).
+
+    Raises
+    ------
+    SensorError
+        For a white mask of the wrong shape or without a pixel, or a reference without light.
+
+    References
+    ----------
+    .. [1] ISO 12232:2019 (saturation-based exposure).
+    """
+    exposure, sensor = config.exposure, config.sensor
+    if exposure.time_s != "auto":
+        return float(exposure.time_s), None
+    data = radiance.data
+    if white_mask is not None:
+        mask = np.asarray(white_mask, dtype=bool)
+        if mask.shape != data.shape[:2] or not mask.any():
+            raise SensorError(f"white_mask must be a boolean {data.shape[:2]} array with at least one True pixel")
+        reference_rates = max_channel_rates(data, model.weights, cos4=model.cos4, mask=mask)
+        percentile = None
+    else:
+        step = 1 if data.shape[0] * data.shape[1] <= _AUTO_FULL_BELOW else _AUTO_STEP
+        reference_rates = max_channel_rates(data, model.weights, cos4=model.cos4, step=step)
+        percentile = 99.0
+    saturation_e = saturation_electrons(sensor, system_gain(sensor, exposure.iso))
+    return auto_exposure_time(reference_rates, saturation_e=saturation_e, fraction=exposure.auto_fraction,
+                              dark_current_e_per_s=sensor.dark_current_e_per_s, percentile=percentile)
+
+
 def expected_electrons(radiance: "SpectralImage", config: "SceneConfig", *, exposure_s: float | None = None,
                        white_mask: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """Noise-free photo-electrons of every pixel through its CFA filter, and the exposure.
@@ -87,7 +139,8 @@ def expected_electrons(radiance: "SpectralImage", config: "SceneConfig", *, expo
     radiance, config
         As for :func:`expose`.
     exposure_s
-        Exposure time (s); default the config's (``"auto"`` resolved as :func:`expose` does).
+        Exposure time (s); default the config's (``"auto"`` resolved as :func:`expose` does,
+        by :func:`resolve_exposure`).
     white_mask
         Auto-exposure reference, as for :func:`expose`.
 
@@ -103,18 +156,5 @@ def expected_electrons(radiance: "SpectralImage", config: "SceneConfig", *, expo
     model = signal_model(radiance, config)
     rate = electron_rates(radiance.data, model.weights, cfa=config.sensor.cfa, cos4=model.cos4)
     if exposure_s is None:
-        exposure = config.exposure
-        if exposure.time_s != "auto":
-            exposure_s = float(exposure.time_s)
-        else:
-            saturation_e = saturation_electrons(config.sensor, system_gain(config.sensor, exposure.iso))
-            if white_mask is not None:
-                reference = max_channel_rates(radiance.data, model.weights, cos4=model.cos4, mask=white_mask)
-                percentile = None
-            else:
-                reference = max_channel_rates(radiance.data, model.weights, cos4=model.cos4)
-                percentile = 99.0
-            exposure_s, _ = auto_exposure_time(reference, saturation_e=saturation_e, fraction=exposure.auto_fraction,
-                                               dark_current_e_per_s=config.sensor.dark_current_e_per_s,
-                                               percentile=percentile)
+        exposure_s, _ = resolve_exposure(radiance, config, model, white_mask=white_mask)
     return rate * np.float32(exposure_s), float(exposure_s)
