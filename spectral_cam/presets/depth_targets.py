@@ -24,13 +24,17 @@ if TYPE_CHECKING:  # pragma: no cover
 def dof_targets(config: SceneConfig, lens: ThinLens, mi) -> dict:
     """Checkerboard planes at the configured depths (squares ``checker_px`` wide on the
     sensor when in focus), each filling a vertical stripe of the view. The nearest plane takes the central stripe and farther ones alternate outwards,
-    so a nearer plane's shadow (cast straight back) always falls where it hides it."""
+    image-left first (1, 2, 4 m read 2 / 1 / 4 m left to right, whatever the lens), so a
+    nearer plane's shadow (cast straight back) always falls where it hides it."""
     depths = sorted(config.scene.depths_m)
     n = len(depths)
     tan_x = lens.sensor_width_m / 2 / lens.image_distance_m
     tan_y = lens.sensor_height_m / 2 / lens.image_distance_m
     edges = np.linspace(-tan_x, tan_x, n + 1)
-    stripes = sorted(zip(edges[:-1], edges[1:]), key=lambda e: abs(e[0] + e[1]))
+    # nearest plane in the centre, then outwards, image-left before image-right at equal
+    # distance; the distance is rounded so float noise in the edges (which depends on the
+    # lens and focus) cannot break the tie and mirror the layout
+    stripes = sorted(zip(edges[:-1], edges[1:]), key=lambda e: (round(abs(e[0] + e[1]) / tan_x, 9), e[0] + e[1]))
     objects = {}
     square_px = config.scene.checker_px  # the same apparent square size at every depth
     for index, (depth, (lo, hi)) in enumerate(zip(depths, stripes)):
