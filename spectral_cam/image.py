@@ -40,6 +40,10 @@ class SpectralImage:
         The :class:`~spectral_cam.optics.ThinLens` the image was rendered through (its
         working f-number and field angles drive the sensor's camera equation), or None for
         a synthetic image (the sensor then uses the configured lens).
+    white_reference
+        Boolean (H, W) mask of the scene's white reference (the ColorChecker preset's white
+        patch interior), the region ``exposure.time_s = "auto"`` exposes for; None where the
+        scene has none (the sensor then exposes for the 99th percentile).
     """
 
     data: np.ndarray
@@ -49,6 +53,7 @@ class SpectralImage:
     meta: dict = field(default_factory=dict)
     channels: tuple[str, ...] | None = None
     lens: Any = None
+    white_reference: np.ndarray | None = None
 
     @property
     def band_widths_nm(self) -> np.ndarray:

@@ -85,11 +85,11 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     Notes
     -----
     ``exposure.time_s = "auto"`` exposes for the ColorChecker's white patch where the scene has
-    one (:func:`spectral_cam.presets.white_reference_mask`), else for the 99th percentile.
+    one (the render's ``white_reference``), else for the 99th percentile: the same rule as
+    :func:`spectral_cam.expose` on a rendered image.
     """
     from .isp import develop
     from .optics import ThinLens
-    from .presets import white_reference_mask
     from .render import render
     from .sensor import expose
 
@@ -98,7 +98,7 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     radiance = render(config, progress=progress, with_depth=with_depth, lens=lens)
     timings.update({f"render_{k}": v for k, v in radiance.meta["timings_s"].items()})
     t0 = time.perf_counter()
-    raw = expose(radiance, config, white_mask=white_reference_mask(config))
+    raw = expose(radiance, config)
     timings["sensor"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     developed = develop(raw, config.isp)

@@ -23,6 +23,7 @@ from typing import Callable
 from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import SceneConfig
+from ..presets import white_reference_mask
 from .decisions import decide_lens_model
 from .defocus import render_layered
 from .depth import render_depth
@@ -87,6 +88,8 @@ def render(
         image = render_layered(config, lens=lens, progress=progress, variant=variant)
         if decisions:
             image.meta["model_decisions"] = {**decisions, **image.meta["model_decisions"]}
-        return image
-    return trace(config, lens, lens_model, variant=variant, depth=depth, depth_s=depth_s, decisions=decisions,
-                 progress=progress)
+    else:
+        image = trace(config, lens, lens_model, variant=variant, depth=depth, depth_s=depth_s,
+                      decisions=decisions, progress=progress)
+    image.white_reference = white_reference_mask(config, lens)
+    return image

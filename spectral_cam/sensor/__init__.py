@@ -93,8 +93,10 @@ def expose(
     frame_seed : int, optional
         Seed of the temporal noise (default ``config.render.seed``).
     white_mask : numpy.ndarray, optional
-        Boolean (H, W) white reference for ``exposure.time_s = "auto"``; without it the
-        99th percentile of the max-channel electron rate is used.
+        Boolean (H, W) white reference for ``exposure.time_s = "auto"``; default the
+        rendered scene's own (``radiance.white_reference``: the ColorChecker's white patch),
+        so the API and ``spectral-cam render`` expose alike; without one the 99th percentile
+        of the max-channel electron rate is used.
     shot_noise_method : {"hybrid", "poisson"}
         See :data:`SHOT_NOISE_METHODS`.
     workers : int, optional

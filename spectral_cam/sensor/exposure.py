@@ -95,7 +95,7 @@ def resolve_exposure(radiance: "SpectralImage", config: "SceneConfig", model, *,
     model : SignalModel
         The frame's signal model (:func:`spectral_cam.sensor.radiometry.signal_model`).
     white_mask : numpy.ndarray, optional
-        Boolean (H, W) reference region.
+        Boolean (H, W) reference region (default ``radiance.white_reference``).
 
     Returns
     -------
@@ -115,6 +115,8 @@ def resolve_exposure(radiance: "SpectralImage", config: "SceneConfig", model, *,
     if exposure.time_s != "auto":
         return float(exposure.time_s), None
     data = radiance.data
+    if white_mask is None:
+        white_mask = getattr(radiance, "white_reference", None)
     if white_mask is not None:
         mask = np.asarray(white_mask, dtype=bool)
         if mask.shape != data.shape[:2] or not mask.any():
