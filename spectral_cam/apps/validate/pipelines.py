@@ -27,7 +27,9 @@ References
 from __future__ import annotations
 
 import abc
+import contextlib
 import importlib
+import os
 import shlex
 import subprocess
 import sys
@@ -298,13 +300,24 @@ class CallablePipeline(Pipeline):
     def from_table(cls, name: str, options: Mapping[str, Any], *, base_dir: Path, where: str) -> "CallablePipeline":
         return super().from_table(name, {**options, "base_dir": base_dir}, base_dir=base_dir, where=where)
 
+    @contextlib.contextmanager
+    def _on_path(self):
+        """``python_path`` on ``sys.path`` for the duration of an import or a call only."""
+        added = [entry for entry in reversed(self.python_path) if entry not in sys.path]
+        for entry in added:
+            sys.path.insert(0, entry)
+        try:
+            yield
+        finally:
+            for entry in added:
+                if entry in sys.path:
+                    sys.path.remove(entry)
+
     def _resolve(self) -> Callable:
         module_name, attribute = self.function.split(":")
-        for entry in reversed(self.python_path):
-            if entry not in sys.path:
-                sys.path.insert(0, entry)
         try:
-            module = importlib.import_module(module_name)
+            with self._on_path():
+                module = importlib.import_module(module_name)
         except Exception as exc:
             raise ConfigError(f"pipeline {self.name!r}: cannot import module {module_name!r} "
                               f"({type(exc).__name__}: {exc}); add its folder to python_path") from None
@@ -316,7 +329,8 @@ class CallablePipeline(Pipeline):
         return target
 
     def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
-        image = _check_output(self._callable(str(dng_path)), self.name)
+        with self._on_path():
+            image = _check_output(self._callable(str(dng_path)), self.name)
         return _to_linear_srgb(image, self.output)
 
     def describe(self) -> str:
@@ -360,6 +374,16 @@ def _read_image_file(path: Path) -> np.ndarray:
     return data.astype(np.float64)
 
 
+def _substitute(argument: str, paths: Mapping[str, str]) -> str:
+    """An argument with its placeholders replaced: a whole-argument placeholder by the path,
+    a placeholder inside a longer argument by the path quoted for a POSIX shell."""
+    if argument in paths:
+        return paths[argument]
+    for placeholder, path in paths.items():
+        argument = argument.replace(placeholder, shlex.quote(path))
+    return argument
+
+
 @pipeline_type("command", options=("command", "output", "output_suffix", "timeout_s"),
                description="an external program: command = '... {input} ... {output} ...'")
 class CommandPipeline(Pipeline):
@@ -367,7 +391,12 @@ class CommandPipeline(Pipeline):
 
     The command line is split like a POSIX shell would (``shlex``) and run without a
     shell; ``{input}`` becomes the DNG path, ``{output}`` a fresh file path with
-    ``output_suffix``, which the program must write.
+    ``output_suffix``, which the program must write. A placeholder that is a whole argument
+    is replaced by the path as it is (no shell parses it); one inside a longer argument
+    (``sh -c "prog {input}"``, a script a shell will parse) is replaced by the path quoted
+    for a POSIX shell (``shlex.quote``), so no folder name can inject a command. The paths are
+    also in the environment as ``SPECTRAL_CAM_INPUT`` and ``SPECTRAL_CAM_OUTPUT``. A plan,
+    like a Python script, is code the user trusts: it runs the programs it names.
     """
 
     required = {"command": "command = '... {input} ... {output} ...'"}
@@ -395,9 +424,10 @@ class CommandPipeline(Pipeline):
     def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
         with tempfile.TemporaryDirectory(prefix=f"{self.name}-", dir=workdir) as folder:
             out = Path(folder) / f"output{self.output_suffix}"
-            argv = [arg.replace("{input}", str(dng_path)).replace("{output}", str(out)) for arg in self.argv]
+            argv = [_substitute(arg, {"{input}": str(dng_path), "{output}": str(out)}) for arg in self.argv]
+            env = {**os.environ, "SPECTRAL_CAM_INPUT": str(dng_path), "SPECTRAL_CAM_OUTPUT": str(out)}
             try:
-                done = subprocess.run(argv, capture_output=True, text=True, timeout=self.timeout_s)
+                done = subprocess.run(argv, capture_output=True, text=True, timeout=self.timeout_s, env=env)
             except FileNotFoundError:
                 raise ConfigError(f"pipeline {self.name!r}: program {argv[0]!r} not found") from None
             except subprocess.TimeoutExpired:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from spectral_cam.apps.validate import PIPELINES, plan_from_dict
+from spectral_cam.apps.validate import PIPELINES, plan_from_dict, run_plan
 from spectral_cam.cli import main
 from spectral_cam.errors import ConfigError
 
@@ -126,3 +126,60 @@ def test_each_type_takes_the_keys_its_registry_entry_declares(tmp_path):
                          "wb_gains": [2.0, 1.0, 1.5], "output_color": "XYZ", "highlight_mode": "clip",
                          "fbdd_noise_reduction": "off", "median_filter_passes": 0}
     assert list(described)[2:] == list(PIPELINES["rawpy"].options)
+
+
+HOSTILE_FOLDERS = ["x;touch pwned;", "$(touch pwned)", "a'b\"c `touch pwned` d"]
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("folder_name", HOSTILE_FOLDERS)
+def test_command_placeholders_cannot_inject_a_shell_command(tmp_path, monkeypatch, folder_name):
+    """A command run through a shell script sees the DNG and output paths quoted (issue 12 #15)."""
+    monkeypatch.chdir(tmp_path)
+    cli = Path(sys.executable).with_name("spectral-cam")
+    plan = tmp_path / "plan.toml"
+    plan.write_text(f'''
+[validate]
+illuminants = ["D65"]
+cameras = ["nikon_d850"]
+reflectance_sets = ["colorchecker"]
+patch_px = 8
+
+[[pipeline]]
+name = "via-shell"
+type = "command"
+command = "sh -c \\"'{cli}' develop {{input}} -o {{output}} -q\\""
+output_suffix = ".exr"
+
+[[pipeline]]
+name = "via-environment"
+type = "command"
+command = "sh -c '\\"{cli}\\" develop \\"$SPECTRAL_CAM_INPUT\\" -o \\"$SPECTRAL_CAM_OUTPUT\\" -q' {{input}} {{output}}"
+output_suffix = ".exr"
+''')
+    out = tmp_path / folder_name / "report"
+    assert main(["validate", str(plan), "-o", str(out), "-q"]) == 0
+    assert not list(tmp_path.rglob("pwned")), "a folder name ran a command"
+    assert {row.split(",")[4] for row in (out / "cells.csv").read_text().splitlines()[1:]} == {
+        "via-shell", "via-environment"}
+
+
+@pytest.mark.timeout(60)
+def test_a_callables_python_path_is_scoped_to_the_call(tmp_path):
+    """python_path is on sys.path while the function is imported and called, not after (#17)."""
+    folder = tmp_path / "isp"
+    folder.mkdir()
+    (folder / "scoped_isp.py").write_text(
+        "import sys\nSEEN = []\n"
+        "def develop(path):\n"
+        "    import numpy as np\n"
+        "    SEEN.append(any(p.endswith('isp') for p in sys.path))\n"
+        "    return np.full((24, 36, 3), 0.5)\n")
+    plan = plan_from_dict({"validate": {"illuminants": ["D65"], "cameras": ["nikon_d850"],
+                                        "reflectance_sets": ["colorchecker"], "patch_px": 4},
+                           "pipeline": [{"name": "scoped", "type": "callable", "function": "scoped_isp:develop",
+                                         "python_path": ["isp"]}]}, base_dir=tmp_path)
+    before = list(sys.path)
+    run_plan(plan, tmp_path / "report")
+    assert sys.path == before
+    assert sys.modules["scoped_isp"].SEEN == [True]
