@@ -32,6 +32,9 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
                         help="resubmissions of an item whose worker died (default 2)")
     parser.add_argument("--force", action="store_true",
                         help="render every item again (also when the folder holds another spec's dataset)")
+    parser.add_argument("--dashboard", action="store_true",
+                        help="serve Dask's dashboard on http://127.0.0.1:8787 (local cluster; off by default: "
+                             "every server listens on loopback and serves no pages)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
@@ -46,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--workers sizes the local cluster; with --scheduler the cluster decides")
     spec = load_spec(args.spec, sweeps=args.sweep or [], overrides=args.set or [])
     summary = generate_dataset(spec, args.output, n=args.n, scheduler=args.scheduler, workers=args.workers,
-                               retries=args.retries, force=args.force, progress=not args.quiet)
+                               retries=args.retries, force=args.force, progress=not args.quiet,
+                               dashboard=args.dashboard)
     if not args.quiet:
         print(f"dataset {summary.output}: {summary.items} items, {summary.rendered} rendered, "
               f"{summary.resumed} resumed, {summary.failed} failed in {duration(summary.seconds)} "

@@ -142,8 +142,12 @@ def _usable_cores() -> int:
         return os.cpu_count() or 1
 
 
+#: The interface a local cluster listens on: this machine only.
+LOOPBACK = "127.0.0.1"
+
+
 @contextlib.contextmanager
-def local_cluster(workers: int | None = None, **worker_kwargs) -> Iterator[Any]:
+def local_cluster(workers: int | None = None, *, dashboard: bool = False, **worker_kwargs) -> Iterator[Any]:
     """A Dask ``LocalCluster`` for dataset items, yielding its ``Client``.
 
     Worker processes are spawned (not forked: Mitsuba's and drjit's thread pools do not
@@ -156,10 +160,17 @@ def local_cluster(workers: int | None = None, **worker_kwargs) -> Iterator[Any]:
     every large NumPy temporary is mapped and faulted in anew (measured: the per-band
     diffraction FFTs ran 3× slower).
 
+    Every server (scheduler, nannies, workers) listens on the loopback interface only. The
+    scheduler always opens an HTTP port (distributed starts one for its routes); without
+    ``dashboard`` it has a random port and no routes, so it serves nothing; with
+    ``dashboard`` it serves Dask's dashboard on http://127.0.0.1:8787.
+
     Parameters
     ----------
     workers
         Worker processes (default :func:`default_workers`: one per usable core).
+    dashboard
+        Serve Dask's dashboard on 127.0.0.1:8787 (``spectral-cam dataset --dashboard``).
     **worker_kwargs
         Passed to ``LocalCluster`` (e.g. ``env={...}``, ``memory_limit="8GB"``).
 
@@ -190,9 +201,13 @@ def local_cluster(workers: int | None = None, **worker_kwargs) -> Iterator[Any]:
                 "distributed.scheduler.worker-saturation": 1.0,
                 "distributed.nanny.pre-spawn-environ": {"MALLOC_TRIM_THRESHOLD_": None, "OMP_NUM_THREADS": share,
                                                         "MKL_NUM_THREADS": share, "OPENBLAS_NUM_THREADS": share}}
+    if not dashboard:  # no pages: identity, worker, log and exception pages stay unserved
+        settings.update({"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []})
     with dask.config.set(settings):
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               scheduler_kwargs={"allowed_failures": 0, "dashboard": False},
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host=LOOPBACK,
+                               dashboard_address=f"{LOOPBACK}:{8787 if dashboard else 0}",
+                               worker_dashboard_address=None,
+                               scheduler_kwargs={"allowed_failures": 0, "dashboard": dashboard},
                                **worker_kwargs)
         try:
             client = Client(cluster)
@@ -216,7 +231,7 @@ def default_workers() -> int:
 
 
 @contextlib.contextmanager
-def _executor(executor, scheduler, workers) -> Iterator[tuple[cf.Executor, int, int | None]]:
+def _executor(executor, scheduler, workers, dashboard: bool = False) -> Iterator[tuple[cf.Executor, int, int | None]]:
     """(executor, tasks kept in flight, Mitsuba threads per item) for the run."""
     if executor is not None:
         window = 2 * max(1, int(getattr(executor, "_max_workers", 0) or _dask_threads(executor) or 4))
@@ -242,7 +257,7 @@ def _executor(executor, scheduler, workers) -> Iterator[tuple[cf.Executor, int, 
             client.close()
         return
     workers = default_workers() if workers is None else workers
-    with local_cluster(workers) as client:
+    with local_cluster(workers, dashboard=dashboard) as client:
         threads = max(1, _usable_cores() // workers)
         yield client.get_executor(pure=False), 2 * workers, threads
 
@@ -420,6 +435,7 @@ def generate_dataset(
     progress: bool = True,
     render_threads: int | None = None,
     item_function: Callable[[Mapping[str, Any]], dict] = render_item,
+    dashboard: bool = False,
 ) -> DatasetSummary:
     """Render a dataset: plan every item, skip finished ones, run the rest, write the manifest.
 
@@ -453,6 +469,9 @@ def generate_dataset(
         What the executor runs per item: a picklable function of an :func:`item_task` dict
         returning a manifest row, :func:`render_item` unless wrapped (e.g. to observe or
         fault-inject a worker).
+    dashboard
+        With a new LocalCluster: serve Dask's dashboard on http://127.0.0.1:8787 (every
+        server listens on the loopback interface; see :func:`local_cluster`).
 
     Returns
     -------
@@ -531,7 +550,7 @@ def generate_dataset(
         manifest = output / "manifest.jsonl"
         try:
             if tasks:
-                with _executor(executor, scheduler, workers) as (pool, window, threads):
+                with _executor(executor, scheduler, workers, dashboard) as (pool, window, threads):
                     for task in tasks:
                         task["render_threads"] = render_threads or threads
                     _run_tasks(pool, item_function, tasks, rows, items_dir, window=window, retries=retries,

@@ -198,3 +198,24 @@ def test_progress_bar_shows_rate_and_eta():
     assert lines[-1].startswith("dataset [") and "6/10 items" in lines[-1]
     assert "2 resumed" in lines[-1] and "1 failed" in lines[-1]
     assert "4.0 items/min" in lines[-1] and "ETA 1 min 00 s" in lines[-1]
+
+
+def test_the_local_cluster_listens_on_loopback_only_and_serves_no_pages(cluster):
+    """Issue 12 #16: Dask's identity, worker, log and exception pages were served on 0.0.0.0:8787."""
+    import urllib.error
+    import urllib.request
+
+    import psutil
+
+    me = psutil.Process()
+    pids = {me.pid} | {child.pid for child in me.children(recursive=True)}
+    listening = [c.laddr for c in psutil.net_connections(kind="inet")
+                 if c.status == psutil.CONN_LISTEN and c.pid in pids]
+    assert listening, "the cluster's servers were not found"
+    assert {address.ip for address in listening} == {"127.0.0.1"}, listening
+    port = cluster.client.cluster.scheduler.http_server.port
+    assert port != 8787
+    for page in ("/info/main/workers.html", "/status", "/json/identity.json"):
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}{page}", timeout=10)
+        assert refused.value.code == 404, page
