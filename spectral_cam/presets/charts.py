@@ -93,8 +93,10 @@ def flat_field(config: SceneConfig, lens: ThinLens, mi) -> dict:
     s = config.scene
     half_w, half_h = field_half_size(lens, s.distance_m)
     bsdf = diffuse(spectra.reflectance(s.reflectance) if isinstance(s.reflectance, str) else s.reflectance)
-    # 1.5× the field so defocus never reveals an edge
-    return {"target": facing_rectangle(mi, (0, 0, s.distance_m), 1.5 * half_w, 1.5 * half_h, bsdf),
+    # the field plus the blur's reach, so defocus never reveals an edge: a pixel sees the
+    # target through the aperture over a disc of diameter A·|z − z_f|/z_f around its own point
+    reach = 2 * lens.aperture_radius_m * abs(s.distance_m - lens.focus_distance_m) / lens.focus_distance_m
+    return {"target": facing_rectangle(mi, (0, 0, s.distance_m), 1.5 * half_w + reach, 1.5 * half_h + reach, bsdf),
             "light": sun(config)}
 
 
