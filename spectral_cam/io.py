@@ -8,6 +8,7 @@ References
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import shutil
 import tempfile
@@ -16,7 +17,7 @@ from typing import Iterator
 
 from .errors import ConfigError
 
-__all__ = ["atomic_path", "staged_directory", "write_exr_channels"]
+__all__ = ["atomic_path", "staged_directory", "write_exr_channels", "exchange_paths", "recover_interrupted"]
 
 
 @contextlib.contextmanager
@@ -47,6 +48,7 @@ def staged_directory(target: str | Path, *, force: bool = False) -> Iterator[Pat
     folder is removed, so no half-written result directory is ever left under ``target``.
     """
     target = Path(target)
+    recover_interrupted(target)
     if target.exists() and not force:
         raise ConfigError(f"{target} exists; pass --force (force=True) to overwrite it")
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -71,6 +73,11 @@ def _publish(stage: Path, target: Path, *, force: bool) -> None:
         return
     if not force:
         raise ConfigError(f"{target} appeared while this result was being made; pass --force to replace it")
+    if exchange_paths(stage, target):  # one atomic step: the old result is now at `stage`
+        shutil.rmtree(stage, ignore_errors=True)
+        return
+    # no atomic exchange here: two renames; a kill between them leaves the old result in
+    # the .old folder, which recover_interrupted() moves back on the next run
     trash = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
     try:
         os.replace(target, trash / target.name)
@@ -81,6 +88,51 @@ def _publish(stage: Path, target: Path, *, force: bool) -> None:
             raise
     finally:
         shutil.rmtree(trash, ignore_errors=True)
+
+
+def exchange_paths(a: str | Path, b: str | Path) -> bool:
+    """Swap two paths atomically (Linux ``renameat2(RENAME_EXCHANGE)``); False where the
+    platform or file system cannot, so the caller falls back to two renames.
+
+    References
+    ----------
+    .. [1] Linux man-pages, rename(2): ``renameat2`` flag ``RENAME_EXCHANGE`` (Linux 3.15,
+       glibc 2.28).
+    """
+    import ctypes
+    import errno
+
+    try:
+        renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, rename_exchange = -100, 2
+    if renameat2(at_fdcwd, os.fsencode(str(a)), at_fdcwd, os.fsencode(str(b)), rename_exchange) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+def recover_interrupted(target: str | Path) -> list[Path]:
+    """Move back a result a killed replacement left in a hidden ``.<name>.old-*`` folder
+    beside ``target`` (only while ``target`` itself is missing), and remove such folders.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The restored paths (at most one).
+    """
+    target = Path(target)
+    restored = []
+    for trash in sorted(target.parent.glob(f".{glob.escape(target.name)}.old-*")):
+        kept = trash / target.name
+        if kept.exists() and not target.exists():
+            os.replace(kept, target)
+            restored.append(target)
+        shutil.rmtree(trash, ignore_errors=True)
+    return restored
 
 
 def write_exr_channels(channels, path: str | Path, attributes=None) -> Path:

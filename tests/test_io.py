@@ -1,0 +1,68 @@
+"""Atomic output (issue 12 #14): replacing a result is one exchange rename where the platform
+has one, and a kill between the two renames of the fallback loses nothing — the next run
+puts the old result back. Reference: POSIX rename(2), Linux renameat2(RENAME_EXCHANGE)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from spectral_cam.errors import ConfigError
+from spectral_cam.io import exchange_paths, staged_directory
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def _result(folder, text):
+    folder.mkdir()
+    (folder / "meta.json").write_text(text)
+
+
+def test_exchange_swaps_two_folders(tmp_path):
+    _result(tmp_path / "a", "a")
+    _result(tmp_path / "b", "b")
+    assert exchange_paths(tmp_path / "a", tmp_path / "b")  # Linux ≥ 3.15 on a local file system
+    assert (tmp_path / "a" / "meta.json").read_text() == "b"
+    assert (tmp_path / "b" / "meta.json").read_text() == "a"
+
+
+def test_force_replaces_a_result_and_leaves_nothing_behind(tmp_path):
+    _result(tmp_path / "out", "old")
+    with staged_directory(tmp_path / "out", force=True) as stage:
+        (stage / "meta.json").write_text("new")
+    assert (tmp_path / "out" / "meta.json").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+KILL_BETWEEN_RENAMES = textwrap.dedent("""
+    import os, sys
+    from pathlib import Path
+    import spectral_cam.io as io
+    io.exchange_paths = lambda a, b: False          # a platform without an atomic exchange
+    calls = []
+    real = os.replace
+    def replace(a, b):
+        calls.append(a)
+        real(a, b)
+        if len(calls) == 1:
+            os._exit(9)                              # killed between the two renames
+    os.replace = replace
+    with io.staged_directory(Path(sys.argv[1]), force=True) as stage:
+        (stage / "meta.json").write_text("new")
+""")
+
+
+def test_a_kill_between_the_fallback_renames_loses_nothing(tmp_path):
+    target = tmp_path / "out"
+    _result(target, "old")
+    done = subprocess.run([sys.executable, "-c", KILL_BETWEEN_RENAMES, str(target)])
+    assert done.returncode == 9
+    assert not target.exists()  # the window: the old result sits in a hidden .old folder
+    with pytest.raises(ConfigError, match="exists"):
+        with staged_directory(target) as stage:  # the next run restores it before anything else
+            (stage / "meta.json").write_text("newer")
+    assert (target / "meta.json").read_text() == "old"
+    assert not list(tmp_path.glob(".out.old-*"))
