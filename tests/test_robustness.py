@@ -102,3 +102,23 @@ def test_killed_render_leaves_no_complete_looking_output(tmp_path):
     assert not out.exists()  # only a hidden, clearly partial staging folder may remain
     leftovers = [p.name for p in tmp_path.iterdir() if p.name != "slow.toml"]
     assert all(name.startswith(".result.partial-") for name in leftovers)
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_interrupted_render_keeps_no_partial_output(tmp_path, signum):
+    """SIGTERM cleans up like Ctrl-C (issue 12 #12: it left a .partial folder)."""
+    scene = tmp_path / "slow.toml"
+    scene.write_text('[sensor]\nwidth_px = 64\nheight_px = 48\n[render]\nspp = 100000\n')
+    out = tmp_path / "result"
+    proc = subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "render", str(scene), "-o", str(out)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.time() + 60
+    while time.time() < deadline and not any(p.name.startswith(".result.partial-") for p in tmp_path.iterdir()):
+        time.sleep(0.2)
+    time.sleep(1.0)
+    os.kill(proc.pid, signum)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err.decode()[-500:]
+    assert "no partial output was kept" in err.decode()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["slow.toml"]

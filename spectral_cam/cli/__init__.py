@@ -65,7 +65,23 @@ def command_parser(name: str) -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that every staging folder and temporary file is removed."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one ``spectral-cam`` command; the exit status: 0 done, 1 finished with failed
+    cells or items, 2 a user error (message, no traceback), 130 interrupted (SIGINT or
+    SIGTERM: no partial output is kept)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in COMMANDS:
         args = command_parser(argv[0]).parse_args(argv[1:])
