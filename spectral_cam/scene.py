@@ -58,14 +58,39 @@ def _fail(key: str, value: Any, rule: str) -> None:
     raise ConfigError(f"{key} = {value!r}: {rule}")
 
 
-def _positive(key: str, value: float) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        _fail(key, value, "must be a finite number > 0")
+#: The valid range of every physical key, (low, high, unit): a camera or scene outside it is
+#: not one this simulator models (and its arithmetic would overflow or underflow), so it is
+#: refused before anything runs. The same table is in docs/design.md ("Scene file").
+PHYSICAL_RANGES = {
+    "scene.distance_m": (1e-4, 1e6, "m"),
+    "scene.depths_m": (1e-4, 1e6, "m"),
+    "scene.source_radius_m": (1e-7, 1e3, "m"),
+    "scene.checker_px": (1.0, 1e5, "px"),
+    "illuminant.illuminance_lux": (1e-6, 1e7, "lx"),
+    "lens.focal_length_mm": (0.1, 1e4, "mm"),
+    "lens.f_number": (0.5, 1000.0, ""),
+    "lens.focus_distance_m": (1e-4, 1e9, "m"),
+    "sensor.pixel_pitch_um": (0.1, 1000.0, "µm"),
+    "sensor.full_well_e": (1.0, 1e9, "e⁻"),
+    "sensor.read_noise_e": (0.0, 1e6, "e⁻"),
+    "sensor.dark_current_e_per_s": (0.0, 1e9, "e⁻/s"),
+    "sensor.dsnu_e": (0.0, 1e6, "e⁻"),
+    "sensor.prnu": (0.0, 1.0, ""),
+    "sensor.base_iso": (1.0, 1e7, ""),
+    "exposure.time_s": (1e-9, 1e4, "s"),
+    "exposure.iso": (1.0, 1e7, ""),
+}
+#: Most samples per pixel a render may ask for (``render.spp``, ``render.max_spp``).
+MAX_SPP = 1 << 24
 
 
-def _non_negative(key: str, value: float) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-        _fail(key, value, "must be a finite number >= 0")
+def _within(key: str, value: Any) -> None:
+    """Refuse a value outside :data:`PHYSICAL_RANGES` with the range and its unit."""
+    low, high, unit = PHYSICAL_RANGES[key]
+    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+            and low <= value <= high):
+        unit = f" {unit}" if unit else ""
+        _fail(key, value, f"must be a number in [{low:g}, {high:g}]{unit}")
 
 
 @dataclass(frozen=True)
@@ -97,11 +122,11 @@ class SceneSection:
                   "(or set scene.mitsuba_xml)")
         if self.mitsuba_xml and not Path(self.mitsuba_xml).is_file():
             _fail("scene.mitsuba_xml", self.mitsuba_xml, "file does not exist")
-        _positive("scene.distance_m", self.distance_m)
+        _within("scene.distance_m", self.distance_m)
         if not self.depths_m:
             _fail("scene.depths_m", self.depths_m, "give at least one depth in metres")
         for depth in self.depths_m:
-            _positive("scene.depths_m", depth)
+            _within("scene.depths_m", depth)
         if self.preset == "dof_targets" and len(self.depths_m) < 3:
             _fail("scene.depths_m", self.depths_m, "dof_targets needs three or more depths")
         if not 0 < self.fill <= 1:
@@ -110,8 +135,8 @@ class SceneSection:
             _fail("scene.gap", self.gap, "must lie in [0, 1)")
         if not 0 <= self.edge_angle_deg < 45:
             _fail("scene.edge_angle_deg", self.edge_angle_deg, "must lie in [0, 45)")
-        _positive("scene.source_radius_m", self.source_radius_m)
-        _positive("scene.checker_px", self.checker_px)
+        _within("scene.source_radius_m", self.source_radius_m)
+        _within("scene.checker_px", self.checker_px)
         spectra.reflectance(self.reflectance)
 
 
@@ -124,7 +149,7 @@ class IlluminantSection:
     illuminance_lux: float = 1000.0
 
     def __post_init__(self) -> None:
-        _positive("illuminant.illuminance_lux", self.illuminance_lux)
+        _within("illuminant.illuminance_lux", self.illuminance_lux)
         spectra.illuminant(self.spd)
 
 
@@ -143,9 +168,9 @@ class LensSection:
     transmission: float | str = 1.0
 
     def __post_init__(self) -> None:
-        _positive("lens.focal_length_mm", self.focal_length_mm)
-        _positive("lens.f_number", self.f_number)
-        _positive("lens.focus_distance_m", self.focus_distance_m)
+        _within("lens.focal_length_mm", self.focal_length_mm)
+        _within("lens.f_number", self.f_number)
+        _within("lens.focus_distance_m", self.focus_distance_m)
         if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
             _fail("lens.focus_distance_m", self.focus_distance_m,
                   f"a thin lens focuses only beyond its focal length "
@@ -183,7 +208,7 @@ class SensorSection:
             value = getattr(self, key)
             if not isinstance(value, int) or value < 1 or value > 20000:
                 _fail(f"sensor.{key}", value, "must be a whole number of pixels in 1..20000")
-        _positive("sensor.pixel_pitch_um", self.pixel_pitch_um)
+        _within("sensor.pixel_pitch_um", self.pixel_pitch_um)
         if self.model != "ideal":
             spectra.camera_sensitivities(self.model)
         if self.cfa not in CFA_PATTERNS:
@@ -195,15 +220,14 @@ class SensorSection:
             _fail("sensor.cfa", self.cfa, "a monochrome sensor needs sensor.model = 'ideal'")
         if not (isinstance(self.peak_qe, (int, float)) and 0 < self.peak_qe <= 1):
             _fail("sensor.peak_qe", self.peak_qe, "must lie in (0, 1]")
-        _positive("sensor.full_well_e", self.full_well_e)
-        for key in ("read_noise_e", "dark_current_e_per_s", "dsnu_e", "prnu"):
-            _non_negative(f"sensor.{key}", getattr(self, key))
+        for key in ("full_well_e", "read_noise_e", "dark_current_e_per_s", "dsnu_e", "prnu"):
+            _within(f"sensor.{key}", getattr(self, key))
         if not isinstance(self.bit_depth, int) or not 8 <= self.bit_depth <= 16:
             _fail("sensor.bit_depth", self.bit_depth, "must be a whole number in 8..16")
         if not isinstance(self.black_level_dn, int) or not 0 <= self.black_level_dn < 2 ** self.bit_depth - 1:
             _fail("sensor.black_level_dn", self.black_level_dn,
                   f"must be a whole number in 0..{2 ** self.bit_depth - 2}")
-        _positive("sensor.base_iso", self.base_iso)
+        _within("sensor.base_iso", self.base_iso)
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
             _fail("sensor.seed", self.seed, "must be a whole number >= 0")
         spectra.transmission(self.ir_cut)
@@ -228,8 +252,8 @@ class ExposureSection:
 
     def __post_init__(self) -> None:
         if self.time_s != "auto":
-            _positive("exposure.time_s", self.time_s)
-        _positive("exposure.iso", self.iso)
+            _within("exposure.time_s", self.time_s)
+        _within("exposure.iso", self.iso)
         if not 0 < self.auto_fraction <= 1:
             _fail("exposure.auto_fraction", self.auto_fraction, "must lie in (0, 1]")
 
@@ -257,10 +281,10 @@ class RenderSection:
     def __post_init__(self) -> None:
         if self.diffraction not in DIFFRACTION_MODES:
             _fail("render.diffraction", self.diffraction, f"valid: {', '.join(DIFFRACTION_MODES)}")
-        if self.spp != "auto" and (not isinstance(self.spp, int) or self.spp < 1):
-            _fail("render.spp", self.spp, "must be a whole number >= 1 or 'auto'")
-        if not isinstance(self.max_spp, int) or self.max_spp < 1:
-            _fail("render.max_spp", self.max_spp, "must be a whole number >= 1")
+        if self.spp != "auto" and (not isinstance(self.spp, int) or not 1 <= self.spp <= MAX_SPP):
+            _fail("render.spp", self.spp, f"must be a whole number in 1..{MAX_SPP} or 'auto'")
+        if not isinstance(self.max_spp, int) or not 1 <= self.max_spp <= MAX_SPP:
+            _fail("render.max_spp", self.max_spp, f"must be a whole number in 1..{MAX_SPP}")
         if self.bands not in BAND_MODES:
             spectra.parse_bands(self.bands)
         if self.bands == "camera" and self.spectral_output:

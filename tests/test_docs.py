@@ -37,3 +37,12 @@ def test_nothing_cites_a_design_file_outside_the_repository():
     for path in [*PACKAGE.rglob("*.py"), REPO / "README.md"]:
         text = path.read_text(encoding="utf-8")
         assert "DESIGN.md" not in text and "../shared" not in text, path
+
+
+def test_the_design_lists_the_physical_ranges_the_code_enforces():
+    from spectral_cam.scene import MAX_SPP, PHYSICAL_RANGES
+
+    text = (REPO / "docs" / "design.md").read_text(encoding="utf-8")
+    for key, (low, high, unit) in PHYSICAL_RANGES.items():
+        assert f"| `{key}` | {low:g} | {high:g} | {unit} |" in text, key
+    assert f"1..{MAX_SPP}" in text

@@ -48,11 +48,11 @@ def test_bands_are_centres():
         ({"sensor.model": "nikon_d9000"}, "unknown camera 'nikon_d9000'; valid:"),
         ({"lens.focus_distance_m": 0.04, "lens.focal_length_mm": 50}, "focuses only beyond its focal length"),
         ({"lens.focus_distance_m": 0.05, "lens.focal_length_mm": 50}, "focuses only beyond its focal length"),
-        ({"lens.f_number": 0}, "lens.f_number = 0.0: must be a finite number > 0"),
-        ({"lens.f_number": -2}, "lens.f_number = -2.0: must be a finite number > 0"),
+        ({"lens.f_number": 0}, "lens.f_number = 0.0: must be a number in [0.5, 1000]"),
+        ({"lens.f_number": -2}, "lens.f_number = -2.0: must be a number in [0.5, 1000]"),
         ({"sensor.width_px": 0}, "sensor.width_px = 0: must be a whole number of pixels"),
         ({"sensor.height_px": -5}, "sensor.height_px = -5: must be a whole number of pixels"),
-        ({"sensor.pixel_pitch_um": 0}, "sensor.pixel_pitch_um = 0.0: must be a finite number > 0"),
+        ({"sensor.pixel_pitch_um": 0}, "sensor.pixel_pitch_um = 0.0: must be a number in [0.1, 1000] µm"),
         ({"sensor.width_px": 1}, "Bayer sensor needs at least 2×2 pixels"),
         ({"sensor.width_px": 2.5}, "sensor.width_px = 2.5: has the wrong type"),
         ({"lens.model": "fisheye"}, "valid: auto, thin, pinhole"),
@@ -61,7 +61,7 @@ def test_bands_are_centres():
         ({"render.bands": "300:700:10"}, "Mitsuba samples 360–830 nm only"),
         ({"lens.aperture": 2}, "unknown key(s) lens.aperture; valid keys of [lens]:"),
         ({"optics.f_number": 2}, "use section.key with a section among scene, illuminant"),
-        ({"illuminant.illuminance_lux": -1}, "must be a finite number > 0"),
+        ({"illuminant.illuminance_lux": -1}, "must be a number in [1e-06, 1e+07] lx"),
         ({"scene.reflectance": 1.5}, "reflectance 1.5 must lie in [0, 1]"),
     ],
 )
@@ -159,3 +159,33 @@ def test_resolved_scene_round_trips_through_toml(tmp_path):
     path = tmp_path / "resolved.toml"
     path.write_text(config.to_toml())
     assert load_scene(path) == config
+
+
+HOSTILE_OVERRIDES = [  # issue 12 #11: each overflowed into a traceback
+    "lens.f_number=1e308", "sensor.full_well_e=1e-300", "sensor.base_iso=1e-300", "exposure.iso=1e308",
+    "sensor.read_noise_e=1e308", "scene.distance_m=1e308", "sensor.prnu=1e308", "sensor.dsnu_e=1e308",
+    "exposure.time_s=1e38", "sensor.full_well_e=1e308", "scene.checker_px=1e-300", "scene.checker_px=1e300",
+    "render.spp=1000000000000",
+]
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("override", HOSTILE_OVERRIDES)
+def test_physical_keys_outside_their_range_are_clear_errors(tmp_path, capsys, override):
+    from spectral_cam.cli import main
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text("[sensor]\nwidth_px = 24\nheight_px = 16\n")
+    status = main(["render", str(scene), "-o", str(tmp_path / "out"), "-q", "--set", override])
+    err = capsys.readouterr().err
+    assert status == 2 and "Traceback" not in err
+    key = override.split("=")[0]
+    assert key in err and ("must be a number in [" in err or "whole number in 1.." in err), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_every_range_is_a_real_interval():
+    from spectral_cam.scene import PHYSICAL_RANGES
+
+    for key, (low, high, _) in PHYSICAL_RANGES.items():
+        assert 0 <= low < high < float("inf"), key
