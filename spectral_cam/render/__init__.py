@@ -27,6 +27,7 @@ from ..presets import white_reference_mask
 from .decisions import decide_lens_model
 from .defocus import render_layered
 from .depth import render_depth
+from .memory import check_render_memory
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
 from .variants import choose_variant
 
@@ -70,6 +71,7 @@ def render(
     """
     import mitsuba as mi
 
+    check_render_memory(config.sensor.width_px, config.sensor.height_px)
     variant = choose_variant(config.render.variant)
     mi.set_variant(variant)
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens

@@ -35,3 +35,4 @@ def test_two_cli_runs_write_the_same_radiance(tmp_path):
         assert main(["render", str(scene), "-o", str(tmp_path / name), "-q"]) == 0
     for file in ("radiance.exr", "depth.exr", "raw.dng", "image.png"):
         assert (tmp_path / "a" / file).read_bytes() == (tmp_path / "b" / file).read_bytes(), file
+
