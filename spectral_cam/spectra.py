@@ -125,8 +125,24 @@ def _looks_like_path(spec: str) -> bool:
     return spec.lower().endswith(".csv") or Path(spec).is_file()
 
 
-def load_spectrum_csv(path: str | Path) -> "colour.SpectralDistribution":  # noqa: F821
-    """Read a two-column CSV ``wavelength_nm,value`` (a header line is optional)."""
+def load_spectrum_csv(path: str | Path, *, maximum: float | None = None) -> "colour.SpectralDistribution":  # noqa: F821
+    """Read a two-column CSV ``wavelength_nm,value``.
+
+    A header line is allowed before the data: a first line whose first cell is not a
+    number. Refused with a message naming the file and the row: a data row that does not
+    parse (a corrupt first row is not taken for a header), repeated wavelengths, fewer than
+    two wavelengths, negative or non-finite values, values above ``maximum`` (a reflectance
+    or transmission is at most 1), fields too long for a CSV, non-text files.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "ramp.csv"
+    >>> _ = path.write_text("wavelength_nm,value\\n400,0.1\\n700,0.9\\n")
+    >>> sd = load_spectrum_csv(path, maximum=1.0)
+    >>> sd.wavelengths.tolist(), sd.values.tolist()
+    ([400.0, 700.0], [0.1, 0.9])
+    """
     import colour
 
     path = Path(path)
@@ -135,22 +151,41 @@ def load_spectrum_csv(path: str | Path) -> "colour.SpectralDistribution":  # noq
     rows = []
     try:
         with path.open(newline="") as handle:
-            for row in csv.reader(handle):
+            for number, row in enumerate(csv.reader(handle), start=1):
                 if not row or row[0].strip().startswith("#"):
                     continue
                 try:
                     rows.append((float(row[0]), float(row[1])))
                 except (ValueError, IndexError):
-                    if rows:  # a header is allowed only before the data
-                        raise ConfigError(f"{path}: unreadable row {row!r}") from None
+                    if rows or _is_number(row[0]):  # a header only before the data, and not numeric
+                        raise ConfigError(f"{path}, line {number}: unreadable row {row!r}; need "
+                                          "'wavelength_nm,value' numbers") from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path} is not a text CSV file: {exc}") from None
-    if len(rows) < 2:
-        raise ConfigError(f"{path}: need at least two 'wavelength_nm,value' rows")
-    data = np.asarray(sorted(rows))
+    except csv.Error as exc:
+        raise ConfigError(f"{path} is not a readable CSV file: {exc}") from None
+    data = np.asarray(sorted(rows)).reshape(-1, 2)
+    wavelengths = data[:, 0]
+    if len(np.unique(wavelengths)) < 2:
+        raise ConfigError(f"{path}: need at least two 'wavelength_nm,value' rows at different wavelengths")
+    if np.any(np.diff(wavelengths) == 0):
+        repeated = sorted(set(wavelengths[1:][np.diff(wavelengths) == 0]))
+        raise ConfigError(f"{path}: wavelength(s) {', '.join(f'{w:g}' for w in repeated)} nm given twice; "
+                          "give each wavelength once")
     if not np.all(np.isfinite(data)) or np.any(data[:, 1] < 0):
         raise ConfigError(f"{path}: values must be finite and non-negative")
-    return colour.SpectralDistribution(dict(zip(data[:, 0], data[:, 1])), name=path.stem)
+    if maximum is not None and np.any(data[:, 1] > maximum):
+        raise ConfigError(f"{path}: values must lie in [0, {maximum:g}] (largest {data[:, 1].max():g}; "
+                          "per cent? divide by 100)")
+    return colour.SpectralDistribution(dict(zip(wavelengths, data[:, 1])), name=path.stem)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 # ----------------------------------------------------------------------------- illuminants
@@ -247,7 +282,7 @@ def reflectance(spec: float | str) -> "colour.SpectralDistribution":  # noqa: F8
     spec = str(spec)
     patches = colorchecker_reflectances()
     if spec.casefold() not in {name.casefold() for name in patches} and _looks_like_path(spec):
-        return load_spectrum_csv(spec)
+        return load_spectrum_csv(spec, maximum=1.0)
     by_fold = {name.casefold(): name for name in patches}
     if spec.casefold() in by_fold:
         return patches[by_fold[spec.casefold()]]
