@@ -79,6 +79,19 @@ def _open(path: Path) -> tuple[dict, dict]:
     return header, channels
 
 
+def _band_edges(path: Path, attribute, bands: int) -> np.ndarray:
+    """The ``spectral_cam_band_edges_nm`` attribute: B + 1 finite, increasing edges, or a
+    RawFormatError (a wrong-length or NaN list was broadcast into the data)."""
+    try:
+        edges = np.asarray(json.loads(attribute), dtype=float)
+    except (TypeError, ValueError):
+        raise RawFormatError(f"{path}: attribute spectral_cam_band_edges_nm is not a JSON list of numbers") from None
+    if edges.shape != (bands + 1,) or not np.all(np.isfinite(edges)) or not np.all(np.diff(edges) > 0):
+        raise RawFormatError(f"{path}: spectral_cam_band_edges_nm must hold {bands + 1} finite, increasing band "
+                             f"edges (nm) for its {bands} spectral channels; it holds {np.ravel(edges)[:8].tolist()}")
+    return edges
+
+
 def read_spectral_exr(path: str | Path) -> SpectralImage:
     """Read a spectral EXR (ours or any file in the Fichet et al. layout) into a
     :class:`SpectralImage` of band integrals."""
@@ -98,7 +111,7 @@ def read_spectral_exr(path: str | Path) -> SpectralImage:
     wavelengths = np.array([w for w, _ in found])
     per_nm = np.stack([np.asarray(p, dtype=np.float32) for _, p in found], axis=-1)
     if "spectral_cam_band_edges_nm" in header:
-        edges = np.asarray(json.loads(header["spectral_cam_band_edges_nm"]), dtype=float)
+        edges = _band_edges(path, header["spectral_cam_band_edges_nm"], len(wavelengths))
     else:  # contiguous bands around the sampled wavelengths
         mids = (wavelengths[1:] + wavelengths[:-1]) / 2
         first = wavelengths[0] - (mids[0] - wavelengths[0]) if len(mids) else wavelengths[0] - 0.5

@@ -122,3 +122,42 @@ def test_interrupted_render_keeps_no_partial_output(tmp_path, signum):
     assert proc.returncode == 130, err.decode()[-500:]
     assert "no partial output was kept" in err.decode()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["slow.toml"]
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("edges", ["[400, 500]", "[NaN, 1, 2]", "not json", "[" + ", ".join(["1"] * 32) + "]"])
+def test_bad_band_edges_in_a_spectral_exr_are_refused(tmp_path, edges):
+    """Issue 12 #13: a wrong-length or NaN edges attribute was broadcast into the data."""
+    import numpy as np
+
+    from spectral_cam.charts import narrow_band_flat
+    from spectral_cam.io import write_exr_channels
+    from spectral_cam.spectral_exr import channel_name
+
+    image = narrow_band_flat((4, 4), 0.05)
+    channels = {channel_name(w): image.data[..., i] for i, w in enumerate(image.wavelengths_nm)}
+    path = write_exr_channels(channels, tmp_path / "bad.exr", {"spectralLayoutVersion": "1.0",
+                                                               "emissiveUnits": "W.m^-2.sr^-1",
+                                                               "spectral_cam_band_edges_nm": edges})
+    with pytest.raises(RawFormatError, match="spectral_cam_band_edges_nm"):
+        read_spectral_exr(path)
+    assert np.isfinite(image.data).all()
+
+
+@pytest.mark.timeout(60)
+def test_an_image_write_that_fails_is_an_error_not_an_empty_file(tmp_path, monkeypatch):
+    """Issue 12 #13: cv2.imwrite reported success over a 0-byte PNG on a full disk."""
+    import errno
+    from pathlib import Path
+
+    import numpy as np
+
+    from spectral_cam.isp.encode import write_png
+
+    def full_disk(self, data):
+        raise OSError(errno.ENOSPC, "No space left on device", str(self))
+
+    monkeypatch.setattr(Path, "write_bytes", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        write_png(np.full((4, 4, 3), 0.5), tmp_path / "image.png")
+    assert not list(tmp_path.iterdir())

@@ -74,12 +74,16 @@ def _check_rgb(image: np.ndarray) -> np.ndarray:
     return image
 
 
-def _cv2_write(path: Path, rgb_int: np.ndarray, params: list[int]) -> Path:
+def _cv2_write(path: Path, rgb_int: np.ndarray, extension: str, params: list[int]) -> Path:
+    """Encode in memory, then write the bytes from Python, whose writes raise on a full disk
+    (``cv2.imwrite`` returned True over a 0-byte file there)."""
     import cv2
 
+    ok, encoded = cv2.imencode(extension, np.ascontiguousarray(rgb_int[..., ::-1]), params)
+    if not ok:
+        raise ConfigError(f"OpenCV could not encode {path}")
     with atomic_path(path) as tmp:
-        if not cv2.imwrite(str(tmp), np.ascontiguousarray(rgb_int[..., ::-1]), params):
-            raise ConfigError(f"OpenCV could not encode {path}")
+        tmp.write_bytes(encoded.tobytes())
     return Path(path)
 
 
@@ -105,7 +109,8 @@ def write_png(image: np.ndarray, path: str | Path, *, bits: int = 8) -> Path:
     """
     import cv2
 
-    return _cv2_write(Path(path), quantise(_check_rgb(image), bits=bits), [cv2.IMWRITE_PNG_COMPRESSION, 6])
+    return _cv2_write(Path(path), quantise(_check_rgb(image), bits=bits), ".png",
+                      [cv2.IMWRITE_PNG_COMPRESSION, 6])
 
 
 def write_jpeg(image: np.ndarray, path: str | Path, *, quality: int = 95) -> Path:
@@ -132,7 +137,8 @@ def write_jpeg(image: np.ndarray, path: str | Path, *, quality: int = 95) -> Pat
 
     if not 1 <= int(quality) <= 100:
         raise ConfigError(f"JPEG quality {quality!r} must lie in 1..100")
-    return _cv2_write(Path(path), quantise(_check_rgb(image), bits=8), [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    return _cv2_write(Path(path), quantise(_check_rgb(image), bits=8), ".jpg",
+                      [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
 
 
 def write_tiff(image: np.ndarray, path: str | Path, *, bits: int = 16) -> Path:

@@ -67,13 +67,25 @@ def _tiff_extras(path: Path) -> dict:
             for page in tif.pages:
                 tags = page.tags
                 for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model", "ColorMatrix1",
-                             "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2"):
+                             "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2", "WhiteLevel"):
                     tag = tags.get(DNG_TAGS[name])
                     if tag is not None and name not in extras:
                         extras[name] = tag.value
     except Exception:  # not a TIFF container (CR3, RAF, ...): rawpy's fields are all there is
         return {}
     return extras
+
+
+def _check_white_level(path: Path, tag, black_levels) -> None:
+    """Refuse a DNG WhiteLevel at or below its black level: LibRaw then assumes 65535 and the
+    image develops several times too dark (a WhiteLevel of 0 on 12-bit data: 16×)."""
+    if tag is None:
+        return
+    levels = np.atleast_1d(np.asarray(tag, dtype=float))
+    black = float(np.max(black_levels)) if len(black_levels) else 0.0
+    if levels.size == 0 or levels.min() <= black:
+        raise RawFormatError(f"{path}: WhiteLevel {levels.astype(int).tolist()} is not above the black level "
+                             f"{black:g}; the file's levels are corrupt (WhiteLevel must exceed BlackLevel)")
 
 
 #: LibRaw refuses raw images smaller than this on either side.
@@ -216,6 +228,7 @@ def read_raw(path) -> RawImage:
             neutral = (1.0 / wb) / (1.0 / wb).max()
         matrix = _xyz_to_camera_from_libraw(rgb_cam, daylight)
     extras = _tiff_extras(path)
+    _check_white_level(path, extras.get("WhiteLevel"), black_levels)
     noise = extras.get("NoiseProfile")
     noise_profile = (float(noise[0]), float(noise[1])) if noise is not None and len(noise) >= 2 else None
     # LibRaw orders black_level_per_channel by colour index; raw_pattern maps sites to it

@@ -150,3 +150,13 @@ def test_mutated_dngs_read_or_raise_raw_format_error_and_never_develop_to_nan(tm
         assert np.all(np.isfinite(out.image))
     finally:
         logging.disable(logging.NOTSET)
+
+
+def test_a_white_level_at_or_below_black_is_refused(tmp_path, good_dng):
+    """Issue 12 #13: WhiteLevel 0 read as 65535 by LibRaw developed 16× too dark."""
+    data = bytearray(good_dng)
+    struct.pack_into("<I", data, _tag_entry_offset(good_dng, 50717) + 8, 0)  # WhiteLevel 0
+    path = tmp_path / "white0.dng"
+    path.write_bytes(bytes(data))
+    with pytest.raises(RawFormatError, match=r"WhiteLevel \[0\] is not above the black level 256"):
+        read_raw(path)
