@@ -18,8 +18,9 @@ def main() -> None:
     parser.add_argument("output")
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--only", action="append", choices=list(BENCHMARKS))
+    parser.add_argument("--force", action="store_true", help="replace an earlier run's results")
     args = parser.parse_args()
-    run_benchmarks(args.output, quick=args.quick, only=args.only)
+    run_benchmarks(args.output, quick=args.quick, only=args.only, force=args.force)
 
 
 if __name__ == "__main__":

@@ -22,3 +22,10 @@ def test_quick_bands_benchmark_writes_csv_and_charts(tmp_path):
     assert by[("D65", "camera")]["bias_max_abs_pct"] < 1.0
     assert by[("D65", "8 bands")]["bias_max_abs_pct"] > 3 * by[("D65", "31 bands")]["bias_max_abs_pct"]
     assert by[("D65", "31 bands")]["time_ratio"] == 1.0
+    # a second run into the same folder is refused without force (issue 12 #8), kept files stay
+    (tmp_path / "notes.txt").write_text("mine")
+    from spectral_cam.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"earlier run \(bands.csv\); pass --force"):
+        run_benchmarks(tmp_path, quick=True, only=["bands"], log=lambda _: None)
+    assert (tmp_path / "notes.txt").read_text() == "mine"
