@@ -195,10 +195,29 @@ def write_item(config: SceneConfig, target: str | Path, *, outputs: Sequence[str
                 write_s += time.perf_counter() - t0
         timings = {**item.sim.timings_s, "write": write_s, **item.timings}
         timings["total"] = time.perf_counter() - started
-        meta = result_meta(item.sim, written, timings, dataset=dict(dataset or {}))
+        record = dict(dataset or {})
+        record["file_checks"] = {path.name: file_check(path) for path in written}
+        meta = result_meta(item.sim, written, timings, dataset=record)
         meta.update({key: item.records.get(key) for entry in LABELS.values() for key in entry.options})
         write_json(meta, stage / "meta.json")
     return meta
+
+
+def file_check(path: Path) -> dict:
+    """Size (bytes) and SHA-256 of a written file: what a resumed run verifies, so a truncated
+    ``raw.dng`` or a 0-byte ``image.png`` is rendered again instead of counted as done.
+
+    References
+    ----------
+    .. [1] FIPS 180-4, Secure Hash Standard (SHA-256).
+    """
+    import hashlib
+
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return {"bytes": Path(path).stat().st_size, "sha256": digest.hexdigest()}
 
 
 # ----------------------------------------------------------------------------- label physics

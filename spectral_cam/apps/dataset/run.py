@@ -24,6 +24,7 @@ import json
 import os
 import re
 import shutil
+import sys
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -36,7 +37,7 @@ from ...progress import ProgressLine, duration
 from ...records import json_ready, read_json, write_json
 from ...render.variants import set_render_threads
 from ...scene import scene_from_dict
-from .labels import write_item
+from .labels import file_check, write_item
 from .sheets import write_blur_chart, write_contact_sheet
 from .spec import DatasetSpec, ItemPlan
 
@@ -46,7 +47,7 @@ __all__ = ["DatasetSummary", "generate_dataset", "item_task", "render_item", "lo
 #: Seconds between manifest rewrites during a run (it is always written at the end).
 MANIFEST_EVERY_S = 30.0
 _MANIFEST_KEYS = ("index", "id", "status", "resumed", "seed", "params", "files", "error", "attempts", "seconds",
-                  "exposure_s", "path")
+                  "exposure_s", "variant", "file_checks", "path")
 
 
 # ----------------------------------------------------------------------------- one item
@@ -111,7 +112,8 @@ def render_item(task: Mapping[str, Any]) -> dict:
         record = {key: task[key] for key in ("index", "id", "seed", "spec_hash", "params")}
         meta = write_item(config, task["path"], outputs=task["outputs"], measure_blur=task.get("measure_blur", False),
                           dataset={**record, "outputs": list(task["outputs"])})
-        row.update(status="done", files=meta["files"], error=None, exposure_s=meta["sensor"]["exposure_s"])
+        row.update(status="done", files=meta["files"], error=None, exposure_s=meta["sensor"]["exposure_s"],
+                   variant=meta["render"]["variant"], file_checks=meta["dataset"]["file_checks"])
     except Exception as exc:  # a poison item: record it, never take the run down
         row.update(status="failed", files=[], error=f"{type(exc).__name__}: {exc}",
                    traceback=traceback.format_exc(limit=8))
@@ -373,7 +375,8 @@ class DatasetSummary:
 
 def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], plan: ItemPlan) -> dict | None:
     """The item's meta when its folder is complete for this spec, this item's planned seed
-    and parameters (a sweep re-plans items when ``-n`` changes), and these outputs."""
+    and parameters (a sweep re-plans items when ``-n`` changes), and these outputs, and every
+    file still has the size and SHA-256 it was written with."""
     meta = read_json(item_dir / "meta.json")
     if not isinstance(meta, dict) or not isinstance(meta.get("dataset"), dict):
         return None
@@ -381,9 +384,42 @@ def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], plan: Item
         return None
     if meta["dataset"].get("seed") != plan.seed or meta["dataset"].get("params") != json_ready(plan.params):
         return None
-    if not all((item_dir / name).is_file() for name in meta.get("files", [])):
+    checks = meta["dataset"].get("file_checks")
+    if not isinstance(checks, dict):
         return None
+    for name in meta.get("files", []):
+        if name == "meta.json":
+            continue
+        path = item_dir / name
+        if name not in checks or not path.is_file() or path.stat().st_size != checks[name].get("bytes"):
+            return None
+        if file_check(path) != checks[name]:
+            return None
     return meta
+
+
+def _warn_on_another_variant(rows: Mapping[int, dict], tasks: Sequence[Mapping[str, Any]], progress: bool) -> None:
+    """Warn when the items kept from an earlier run were rendered with another Mitsuba variant
+    than the new ones will be: the same seed draws different samples on scalar and LLVM, so
+    the dataset would mix two noise realisations without saying so."""
+    import warnings
+
+    from ...render.variants import choose_variant
+
+    kept = {r.get("variant") for r in rows.values() if r.get("resumed") and r.get("variant")}
+    new = choose_variant(tasks[0]["scene"].get("render", {}).get("variant", "auto"))
+    others = sorted(kept - {new})
+    if others:
+        message = (f"resumed items were rendered with {', '.join(others)}, the items rendered now use {new}: "
+                   "the same seed draws other samples on another variant (the manifest records each item's); "
+                   "use --force to render every item on this one")
+        warnings.warn(message, ResumeVariantWarning, stacklevel=3)
+        if progress:
+            print(f"dataset: warning: {message}", file=sys.stderr)
+
+
+class ResumeVariantWarning(UserWarning):
+    """A resumed dataset mixes items of two Mitsuba variants."""
 
 
 def _remove_partials(items_dir: Path, item_id: str | None = None) -> None:
@@ -538,12 +574,16 @@ def generate_dataset(
                 rows[index] = {**base, "status": "done", "resumed": True,
                                "files": [f"items/{plan.id}/{name}" for name in meta["files"]],
                                "error": None, "exposure_s": meta.get("sensor", {}).get("exposure_s"),
-                               "seconds": meta.get("timings_s", {}).get("total")}
+                               "seconds": meta.get("timings_s", {}).get("total"),
+                               "variant": meta.get("render", {}).get("variant"),
+                               "file_checks": meta["dataset"]["file_checks"]}
                 continue
             tasks.append(item_task(spec, plan, output))
             # until a worker reports, the manifest (rewritten every MANIFEST_EVERY_S) says pending
             rows[index] = {**base, "status": "pending", "resumed": False, "files": [], "error": None}
         summary.resumed = sum(1 for r in rows.values() if r.get("resumed"))
+        if summary.resumed and tasks:
+            _warn_on_another_variant(rows, tasks, progress)
         bar = ProgressBar(total, resumed=summary.resumed, enabled=progress,
                           rejected=sum(1 for r in rows.values() if r["status"] == "failed"))
         bar.update()

@@ -70,7 +70,10 @@ def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
     config = make_scene(scene={"preset": "dof_targets"}, render={"spp": 2}, lens={"model": "thin"})
     meta = write_item(config, tmp_path / "item", outputs=["raw", "defocus"], dataset={"id": "x"})
     assert {p.name for p in (tmp_path / "item").iterdir()} == {"raw.dng", "defocus.exr", "meta.json"}
+    checks = meta["dataset"].pop("file_checks")
     assert meta["files"] == ["defocus.exr", "raw.dng", "meta.json"] and meta["dataset"] == {"id": "x"}
+    assert {name: check["bytes"] for name, check in checks.items()} == {
+        name: (tmp_path / "item" / name).stat().st_size for name in ("defocus.exr", "raw.dng")}
     assert meta["defocus"]["channel"] == "CoC"
     recorded = {key for entry in LABELS.values() for key in entry.options}
     assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb"}

@@ -219,3 +219,44 @@ def test_the_local_cluster_listens_on_loopback_only_and_serves_no_pages(cluster)
         with pytest.raises(urllib.error.HTTPError) as refused:
             urllib.request.urlopen(f"http://127.0.0.1:{port}{page}", timeout=10)
         assert refused.value.code == 404, page
+
+
+@pytest.mark.timeout(300)
+def test_truncated_or_empty_files_are_not_taken_for_finished_items(first_run, cluster, tmp_path):
+    """Issue 12 #13: resume trusted file existence; each file's size and SHA-256 are kept and checked."""
+    out = tmp_path / "copy"
+    shutil.copytree(first_run.out, out)
+    dng = out / "items" / "000001" / "raw.dng"
+    good = dng.read_bytes()
+    dng.write_bytes(good[: len(good) // 2])                       # truncated
+    (out / "items" / "000002" / "image.png").write_bytes(b"")      # 0 bytes
+    png = out / "items" / "000005" / "image.png"
+    flipped = bytearray(png.read_bytes())
+    flipped[-20] ^= 0xFF                                            # same size, other bytes
+    png.write_bytes(bytes(flipped))
+    summary = generate_dataset(first_run.spec, out, n=6, executor=cluster.executor, progress=False)
+    assert (summary.rendered, summary.resumed) == (3, 3)
+    assert dng.read_bytes() == good  # regenerated identically
+    rows = read_manifest(out)
+    assert all(set(r["file_checks"]) == {Path(f).name for f in r["files"]} - {"meta.json"} for r in rows)
+
+
+@pytest.mark.timeout(300)
+def test_resuming_on_another_variant_warns(first_run, cluster, tmp_path):
+    """Issue 12 #4: items of two Mitsuba variants were mixed silently."""
+    from spectral_cam.apps.dataset.run import ResumeVariantWarning
+
+    out = tmp_path / "copy"
+    shutil.copytree(first_run.out, out)
+    meta_path = out / "items" / "000000" / "meta.json"
+    meta = json.loads(meta_path.read_text())
+    here = meta["render"]["variant"]
+    assert here in ("llvm_ad_spectral", "scalar_spectral", "cuda_ad_spectral")
+    other = "scalar_spectral" if here != "scalar_spectral" else "llvm_ad_spectral"
+    meta["render"]["variant"] = other  # as if rendered on another machine
+    meta_path.write_text(json.dumps(meta))
+    shutil.rmtree(out / "items" / "000004")
+    with pytest.warns(ResumeVariantWarning, match=f"rendered with {other}"):
+        generate_dataset(first_run.spec, out, n=6, executor=cluster.executor, progress=False)
+    variants = {r["index"]: r["variant"] for r in read_manifest(out)}  # the manifest records each item's
+    assert variants[0] == other and variants[4] == here
