@@ -95,7 +95,7 @@ def write_rows(rows: Sequence[dict], path: str | Path) -> Path:
 
 def pareto_chart(rows: Sequence[dict], path: str | Path, *, x: str, y: str, label: str, title: str,
                  group: str | None = None, xlabel: str | None = None, ylabel: str | None = None,
-                 front: bool = True) -> Path:
+                 front: bool = True, higher_is_better: bool = False) -> Path:
     """Chart ``y`` against ``x`` (log scale) for benchmark rows, each point labelled, with
     each group's Pareto front drawn as a staircase from its cheapest to its most accurate
     point; written as a PNG (:mod:`spectral_cam.viz`, no pyplot).
@@ -116,6 +116,9 @@ def pareto_chart(rows: Sequence[dict], path: str | Path, *, x: str, y: str, labe
         Axis labels (default the keys).
     front : bool
         Draw the fronts.
+    higher_is_better : bool
+        ``y`` is a quality (e.g. PSNR): the front is computed on −``y`` (as the CSV's
+        ``pareto`` flags are) and drawn on ``y``.
 
     Returns
     -------
@@ -130,11 +133,11 @@ def pareto_chart(rows: Sequence[dict], path: str | Path, *, x: str, y: str, labe
         subset = [r for r in rows if group is None or r[group] == name]
         colour = f"C{number}"
         cost = np.array([r[x] for r in subset], float)
-        error = np.array([r[y] for r in subset], float)
-        ax.scatter(cost, error, label=name, s=30, zorder=3, color=colour)
+        value = np.array([r[y] for r in subset], float)
+        ax.scatter(cost, value, label=name, s=30, zorder=3, color=colour)
         if front:
-            on_front = pareto_front(cost, error)
-            ax.step(cost[on_front], error[on_front], where="post", color=colour, lw=1, ls="--", zorder=2,
+            on_front = pareto_front(cost, -value if higher_is_better else value)
+            ax.step(cost[on_front], value[on_front], where="post", color=colour, lw=1, ls="--", zorder=2,
                     label="Pareto front" if number == 0 else None)
     ax.set_xscale("log")
     ax.set_xlabel(xlabel or x)
