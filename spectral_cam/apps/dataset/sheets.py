@@ -22,7 +22,7 @@ from ...errors import ConfigError
 from ...records import exact_number, format_number, read_json, write_csv
 from ...viz import figure, save_png
 
-__all__ = ["CONTACT_SHEET_MAX", "write_contact_sheet", "write_blur_chart"]
+__all__ = ["CONTACT_SHEET_MAX", "write_contact_sheet", "write_blur_chart", "caption_keys"]
 
 #: Items on the contact sheet of a dataset (the first ones; a sweep's grid is usually smaller).
 CONTACT_SHEET_MAX = 64
@@ -48,6 +48,29 @@ def _label(params: Mapping[str, Any], keys: Sequence[str], *, per_line: int = 1)
     """``key=value`` of the given parameters (short key names), ``per_line`` to a line."""
     parts = [f"{key.split('.', 1)[1]}={_format(params.get(key))}" for key in keys]
     return "\n".join("  ".join(parts[i:i + per_line]) for i in range(0, len(parts), per_line))
+
+
+def caption_keys(spec: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], *, most: int = 6) -> list[str]:
+    """The parameters worth a caption: those whose values differ among ``rows`` — sweep axes
+    first, then choices (a preset, a camera model), then sampled numbers — at most ``most``.
+
+    Examples
+    --------
+    >>> spec = {"sweeps": [], "distributions": {"lens.f_number": {"uniform": [2, 8]},
+    ...                                         "scene.preset": {"choice": ["a", "b"]}}}
+    >>> caption_keys(spec, [{"params": {"lens.f_number": 2.0, "scene.preset": "a"}},
+    ...                     {"params": {"lens.f_number": 4.0, "scene.preset": "b"}}])
+    ['scene.preset', 'lens.f_number']
+    """
+    distributions = spec.get("distributions", {})
+    swept = [s["key"] for s in spec.get("sweeps", [])]
+    choices = sorted(k for k, d in distributions.items() if "choice" in d and k not in swept)
+    sampled = sorted(k for k in distributions if k not in swept and k not in choices)
+
+    def varies(key: str) -> bool:
+        return len({json.dumps((row.get("params") or {}).get(key), sort_keys=True) for row in rows}) > 1
+
+    return [key for key in swept + choices + sampled if varies(key)][:most]
 
 
 def _thumbnail(path: Path) -> np.ndarray:
@@ -81,8 +104,8 @@ def write_contact_sheet(output: str | Path, path: str | Path | None = None, *,
     limit
         Items shown at most (the first ones).
     keys
-        Parameters in each label (default: the sweep keys, else the sampled keys; at most
-        six, two to a line).
+        Parameters in each label (default :func:`caption_keys`: the keys whose values vary
+        among the items shown, sweeps and choices first; at most six, one to a line).
 
     Returns
     -------
@@ -99,7 +122,7 @@ def write_contact_sheet(output: str | Path, path: str | Path | None = None, *,
     info = read_json(output / "dataset.json") or {}
     sweeps = info.get("spec", {}).get("sweeps", [])
     if keys is None:
-        keys = [s["key"] for s in sweeps] or sorted(info.get("spec", {}).get("distributions", {}))
+        keys = caption_keys(info.get("spec", {}), rows)
     keys = list(keys)[:6]
     images = []
     for row in rows:
@@ -115,8 +138,7 @@ def write_contact_sheet(output: str | Path, path: str | Path | None = None, *,
     lines = max(1, (len(rows) + columns - 1) // columns)
     sample = _thumbnail(next(p for p in images if p))
     aspect = sample.shape[0] / sample.shape[1]
-    label_lines = (len(keys) + 1) // 2
-    fig = figure(2.4 * columns, (2.4 * aspect + 0.15 * (label_lines + 1) + 0.1) * lines)
+    fig = figure(2.6 * columns, (2.6 * aspect + 0.14 * (len(keys) + 1) + 0.15) * lines)
     axes = fig.subplots(lines, columns, squeeze=False)
     for ax in axes.ravel():
         ax.axis("off")
@@ -128,8 +150,8 @@ def write_contact_sheet(output: str | Path, path: str | Path | None = None, *,
                     va="center", color="crimson", transform=ax.transAxes)
         title = f"#{row['id']}"
         if keys:
-            title += "\n" + _label(row.get("params") or {}, keys, per_line=2)
-        ax.set_title(title, fontsize=6.5)
+            title += "\n" + _label(row.get("params") or {}, keys)
+        ax.set_title(title, fontsize=6.5, linespacing=1.1)
     return save_png(fig, path, dpi=110)
 
 
@@ -139,8 +161,9 @@ def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
 
     Reads each finished item's ``meta.json`` ``blur`` rows (from
     :func:`spectral_cam.apps.dataset.labels.measure_scene_blur`) and draws the predicted
-    |CoC|(z) curve of its lens with the measured diameters as markers; writes the numbers as
-    CSV too (every digit kept).
+    |CoC|(z) curve of its lens with the measured diameters as markers, and a cross at the
+    prediction where no measurement was possible; writes the numbers as CSV too (every digit
+    kept), with the reason for each missing measurement in its ``note`` column.
 
     Parameters
     ----------
@@ -180,6 +203,7 @@ def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
     if not series:
         return None
     table = []
+    unmeasured = 0
     fig = figure(7.5, 4.8)
     ax = fig.subplots()
     colours = matplotlib.colormaps["viridis"](np.linspace(0.0, 0.9, len(series)))
@@ -193,11 +217,18 @@ def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
         measured = [(b["depth_m"], b["measured_coc_px"]) for b in meta["blur"] if b["measured_coc_px"] is not None]
         if measured:
             ax.plot(*zip(*measured), "o", color=colour, ms=5, mfc="none")
+        missing = [(b["depth_m"], b["predicted_coc_px"]) for b in meta["blur"] if b["measured_coc_px"] is None]
+        if missing:  # shown where the prediction is, with the reason in the CSV
+            ax.plot(*zip(*missing), "x", color=colour, ms=6)
+            unmeasured += len(missing)
         for b in meta["blur"]:
             table.append({"id": row["id"], **{k: (row.get("params") or {}).get(k) for k in keys},
                           "depth_m": b["depth_m"], "predicted_coc_px": b["predicted_coc_px"],
-                          "measured_coc_px": b["measured_coc_px"], "pixels": b["pixels"]})
+                          "measured_coc_px": b["measured_coc_px"], "pixels": b["pixels"],
+                          "note": b.get("note") or ""})
     ax.plot([], [], "o", color="grey", mfc="none", label="measured (rendered image vs. all-in-focus)")
+    if unmeasured:
+        ax.plot([], [], "x", color="grey", label=f"not measured ({unmeasured}: the reason is in the CSV's note)")
     ax.set_xscale("log")
     ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
     ax.xaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))

@@ -47,3 +47,28 @@ def test_contact_sheet_is_redrawn_from_the_folder(point_sweep, tmp_path):
     (column_h, column_w), (row_h, row_w) = (cv2.imread(str(p)).shape[:2] for p in (column, row))
     assert row_w == pytest.approx(2 * column_w, abs=2) and column_h == pytest.approx(2 * row_h, abs=2)
     assert write_contact_sheet(tmp_path) is None  # no items, no sheet
+
+
+def test_unmeasured_depths_keep_their_reason_in_the_csv_and_a_mark_on_the_chart(tmp_path):
+    """Issue 12 #5: depths without a usable region vanished from the CSV and the chart."""
+    import json
+
+    from spectral_cam.records import write_json
+    from spectral_cam.scene import scene_from_dict
+
+    config = scene_from_dict({"scene": {"preset": "dof_targets"}, "lens": {"f_number": 2.0}})
+    blur = [{"depth_m": 1.0, "predicted_coc_px": 3.0, "measured_coc_px": None, "pixels": 0,
+             "note": "no pixels 9.1 px inside the plane"},
+            {"depth_m": 2.0, "predicted_coc_px": 0.0, "measured_coc_px": 0.1, "pixels": 40, "note": None}]
+    item = tmp_path / "items" / "000000"
+    item.mkdir(parents=True)
+    write_json({"config": config.to_dict(), "blur": blur}, item / "meta.json")
+    (tmp_path / "manifest.jsonl").write_text(json.dumps({"id": "000000", "status": "done", "path": "items/000000",
+                                                         "params": {"lens.f_number": 2.0}}) + "\n")
+    write_json({"spec": {"sweeps": [{"key": "lens.f_number", "values": [2.0]}]}}, tmp_path / "dataset.json")
+    png = write_blur_chart(tmp_path)
+    assert png.is_file()
+    with open(tmp_path / "blur_vs_depth.csv") as handle:
+        table = list(csv.DictReader(handle))
+    assert [(r["depth_m"], r["measured_coc_px"], r["note"]) for r in table] == [
+        ("1.0", "", "no pixels 9.1 px inside the plane"), ("2.0", "0.1", "")]
