@@ -264,6 +264,15 @@ def _executor(executor, scheduler, workers, dashboard: bool = False) -> Iterator
         yield client.get_executor(pure=False), 2 * workers, threads
 
 
+def _require_dask() -> None:
+    """Refuse a run that needs dask.distributed where it is not installed."""
+    try:
+        import dask.distributed  # noqa: F401
+    except ImportError:
+        raise ConfigError("the Dask executor needs dask.distributed: pip install 'spectral_cam[dask]' "
+                          "(or run with --scheduler inline)") from None
+
+
 def _dask_threads(executor) -> int:
     client = getattr(executor, "_client", None)
     try:
@@ -542,6 +551,8 @@ def generate_dataset(
         raise ConfigError(f"--retries {retries!r}: must be a whole number >= 0")
     if render_threads is not None and (not isinstance(render_threads, int) or render_threads < 1):
         raise ConfigError(f"render_threads {render_threads!r}: must be a whole number >= 1 (or None)")
+    if executor is None and scheduler != "inline":
+        _require_dask()  # before the folder, its lock or a manifest row exists
     items_dir = output / "items"
     summary = DatasetSummary(output=output, items=total)
     with _lock(output):

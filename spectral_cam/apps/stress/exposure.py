@@ -291,10 +291,13 @@ def plot_exposure(result: dict, directory: Path) -> list[str]:
             rgb = np.asarray(entry["mean_linear_srgb"][method], float)
             rgb = rgb / np.maximum(rgb.max(axis=1, keepdims=True), 1e-9)
             tiles.append(np.clip(rgb, 0, 1) ** (1 / 2.2))
-    ax.imshow(np.stack(tiles), aspect="auto", interpolation="nearest")
-    ax.set_yticks(range(len(tiles)), [f"{i} {m}" for i in highlights for m in methods], fontsize=7)
+    # grey cell borders on a grey ground: a neutral (white) tile stays visible
+    ax.set_facecolor("0.5")
+    ax.pcolormesh(np.stack(tiles), edgecolors="0.35", linewidth=0.6)
+    ax.invert_yaxis()
+    ax.set_yticks(np.arange(len(tiles)) + 0.5, [f"{i} {m}" for i in highlights for m in methods], fontsize=7)
     factors = next(iter(highlights.values()))["factors"]
-    ax.set_xticks(range(len(factors)), [f"{f:g}" for f in factors], fontsize=7)
+    ax.set_xticks(np.arange(len(factors)) + 0.5, [f"{f:g}" for f in factors], fontsize=7)
     ax.set_xlabel("exposure factor")
     ax.set_title("developed white (normalised)")
     written.append(save_png(fig, Path(directory) / "exposure_highlights.png").name)

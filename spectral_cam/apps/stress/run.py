@@ -109,7 +109,7 @@ def run_studies(directory: Path, settings: StressSettings, *, only=None, log=Non
         results["timings_s"][name] = seconds
         results["files"] += files
         if log is not None:
-            log(f"{name}: {seconds:.1f} s, {len(files)} charts")
+            log(f"{name}: {seconds:.1f} s, {len(files)} chart{'' if len(files) == 1 else 's'}")
     results["files"] += write_summary(rows, directory)
     results["versions"] = package_versions()
     results["files"].append(write_results(results, directory))

@@ -260,3 +260,15 @@ def test_resuming_on_another_variant_warns(first_run, cluster, tmp_path):
         generate_dataset(first_run.spec, out, n=6, executor=cluster.executor, progress=False)
     variants = {r["index"]: r["variant"] for r in read_manifest(out)}  # the manifest records each item's
     assert variants[0] == other and variants[4] == here
+
+
+@pytest.mark.timeout(60)
+def test_without_dask_nothing_is_created(tmp_path, monkeypatch):
+    """Issue 12 #8: without the dask extra the folder, a lock and manifest rows appeared first."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import fails as if not installed
+    spec = spec_from_dict({"sensor": {"width_px": 24, "height_px": 16}})
+    with pytest.raises(ConfigError, match=r"needs dask.distributed: pip install 'spectral_cam\[dask\]'"):
+        generate_dataset(spec, tmp_path / "ds", n=1, progress=False)
+    assert not (tmp_path / "ds").exists()
