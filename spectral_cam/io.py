@@ -8,6 +8,7 @@ References
 from __future__ import annotations
 
 import contextlib
+import errno
 import glob
 import os
 import shutil
@@ -100,7 +101,6 @@ def exchange_paths(a: str | Path, b: str | Path) -> bool:
        glibc 2.28).
     """
     import ctypes
-    import errno
 
     try:
         renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
@@ -148,6 +148,12 @@ def write_exr_channels(channels, path: str | Path, attributes=None) -> Path:
     attributes : mapping of str to str, optional
         Extra header attributes (e.g. the spectral layout's ``spectralLayoutVersion``).
 
+    Raises
+    ------
+    OSError
+        When the file cannot be written (OpenEXR's RuntimeError, e.g. on a full disk); no
+        partial file is left.
+
     References
     ----------
     .. [1] OpenEXR file layout, https://openexr.com (header attributes, channel lists).
@@ -159,6 +165,9 @@ def write_exr_channels(channels, path: str | Path, attributes=None) -> Path:
     data = {name: np.ascontiguousarray(value, dtype=np.float32) for name, value in channels.items()}
     path = Path(path)
     with atomic_path(path) as tmp:
-        with OpenEXR.File(header, data) as exr:
-            exr.write(str(tmp))
+        try:
+            with OpenEXR.File(header, data) as exr:
+                exr.write(str(tmp))
+        except RuntimeError as exc:  # OpenEXR reports a failed write (a full disk, ...) this way
+            raise OSError(errno.EIO, f"could not write the OpenEXR file ({exc})", str(path)) from None
     return path

@@ -66,3 +66,21 @@ def test_a_kill_between_the_fallback_renames_loses_nothing(tmp_path):
             (stage / "meta.json").write_text("newer")
     assert (target / "meta.json").read_text() == "old"
     assert not list(tmp_path.glob(".out.old-*"))
+
+
+def test_a_failed_exr_write_is_an_os_error_the_cli_reports(tmp_path, monkeypatch, capsys):
+    """Issue 12 #11: OpenEXR's RuntimeError on a full disk escaped as a traceback."""
+    import OpenEXR
+
+    from spectral_cam.cli import main
+
+    def full_disk(self, *args, **kwargs):
+        raise RuntimeError("Cannot write image file: No space left on device")
+
+    monkeypatch.setattr(OpenEXR.File, "write", full_disk)
+    scene = tmp_path / "scene.toml"
+    scene.write_text("[sensor]\nwidth_px = 24\nheight_px = 16\n[render]\nspp = 4\n")
+    assert main(["render", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "could not write the OpenEXR file" in err and "No space left" in err and "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]
