@@ -20,6 +20,7 @@ from __future__ import annotations
 import collections
 import concurrent.futures as cf
 import contextlib
+import itertools
 import json
 import os
 import re
@@ -382,6 +383,35 @@ class DatasetSummary:
         return 60.0 * self.rendered / self.seconds if self.seconds > 0 else 0.0
 
 
+def _plan_items(spec: DatasetSpec, total: int, per_point: int, output: Path, rows: dict, bar: ProgressBar, *,
+                force: bool) -> Iterator[dict]:
+    """Plan items one by one, lazily: record finished (resumed) and invalid items in ``rows``
+    and yield a task for every item to render, so rendering starts before a large dataset
+    is planned to its end and memory grows with the items done, not the items asked for."""
+    items_dir = output / "items"
+    for index in range(total):
+        plan = spec.plan_item(index, per_point)
+        base = {"index": index, "id": plan.id, "seed": plan.seed, "params": plan.params,
+                "path": f"items/{plan.id}", "attempts": 0}
+        if plan.scene is None:
+            rows[index] = {**base, "status": "failed", "resumed": False, "files": [], "error": plan.error}
+            bar.rejected += 1
+            continue
+        meta = None if force else _finished(items_dir / plan.id, spec.hash, spec.outputs, plan)
+        if meta is not None:
+            rows[index] = {**base, "status": "done", "resumed": True,
+                           "files": [f"items/{plan.id}/{name}" for name in meta["files"]],
+                           "error": None, "exposure_s": meta.get("sensor", {}).get("exposure_s"),
+                           "seconds": meta.get("timings_s", {}).get("total"),
+                           "variant": meta.get("render", {}).get("variant"),
+                           "file_checks": meta["dataset"]["file_checks"]}
+            bar.resumed += 1
+            continue
+        # until a worker reports, the manifest (rewritten every MANIFEST_EVERY_S) says pending
+        rows[index] = {**base, "status": "pending", "resumed": False, "files": [], "error": None}
+        yield item_task(spec, plan, output)
+
+
 def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], plan: ItemPlan) -> dict | None:
     """The item's meta when its folder is complete for this spec, this item's planned seed
     and parameters (a sweep re-plans items when ``-n`` changes), and these outputs, and every
@@ -407,19 +437,18 @@ def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], plan: Item
     return meta
 
 
-def _warn_on_another_variant(rows: Mapping[int, dict], tasks: Sequence[Mapping[str, Any]], progress: bool) -> None:
+def _warn_on_another_variant(rows: Mapping[int, dict], progress: bool) -> None:
     """Warn when the items kept from an earlier run were rendered with another Mitsuba variant
     than the new ones will be: the same seed draws different samples on scalar and LLVM, so
     the dataset would mix two noise realisations without saying so."""
     import warnings
 
-    from ...render.variants import choose_variant
-
     kept = {r.get("variant") for r in rows.values() if r.get("resumed") and r.get("variant")}
-    new = choose_variant(tasks[0]["scene"].get("render", {}).get("variant", "auto"))
-    others = sorted(kept - {new})
-    if others:
-        message = (f"resumed items were rendered with {', '.join(others)}, the items rendered now use {new}: "
+    new = {r.get("variant") for r in rows.values() if not r.get("resumed") and r.get("variant")}
+    others = sorted(kept - new)
+    if new and others:
+        message = (f"resumed items were rendered with {', '.join(others)}, the items rendered now use "
+                   f"{', '.join(sorted(new))}: "
                    "the same seed draws other samples on another variant (the manifest records each item's); "
                    "use --force to render every item on this one")
         warnings.warn(message, ResumeVariantWarning, stacklevel=3)
@@ -571,44 +600,24 @@ def generate_dataset(
                     shutil.rmtree(stale, ignore_errors=True)
 
         rows: dict[int, dict] = {}
-        tasks = []
-        for index in range(total):
-            plan = spec.plan_item(index, per_point)
-            item_dir = items_dir / plan.id
-            base = {"index": index, "id": plan.id, "seed": plan.seed, "params": plan.params,
-                    "path": f"items/{plan.id}", "attempts": 0}
-            if plan.scene is None:
-                rows[index] = {**base, "status": "failed", "resumed": False, "files": [], "error": plan.error}
-                continue
-            meta = None if force else _finished(item_dir, spec.hash, spec.outputs, plan)
-            if meta is not None:
-                rows[index] = {**base, "status": "done", "resumed": True,
-                               "files": [f"items/{plan.id}/{name}" for name in meta["files"]],
-                               "error": None, "exposure_s": meta.get("sensor", {}).get("exposure_s"),
-                               "seconds": meta.get("timings_s", {}).get("total"),
-                               "variant": meta.get("render", {}).get("variant"),
-                               "file_checks": meta["dataset"]["file_checks"]}
-                continue
-            tasks.append(item_task(spec, plan, output))
-            # until a worker reports, the manifest (rewritten every MANIFEST_EVERY_S) says pending
-            rows[index] = {**base, "status": "pending", "resumed": False, "files": [], "error": None}
-        summary.resumed = sum(1 for r in rows.values() if r.get("resumed"))
-        if summary.resumed and tasks:
-            _warn_on_another_variant(rows, tasks, progress)
-        bar = ProgressBar(total, resumed=summary.resumed, enabled=progress,
-                          rejected=sum(1 for r in rows.values() if r["status"] == "failed"))
-        bar.update()
+        bar = ProgressBar(total, enabled=progress)
+        bar.update()  # at once: planning a large dataset is itself work
+        planned = _plan_items(spec, total, per_point, output, rows, bar, force=force)
+        first = next(planned, None)  # plans (and skips finished items) up to the first to render
         manifest = output / "manifest.jsonl"
         try:
-            if tasks:
+            if first is not None:
                 with _executor(executor, scheduler, workers, dashboard) as (pool, window, threads):
-                    for task in tasks:
-                        task["render_threads"] = render_threads or threads
+                    tasks = ({**task, "render_threads": render_threads or threads}
+                             for task in itertools.chain([first], planned))
                     _run_tasks(pool, item_function, tasks, rows, items_dir, window=window, retries=retries,
                                bar=bar, summary=summary, manifest=manifest)
         finally:
             _write_manifest(manifest, rows)
             summary.manifest = manifest
+        summary.resumed = sum(1 for r in rows.values() if r.get("resumed"))
+        if summary.resumed and summary.rendered:
+            _warn_on_another_variant(rows, progress)
         bar.close()
         summary.failed = sum(1 for r in rows.values() if r["status"] == "failed")
         summary.errors = {r["id"]: r["error"] for r in sorted(rows.values(), key=lambda r: r["index"])
@@ -620,14 +629,24 @@ def generate_dataset(
 
 
 def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, bar, summary, manifest) -> None:
-    pending = collections.deque(tasks)
+    """Keep ``window`` tasks in flight, drawing new ones from the (lazy) ``tasks`` iterator and
+    resubmitting those whose worker died (``retries`` times)."""
+    tasks = iter(tasks)
+    pending: collections.deque = collections.deque()  # resubmissions first
     attempts: collections.Counter = collections.Counter()
     in_flight: dict[cf.Future, dict] = {}
     last_manifest = time.perf_counter()
+    exhausted = False
     try:
-        while pending or in_flight:
-            while pending and len(in_flight) < window:
-                task = pending.popleft()
+        while pending or in_flight or not exhausted:
+            while len(in_flight) < window:
+                if pending:
+                    task = pending.popleft()
+                else:
+                    task = next(tasks, None)
+                    if task is None:
+                        exhausted = True
+                        break
                 attempts[task["index"]] += 1
                 _remove_partials(items_dir, task["id"])
                 in_flight[pool.submit(item_function, task)] = task

@@ -272,3 +272,28 @@ def test_without_dask_nothing_is_created(tmp_path, monkeypatch):
     with pytest.raises(ConfigError, match=r"needs dask.distributed: pip install 'spectral_cam\[dask\]'"):
         generate_dataset(spec, tmp_path / "ds", n=1, progress=False)
     assert not (tmp_path / "ds").exists()
+
+
+@pytest.mark.timeout(60)
+def test_a_huge_dataset_starts_rendering_at_once(tmp_path):
+    """Issue 12 #12: -n 100000000000 planned every item before rendering any (growing ~6.5 MB/s)."""
+    import time
+
+    spec = spec_from_dict({"sensor": {"width_px": 24, "height_px": 16},
+                           "lens": {"f_number": {"log_uniform": [2.0, 8.0]}}})
+    calls = []
+
+    def item_function(task):
+        calls.append(task["index"])
+        if len(calls) > 3:
+            raise KeyboardInterrupt  # the user stops the run
+        return {"status": "done", "files": [], "error": None}
+
+    started = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        generate_dataset(spec, tmp_path / "huge", n=10 ** 11, scheduler="inline", progress=False,
+                         item_function=item_function)
+    assert time.perf_counter() - started < 20
+    assert calls == [0, 1, 2, 3]
+    rows = read_manifest(tmp_path / "huge")  # the manifest holds what was planned, not 10^11 rows
+    assert [r["status"] for r in rows] == ["done", "done", "done", "pending"]
