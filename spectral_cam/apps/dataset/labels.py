@@ -304,8 +304,8 @@ def measure_scene_blur(config: SceneConfig, depth_m: np.ndarray, sharp: np.ndarr
     """Measured and thin-lens blur per depth of a ``dof_targets`` or ``point_sources`` item.
 
     ``dof_targets``: the pixels of each plane (from the depth map), shrunk by the largest
-    predicted blur radius + 2 px so that no other plane's blur and no frame edge reaches
-    them. ``point_sources``: each source is a connected blob of the all-in-focus image above 1 %
+    predicted blur radius of the plane and the planes that border it, + 2 px, so that no other
+    plane's blur and no frame edge reaches them. ``point_sources``: each source is a connected blob of the all-in-focus image above 1 %
     of its peak (the background is black), its depth the depth map's median over the blob; the region is a
     disc of radius (predicted blur radius + blob radius + 3 px) around it, measured only
     when it lies inside the frame and no other source's blur spot reaches it. The
@@ -359,9 +359,13 @@ def measure_scene_blur(config: SceneConfig, depth_m: np.ndarray, sharp: np.ndarr
     if config.scene.preset == "dof_targets":
         depths = sorted(set(float(z) for z in config.scene.depths_m))
         predicted = {z: float(lens.coc_diameter_px(z)) for z in depths}
-        margin = 0.5 * max(predicted.values()) + 2.0
+        planes = {z: finite & (np.abs(depth - z) <= 1e-3 * z) for z in depths}
         for z in depths:
-            region = finite & (np.abs(depth - z) <= 1e-3 * z)
+            region = planes[z]
+            # only the planes that border this one (and its own blur) can blur light into it
+            ring = ndimage.binary_dilation(region, iterations=2) & ~region
+            reach = [predicted[z]] + [predicted[w] for w in depths if w != z and (ring & planes[w]).any()]
+            margin = 0.5 * max(reach) + 2.0
             padded = np.pad(region, 1, constant_values=False)
             inner = ndimage.distance_transform_edt(padded)[1:-1, 1:-1] > margin
             results.append(_blur_row(z, predicted[z], sharp, blurred, inner,
