@@ -86,17 +86,23 @@ def test_truncated_exr_is_a_clear_error(tmp_path):
         read_spectral_exr(path)
 
 
-@pytest.mark.timeout(120)
-def test_killed_render_leaves_no_complete_looking_output(tmp_path):
+def _slow_render_under_way(tmp_path):
+    """A ``spectral-cam render`` subprocess a second into writing its staging folder."""
     scene = tmp_path / "slow.toml"
     scene.write_text('[sensor]\nwidth_px = 64\nheight_px = 48\n[render]\nspp = 100000\n')
     out = tmp_path / "result"
     proc = subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "render", str(scene), "-o", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.time() + 60
     while time.time() < deadline and not any(p.name.startswith(".result.partial-") for p in tmp_path.iterdir()):
         time.sleep(0.2)
     time.sleep(1.0)
+    return proc, out
+
+
+@pytest.mark.timeout(120)
+def test_killed_render_leaves_no_complete_looking_output(tmp_path):
+    proc, out = _slow_render_under_way(tmp_path)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     assert not out.exists()  # only a hidden, clearly partial staging folder may remain
@@ -108,15 +114,7 @@ def test_killed_render_leaves_no_complete_looking_output(tmp_path):
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_interrupted_render_keeps_no_partial_output(tmp_path, signum):
     """SIGTERM cleans up like Ctrl-C (issue 12 #12: it left a .partial folder)."""
-    scene = tmp_path / "slow.toml"
-    scene.write_text('[sensor]\nwidth_px = 64\nheight_px = 48\n[render]\nspp = 100000\n')
-    out = tmp_path / "result"
-    proc = subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "render", str(scene), "-o", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.time() + 60
-    while time.time() < deadline and not any(p.name.startswith(".result.partial-") for p in tmp_path.iterdir()):
-        time.sleep(0.2)
-    time.sleep(1.0)
+    proc, _ = _slow_render_under_way(tmp_path)
     os.kill(proc.pid, signum)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err.decode()[-500:]

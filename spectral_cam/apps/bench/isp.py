@@ -56,6 +56,17 @@ def _score(linear, truth, white, config) -> tuple[float, float]:
     return quality, delta
 
 
+def _rank_by_detail(rows: list[dict]) -> float:
+    """Time ratios against the first row, and the Pareto flags of time against PSNR (stored
+    as ``neg_psnr_db``, an error to minimise); returns the baseline time (s)."""
+    baseline = rows[0]["seconds"]
+    for row in rows:
+        row["time_ratio"] = row["seconds"] / baseline
+        row["neg_psnr_db"] = -row["psnr_db"]
+    mark_front(rows, "time_ratio", "neg_psnr_db")
+    return baseline
+
+
 def bench_isp(out: Path, *, quick: bool) -> list[dict]:
     """Demosaic methods (noise-free RAW) and denoisers (ISO 800 RAW): develop time against
     PSNR and ΔE2000.
@@ -92,12 +103,7 @@ def bench_isp(out: Path, *, quick: bool) -> list[dict]:
             rows.append({"stage": "denoise", "method": method, "seconds": seconds, "psnr_db": quality,
                          "delta_e2000": delta})
     for stage in ("demosaic", "denoise"):
-        subset = [r for r in rows if r["stage"] == stage]
-        baseline = subset[0]["seconds"]
-        for row in subset:
-            row["time_ratio"] = row["seconds"] / baseline
-            row["neg_psnr_db"] = -row["psnr_db"]
-        mark_front(subset, "time_ratio", "neg_psnr_db")
+        _rank_by_detail([r for r in rows if r["stage"] == stage])
     write_rows(rows, out / "isp.csv")
     # the charts show what the CSV's Pareto flags are computed on: PSNR against the ground truth
     pareto_chart([r for r in rows if r["stage"] == "demosaic"], out / "demosaic.png", x="time_ratio",
@@ -178,12 +184,8 @@ def bench_rawpy(out: Path, *, quick: bool) -> list[dict]:
         quality, delta = _score(developed.linear, truth, white, config)
         rows.append({"pipeline": f"ours {method}", "seconds": seconds, "psnr_db": quality, "delta_e2000": delta})
     path.unlink()
-    baseline = rows[0]["seconds"]
-    for row in rows:
-        row["time_ratio"] = row["seconds"] / baseline
-        row["neg_psnr_db"] = -row["psnr_db"]
     # colour error is the DNG matrix's for every pipeline (≈ 0.99 ΔE); detail tells them apart
-    mark_front(rows, "time_ratio", "neg_psnr_db")
+    baseline = _rank_by_detail(rows)
     write_rows(rows, out / "rawpy.csv")
     pareto_chart(rows, out / "rawpy.png", x="time_ratio", y="psnr_db", label="pipeline", higher_is_better=True,
                  xlabel=f"develop time / rawpy LINEAR ({baseline:.3f} s)", ylabel="PSNR (dB) vs ground truth",

@@ -30,19 +30,25 @@ def crashes(raw_path):
 '''
 
 
+def one_chart_plan(patch_px: int) -> str:
+    """The [validate] table of a one-cell plan: D65, the Nikon D850, the ColorChecker."""
+    return f'''
+[validate]
+illuminants = ["D65"]
+cameras = ["nikon_d850"]
+reflectance_sets = ["colorchecker"]
+patch_px = {patch_px}
+
+'''
+
+
 @pytest.fixture(scope="module")
 def user_pipelines(tmp_path_factory, read_csv):
     folder = tmp_path_factory.mktemp("user_isp")
     (folder / "broken_isp.py").write_text(BROKEN_ISP)
     cli = Path(sys.executable).with_name("spectral-cam")
     assert cli.is_file(), f"the spectral-cam console script is missing next to {sys.executable}"
-    plan = f'''
-[validate]
-illuminants = ["D65"]
-cameras = ["nikon_d850"]
-reflectance_sets = ["colorchecker"]
-patch_px = 12
-
+    plan = one_chart_plan(12) + f'''
 [[pipeline]]
 name = "ours-dng"
 type = "ours"
@@ -138,13 +144,7 @@ def test_command_placeholders_cannot_inject_a_shell_command(tmp_path, monkeypatc
     monkeypatch.chdir(tmp_path)
     cli = Path(sys.executable).with_name("spectral-cam")
     plan = tmp_path / "plan.toml"
-    plan.write_text(f'''
-[validate]
-illuminants = ["D65"]
-cameras = ["nikon_d850"]
-reflectance_sets = ["colorchecker"]
-patch_px = 8
-
+    plan.write_text(one_chart_plan(8) + f'''
 [[pipeline]]
 name = "via-shell"
 type = "command"
