@@ -46,8 +46,23 @@ DNG_TAGS = {
     "AsShotNeutral": 50728,
     "CalibrationIlluminant1": 50778,
     "CalibrationIlluminant2": 50779,
+    "ForwardMatrix1": 50964,
+    "ForwardMatrix2": 50965,
     "NoiseProfile": 51041,
+    # capture metadata (TIFF/EP ISO 12234-2 places these EXIF tags in IFD 0)
+    "DateTime": 306,
+    "ExposureTime": 33434,
+    "FNumber": 33437,
+    "ISOSpeedRatings": 34855,
+    "DateTimeOriginal": 36867,
+    "FocalLength": 37386,
+    "LensModel": 42036,
+    "LensInfo": 50736,
+    "ExifIFD": 34665,
+    "ExifVersion": 36864,
 }
+#: The EXIF tags that belong in the Exif IFD (not IFD 0), by EXIF 2.32 §4.6.
+EXIF_IFD_TAGS = frozenset({33434, 33437, 34855, 36864, 36867, 37386, 42036})
 
 
 #: PhotometricInterpretation values.
@@ -84,6 +99,129 @@ def _ascii(text: str) -> str:
     return text.encode("ascii", "replace").decode("ascii") or "unknown"
 
 
+def _matrix_tag(name: str, matrix) -> tuple:
+    matrix = np.asarray(matrix, dtype=float)
+    if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+        raise RawFormatError(f"{name} must be a finite 3×3 array; got shape {matrix.shape}")
+    return (DNG_TAGS[name], _TIFF_SRATIONAL, 9, _rationals(matrix, signed=True), True)
+
+
+def _colour_tags(raw: RawImage) -> list[tuple]:
+    """ColorMatrix/ForwardMatrix/CalibrationIlluminant in Adobe's slot order: with two
+    calibrations the lower colour temperature (Standard A, 17) is slot 1 and D65 (21) slot 2,
+    as in Adobe's own DNGs (dcraw keeps the slot it reads last, so this order gives it D65);
+    with one, D65 is slot 1."""
+    if raw.color_matrix is None:
+        return []
+    calibrations = [(ILLUMINANT_D65, raw.color_matrix, raw.forward_matrix)]
+    if raw.color_matrix_2 is not None:
+        calibrations.insert(0, (ILLUMINANT_A, raw.color_matrix_2, raw.forward_matrix_2))
+    tags = []
+    for number, (illuminant, matrix, forward) in enumerate(calibrations, start=1):
+        tags += [_matrix_tag(f"ColorMatrix{number}", matrix),
+                 (DNG_TAGS[f"CalibrationIlluminant{number}"], _TIFF_SHORT, 1, (illuminant,), True)]
+        if forward is not None:
+            tags.append(_matrix_tag(f"ForwardMatrix{number}", forward))
+    return tags
+
+
+def capture_time(meta: dict) -> str:
+    """The EXIF DateTime of a capture: ``meta["capture_time"]`` if given, else
+    ``SOURCE_DATE_EPOCH`` (reproducible builds), else 2000-01-01 00:00:00 — never the
+    clock, so the same seed gives the same bytes.
+
+    References
+    ----------
+    .. [1] reproducible-builds.org, SOURCE_DATE_EPOCH specification.
+    """
+    import datetime
+    import os
+
+    if meta.get("capture_time"):
+        return str(meta["capture_time"])
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    seconds = int(epoch) if epoch.isdigit() else 946684800
+    return datetime.datetime.fromtimestamp(seconds, datetime.timezone.utc).strftime("%Y:%m:%d %H:%M:%S")
+
+
+def _capture_tags(meta: dict) -> list[tuple]:
+    """EXIF capture tags from a RawImage's meta: what the simulation knows (the Exif IFD's
+    ones are split off by :func:`_write_exif_ifd`)."""
+    stamp = capture_time(meta)
+    tags = [(DNG_TAGS["DateTime"], _TIFF_ASCII, 0, stamp, True),
+            (DNG_TAGS["DateTimeOriginal"], _TIFF_ASCII, 0, stamp, True),
+            (DNG_TAGS["ExifVersion"], 7, 4, b"0232", True)]
+    if meta.get("exposure_s"):
+        tags.append((DNG_TAGS["ExposureTime"], _TIFF_RATIONAL, 1, _rationals([meta["exposure_s"]], signed=False), True))
+    if meta.get("iso"):
+        tags.append((DNG_TAGS["ISOSpeedRatings"], _TIFF_SHORT, 1, (int(min(round(meta["iso"]), 65535)),), True))
+    f_number, focal = meta.get("f_number"), meta.get("focal_length_mm")
+    if f_number:
+        tags.append((DNG_TAGS["FNumber"], _TIFF_RATIONAL, 1, _rationals([f_number], signed=False), True))
+    if focal:
+        tags.append((DNG_TAGS["FocalLength"], _TIFF_RATIONAL, 1, _rationals([focal], signed=False), True))
+    if f_number and focal:
+        lens = f"spectral_cam thin lens {focal:g} mm f/{f_number:g}"
+        tags += [(DNG_TAGS["LensModel"], _TIFF_ASCII, 0, _ascii(lens), True),
+                 (DNG_TAGS["LensInfo"], _TIFF_RATIONAL, 4,
+                  _rationals([focal, focal, f_number, f_number], signed=False), True)]
+    return tags
+
+
+def _ifd_bytes(entries: list[tuple], offset: int) -> bytes:
+    """A little-endian TIFF IFD placed at ``offset``: entries (tag, type, count, value) sorted
+    by tag, values over 4 bytes in a data area after it, next-IFD offset 0 (TIFF 6.0 §2)."""
+    import struct
+
+    sizes = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 7: 1, 10: 8, 12: 8}
+    formats = {1: "B", 3: "H", 4: "I", 5: "I", 10: "i", 12: "d"}
+    entries = sorted(entries)
+    data_at = offset + 2 + 12 * len(entries) + 4
+    head, data = [struct.pack("<H", len(entries))], b""
+    for tag, kind, count, value in entries:
+        if kind == 2:
+            raw = value.encode("ascii") + b"\0"
+            count = len(raw)
+        elif kind == 7:
+            raw = bytes(value)
+        else:
+            raw = struct.pack("<" + formats[kind] * len(value), *value)
+        if count * sizes[kind] <= 4:
+            head.append(struct.pack("<HHI", tag, kind, count) + raw.ljust(4, b"\0"))
+        else:
+            head.append(struct.pack("<HHII", tag, kind, count, data_at + len(data)))
+            data += raw + (b"\0" if len(raw) % 2 else b"")
+    return b"".join(head) + struct.pack("<I", 0) + data
+
+
+#: A placeholder IFD 0 entry tifffile writes (it refuses tag 34665 itself); it sorts where the
+#: ExifIFD tag does, and :func:`_write_exif_ifd` turns it into one.
+_EXIF_PLACEHOLDER = 34666
+
+
+def _write_exif_ifd(path: Path, tags: list[tuple]) -> None:
+    """Append an Exif IFD holding ``tags`` to a little-endian TIFF file and turn IFD 0's
+    placeholder entry into the ExifIFD pointer (tag 34665, LONG) to it (TIFF/EP, EXIF 2.32 §4.6)."""
+    import struct
+
+    with open(path, "r+b") as handle:
+        handle.seek(0, 2)
+        offset = handle.tell() + (handle.tell() % 2)
+        handle.write(b"\0" * (offset - handle.tell()))
+        handle.write(_ifd_bytes([(tag, kind, count, value) for tag, kind, count, value, _ in tags], offset))
+        handle.seek(4)
+        ifd0 = struct.unpack("<I", handle.read(4))[0]
+        handle.seek(ifd0)
+        count = struct.unpack("<H", handle.read(2))[0]
+        for index in range(count):
+            handle.seek(ifd0 + 2 + 12 * index)
+            if struct.unpack("<H", handle.read(2))[0] == _EXIF_PLACEHOLDER:
+                handle.seek(ifd0 + 2 + 12 * index)
+                handle.write(struct.pack("<HHII", DNG_TAGS["ExifIFD"], _TIFF_LONG, 1, offset))
+                return
+    raise RawFormatError(f"{path}: the ExifIFD placeholder is missing")
+
+
 def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str = "spectral_cam") -> Path:
     """Write a RawImage as an uncompressed DNG (atomically).
 
@@ -91,8 +229,13 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     ----------
     raw : RawImage
         Mosaic (uint16), CFA, levels and optional colour metadata. ``color_matrix``
-        (XYZ(D65) → camera) becomes ColorMatrix1 with CalibrationIlluminant1 = 21;
-        ``as_shot_neutral`` AsShotNeutral; ``noise_profile`` NoiseProfile.
+        (XYZ(D65) → camera) and ``color_matrix_2`` (Standard A) become ColorMatrix2/1 with
+        CalibrationIlluminant2 = 21 and 1 = 17 (Adobe's order: the lower temperature first;
+        a lone D65 matrix is ColorMatrix1), the forward matrices ForwardMatrix1/2 beside them;
+        ``as_shot_neutral`` AsShotNeutral; ``noise_profile`` NoiseProfile; from ``meta``
+        the capture: ExposureTime (``exposure_s``), ISO (``iso``), FNumber (``f_number``),
+        FocalLength, LensModel and LensInfo (``focal_length_mm``), DateTime/DateTimeOriginal
+        (:func:`capture_time`).
     path : str or path-like
         Output file (``.dng``); written through a temporary file and renamed.
     make : str
@@ -158,17 +301,7 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
             (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, 3, (0, 1, 2), True),
             (DNG_TAGS["CFALayout"], _TIFF_SHORT, 1, (1,), True),
         ]
-        for number, matrix, illuminant in ((1, raw.color_matrix, ILLUMINANT_D65),
-                                           (2, raw.color_matrix_2, ILLUMINANT_A)):
-            if matrix is None or (number == 2 and raw.color_matrix is None):
-                continue
-            matrix = np.asarray(matrix, dtype=float)
-            if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-                raise RawFormatError(f"color matrix {number} must be a finite 3×3 array; got {matrix.shape}")
-            tags += [
-                (DNG_TAGS[f"ColorMatrix{number}"], _TIFF_SRATIONAL, 9, _rationals(matrix, signed=True), True),
-                (DNG_TAGS[f"CalibrationIlluminant{number}"], _TIFF_SHORT, 1, (illuminant,), True),
-            ]
+        tags += _colour_tags(raw)
         if raw.as_shot_neutral is not None:
             neutral = np.asarray(raw.as_shot_neutral, dtype=float)
             if neutral.shape != (3,) or not np.all(neutral > 0):
@@ -177,10 +310,14 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     if raw.noise_profile is not None:
         scale, offset = (float(v) for v in raw.noise_profile)
         tags.append((DNG_TAGS["NoiseProfile"], _TIFF_DOUBLE, 2, (scale, offset), True))
+    capture = _capture_tags(raw.meta or {})
+    exif = [t for t in capture if t[0] in EXIF_IFD_TAGS]
+    tags += [t for t in capture if t[0] not in EXIF_IFD_TAGS] + [(_EXIF_PLACEHOLDER, _TIFF_LONG, 1, (0,), True)]
     with atomic_path(path) as tmp:
         tifffile.imwrite(tmp, mosaic, photometric="cfa" if not monochrome else "minisblack",
                          subfiletype=0, software=_ascii(software), extratags=tags, metadata=None)
         if monochrome:  # tifffile refuses LinearRaw with one sample; set the tag in place
             with tifffile.TiffFile(tmp, mode="r+b") as tif:
                 tif.pages[0].tags["PhotometricInterpretation"].overwrite(PHOTOMETRIC_LINEAR_RAW)
+        _write_exif_ifd(tmp, exif)
     return path

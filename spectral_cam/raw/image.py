@@ -48,6 +48,9 @@ class RawImage:
         (3, 3) XYZ → camera RGB calibrated under Standard Illuminant A (DNG ColorMatrix2,
         CalibrationIlluminant2 = 17), or None. With both matrices an ISP interpolates
         between them by the scene white's correlated colour temperature (DNG ch. 6).
+    forward_matrix, forward_matrix_2
+        (3, 3) white-balanced camera RGB → XYZ(D50), calibrated under D65 and under
+        Standard A (DNG ForwardMatrix), or None.
     """
 
     mosaic: np.ndarray
@@ -60,6 +63,8 @@ class RawImage:
     camera_model: str = ""
     meta: dict = field(default_factory=dict)
     color_matrix_2: np.ndarray | None = None
+    forward_matrix: np.ndarray | None = None
+    forward_matrix_2: np.ndarray | None = None
 
 
 def check_raw(raw: RawImage) -> np.ndarray:

@@ -230,7 +230,9 @@ def read_raw(path) -> RawImage:
     extras = _tiff_extras(path)
     _check_white_level(path, extras.get("WhiteLevel"), black_levels)
     noise = extras.get("NoiseProfile")
-    noise_profile = (float(noise[0]), float(noise[1])) if noise is not None and len(noise) >= 2 else None
+    noise = np.atleast_1d(np.asarray(noise, dtype=float)) if noise is not None else np.empty(0)
+    # a corrupt count (one value) or non-finite values: no profile rather than an error
+    noise_profile = (float(noise[0]), float(noise[1])) if noise.size >= 2 and np.all(np.isfinite(noise[:2])) else None
     # LibRaw orders black_level_per_channel by colour index; raw_pattern maps sites to it
     if cfa == "none" or len(set(black_levels[:4])) == 1 or pattern.shape != (2, 2):
         black = float(black_levels[0])

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import SensorError
 from ..raw.image import RawImage
-from .colour import _colour_matrix, _fitted_corrections
+from .colour import _colour_matrix, _fitted_corrections, _forward_matrix
 from .exposure import auto_exposure_time, expected_electrons, resolve_exposure
 from .noise import (
     HYBRID_POISSON_BELOW_E,
@@ -178,6 +178,9 @@ def expose(
         neutral = response / response.max() if response.max() > 0 else None
         matrix = _colour_matrix(sensor.model, trans_specs) if sensor.model != "ideal" else None
         matrix_a = _colour_matrix(sensor.model, trans_specs, "A") if matrix is not None else None
+    forward = forward_a = None
+    if not monochrome and matrix is not None:
+        forward, forward_a = _forward_matrix(sensor.model, trans_specs), _forward_matrix(sensor.model, trans_specs, "A")
     timings["colour"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - started
 
@@ -209,6 +212,8 @@ def expose(
         "shot_noise_method": shot_noise_method,
         "seeds": {"sensor": int(sensor.seed), "frame": int(frame_seed)},
         "model": sensor.model,
+        "f_number": config.lens.f_number,
+        "focal_length_mm": config.lens.focal_length_mm,
         "timings_s": timings,
         "noise_chain_cpu_s": chain_cpu,
     }
@@ -225,4 +230,6 @@ def expose(
         camera_model=f"spectral_cam {sensor.model}",
         meta=meta,
         color_matrix_2=matrix_a,
+        forward_matrix=forward,
+        forward_matrix_2=forward_a,
     )

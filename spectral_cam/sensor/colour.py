@@ -1,9 +1,10 @@
-"""The colour metadata a RAW carries: XYZ→camera matrices (DNG ColorMatrix1/2) and the
-fitted camera→XYZ(D65) corrections, cached per camera, illuminant and filters.
+"""The colour metadata a RAW carries: XYZ→camera matrices (DNG ColorMatrix1/2), forward
+matrices (white-balanced camera → XYZ D50, DNG ForwardMatrix1/2) and the fitted
+camera→XYZ(D65) corrections, cached per camera, illuminant and filters.
 
 References
 ----------
-.. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (ColorMatrix1/2).
+.. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (ColorMatrix1/2, ForwardMatrix1/2).
 """
 
 from __future__ import annotations
@@ -40,3 +41,26 @@ def _fitted_corrections(model: str, illuminant: str, specs: tuple) -> dict:
     ``"root_polynomial"``; the ISP reads them from ``RawImage.meta`` (it never sees spectra)."""
     linear, root = _fitted_corrections_cached(model, illuminant, specs)
     return {"camera_to_xyz_d65": linear, "camera_to_xyz_d65_root_polynomial": root}
+
+
+#: The PCS white of DNG forward matrices: CIE D50 (ICC.1:2010 §7.2.16), Y = 1.
+D50_WHITE_XYZ = np.array([0.9642, 1.0, 0.8249])
+
+
+@functools.lru_cache(maxsize=32)
+def _forward_matrix(model: str, specs: tuple, illuminant: str = "D65") -> np.ndarray | None:
+    """White-balanced camera RGB → XYZ(D50) under ``illuminant`` (DNG ForwardMatrix): the
+    white-preserving fit of :func:`calibration.camera_to_xyz_d65`, Bradford-adapted from
+    D65 to D50, so camera white (1, 1, 1) maps onto the D50 white as the DNG spec requires."""
+    import colour
+
+    from . import calibration
+
+    try:
+        to_d65 = np.asarray(calibration.camera_to_xyz_d65(model, illuminant, transmission=list(specs)), float)
+    except ConfigError:
+        return None
+    d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(d65, D50_WHITE_XYZ, transform="Bradford")
+    forward = np.asarray(cat, float) @ to_d65
+    return forward * (D50_WHITE_XYZ / (forward @ np.ones(3)))[:, None]  # exact D50 white, row by row

@@ -54,9 +54,17 @@ def test_dng_tags(tmp_path):
     assert tags[262] == 32803  # PhotometricInterpretation = CFA
     assert tuple(tags[50706]) == (1, 4, 0, 0)
     assert tuple(tags[33421]) == (2, 2) and tuple(tags[33422]) == (1, 0, 2, 1)  # G R B G
-    assert tags[50778] == 21  # CalibrationIlluminant1 = D65
-    matrix = np.asarray(tags[50721], dtype=float).reshape(9, 2)
-    np.testing.assert_allclose((matrix[:, 0] / matrix[:, 1]).reshape(3, 3), raw.color_matrix, atol=1e-6)
+    # Adobe's slot order (issue 13 #1): Standard A first, D65 second, each with its forward matrix
+    assert (tags[50778], tags[50779]) == (17, 21)
+
+    def matrix(code):
+        pairs = np.asarray(tags[code], dtype=float).reshape(9, 2)
+        return (pairs[:, 0] / pairs[:, 1]).reshape(3, 3)
+
+    np.testing.assert_allclose(matrix(50721), raw.color_matrix_2, atol=1e-6)  # ColorMatrix1 = A
+    np.testing.assert_allclose(matrix(50722), raw.color_matrix, atol=1e-6)    # ColorMatrix2 = D65
+    for code in (50964, 50965):  # ForwardMatrix1/2 map camera white onto D50 (DNG spec ch. 6)
+        np.testing.assert_allclose(matrix(code) @ np.ones(3), [0.9642, 1.0, 0.8249], atol=2e-6)
     assert tags[50717] == 4095 and tags[50714] == 256
     np.testing.assert_allclose(tags[51041], raw.noise_profile)
     assert tags[50708] == raw.camera_model == "spectral_cam nikon_d850"
@@ -147,7 +155,7 @@ def test_colour_matrix_2_under_illuminant_a_is_written_read_and_interpolated(tmp
     path = tmp_path / "tungsten.dng"
     write_dng(expose(chart.radiance, config, white_mask=mask), path)
     with tifffile.TiffFile(path) as tif:
-        assert tif.pages[0].tags[50779].value == 17  # CalibrationIlluminant2 = Standard A
+        assert tif.pages[0].tags[50778].value == 17  # CalibrationIlluminant1 = Standard A (Adobe's order)
     raw = read_raw(path)
     assert raw.color_matrix_2 is not None
     truth = patch_linear_srgb("A")

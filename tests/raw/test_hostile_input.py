@@ -122,6 +122,7 @@ def _mutations():
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(_mutations())
 @example(mutation=("flip", [(362, 0)]))  # once an IndexError: a CalibrationIlluminant of count 0
+@example(mutation=("flip", [(398, 1)]))  # once a TypeError: a NoiseProfile of count 1
 def test_mutated_dngs_read_or_raise_raw_format_error_and_never_develop_to_nan(tmp_path, good_dng, mutation):
     kind, detail = mutation
     data = bytearray(good_dng)
