@@ -448,28 +448,43 @@ def scene_from_dict(
                 f"override {dotted!r}: use section.key with a section among {', '.join(_SECTIONS)}"
             )
         merged.setdefault(section, {})[key] = value
-    sections = {}
-    for name, cls in _SECTIONS.items():
-        table = merged.get(name, {})
-        known = {f.name: f for f in fields(cls)}
-        unknown = sorted(set(table) - set(known))
-        if unknown:
-            raise ConfigError(
-                f"unknown key(s) {', '.join(f'{name}.{k}' for k in unknown)}; valid keys of "
-                f"[{name}]: {', '.join(known)}"
-            )
-        kwargs = {}
-        for key, value in table.items():
-            f = known[key]
-            value = _resolve_path(value, base_dir)
-            kwargs[key] = _coerce(f"{name}.{key}", value, f.default, str(f.type))
-        try:
-            sections[name] = cls(**kwargs)
-        except ConfigError:
-            raise
-        except (TypeError, ValueError) as exc:  # e.g. a comparison with a wrong type
-            raise ConfigError(f"[{name}]: {exc}") from None
+    sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS}
     return SceneConfig(**sections)
+
+
+def section_from_table(name: str, table: Mapping[str, Any], base_dir: str | Path = ".") -> Any:
+    """One validated section (``[isp]``, ``[lens]``, …) from a table of its keys, defaults for
+    the rest: what :func:`scene_from_dict` does per section, for callers that need only one
+    (``spectral-cam develop`` builds its ``[isp]`` without validating a whole scene).
+
+    Raises
+    ------
+    ConfigError
+        For an unknown section or key (listing the valid ones) or an invalid value.
+
+    Examples
+    --------
+    >>> section_from_table("isp", {"demosaic": "bilinear", "denoise": 1}).denoise
+    1.0
+    """
+    if name not in _SECTIONS:
+        raise ConfigError(f"unknown section [{name}]; valid: {', '.join(_SECTIONS)}")
+    cls = _SECTIONS[name]
+    known = {f.name: f for f in fields(cls)}
+    unknown = sorted(set(table) - set(known))
+    if unknown:
+        raise ConfigError(
+            f"unknown key(s) {', '.join(f'{name}.{k}' for k in unknown)}; valid keys of "
+            f"[{name}]: {', '.join(known)}"
+        )
+    kwargs = {key: _coerce(f"{name}.{key}", _resolve_path(value, Path(base_dir)), known[key].default,
+                           str(known[key].type)) for key, value in table.items()}
+    try:
+        return cls(**kwargs)
+    except ConfigError:
+        raise
+    except (TypeError, ValueError) as exc:  # e.g. a comparison with a wrong type
+        raise ConfigError(f"[{name}]: {exc}") from None
 
 
 def read_toml(path: str | Path, what: str) -> dict:

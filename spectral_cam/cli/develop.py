@@ -24,13 +24,14 @@ def run(args: argparse.Namespace) -> int:
     from ..isp import develop
     from ..isp.encode import write_image
     from ..raw import read_raw
-    from ..scene import parse_override, scene_from_dict
+    from ..scene import parse_override, section_from_table
 
     overrides = dict(parse_override(item) for item in args.set or [])
     wrong = [key for key in overrides if not key.startswith("isp.")]
     if wrong:
         raise ConfigError(f"develop takes isp.* settings only; got {', '.join(wrong)}")
-    config = scene_from_dict({}, overrides=overrides).isp
+    # the [isp] section alone: a whole scene would validate (and load) spectra develop never uses
+    config = section_from_table("isp", {key.split(".", 1)[1]: value for key, value in overrides.items()})
     output = Path(args.output)
     if output.exists() and not args.force:
         raise ConfigError(f"{output} exists; pass --force to overwrite it")
