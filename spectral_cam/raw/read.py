@@ -221,6 +221,10 @@ def read_raw(path) -> RawImage:
             f"{type(exc).__name__}: {exc}") from None
     if mosaic.ndim != 2 or mosaic.size == 0:
         raise RawFormatError(f"{path}: no single-plane raw mosaic (LibRaw raw type {raw_type})")
+    if not mosaic.any():  # every sample 0, below any black level: the data is missing, not dark
+        raise RawFormatError(f"{path}: the raw image holds no data (every sample is 0): the file is truncated "
+                             f"or its image data is in a format LibRaw {'.'.join(map(str, rawpy.libraw_version))} "
+                             "does not decode{_size_hint(path)}")
     neutral = matrix = None
     if cfa != "none":
         wb = camera_wb[:3]

@@ -161,3 +161,18 @@ def test_a_white_level_at_or_below_black_is_refused(tmp_path, good_dng):
     path.write_bytes(bytes(data))
     with pytest.raises(RawFormatError, match=r"WhiteLevel \[0\] is not above the black level 256"):
         read_raw(path)
+
+
+def test_a_raw_whose_image_data_is_gone_is_refused_not_developed_to_black(tmp_path, good_dng, capsys):
+    """Issue 13 #5: truncated camera raws developed to black with exit 0."""
+    from spectral_cam.cli import main
+
+    data = bytearray(good_dng)
+    strip = struct.unpack_from("<I", data, _tag_entry_offset(good_dng, 273) + 8)[0]  # StripOffsets
+    data[strip:strip + 32 * 40 * 2] = bytes(32 * 40 * 2)  # the mosaic's bytes zeroed, tags intact
+    path = tmp_path / "empty.dng"
+    path.write_bytes(bytes(data))
+    with pytest.raises(RawFormatError, match="holds no data"):
+        read_raw(path)
+    assert main(["develop", str(path), "-o", str(tmp_path / "out.png"), "-q"]) == 2
+    assert "holds no data" in capsys.readouterr().err and not (tmp_path / "out.png").exists()
