@@ -103,8 +103,9 @@ def _raw_ifds(path: Path):
                 tag = page.tags.get(262)
                 photometric = tag.value if tag is not None and isinstance(tag.value, int) else None
                 shape = tuple(int(n) for n in page.shape if isinstance(n, (int, np.integer)))
+                compression = page.tags.get(259)
                 found.append((photometric, {code: page.tags.get(code) is not None for code in (33421, 33422)},
-                              shape))
+                              shape, compression.value if compression is not None else None))
     except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
         return []
     return found
@@ -113,14 +114,35 @@ def _raw_ifds(path: Path):
 def _check_tiff_cfa(path: Path) -> None:
     """Refuse a CFA image (PhotometricInterpretation 32803) without CFARepeatPatternDim or
     CFAPattern: LibRaw would decode it with a stale pattern left from the previous file."""
-    for photometric, has, _ in _raw_ifds(path):
+    for photometric, has, _, _ in _raw_ifds(path):
         if photometric == 32803 and not all(has.values()):
             raise RawFormatError(f"{path}: a CFA raw image needs the CFARepeatPatternDim (33421) and "
                                  "CFAPattern (33422) tags; this one lacks them")
 
 
+#: TIFF Compression codes of raw images LibRaw does not decode (DNG 1.7.1.0 §6, JPEG XL).
+UNSUPPORTED_COMPRESSION = {52546: "JPEG XL (DNG 1.7)"}
+
+
+def unsupported_reason(path: Path) -> str | None:
+    """Why LibRaw cannot decode a valid TIFF-based raw (its compression), or None.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, Compression = 52546 (JPEG XL).
+    """
+    import rawpy
+
+    for photometric, _, _, compression in _raw_ifds(path):
+        if photometric in (32803, 34892) and compression in UNSUPPORTED_COMPRESSION:
+            return (f"its raw image is {UNSUPPORTED_COMPRESSION[compression]} compressed (Compression "
+                    f"{compression}), which LibRaw {'.'.join(map(str, rawpy.libraw_version))} does not decode; "
+                    "convert it to an uncompressed or lossless-JPEG DNG (e.g. with Adobe DNG Converter)")
+    return None
+
+
 def _size_hint(path: Path) -> str:
-    for photometric, _, shape in _raw_ifds(path):
+    for photometric, _, shape, _ in _raw_ifds(path):
         if photometric in (32803, 34892) and len(shape) >= 2 and min(shape[:2]) < LIBRAW_MIN_SIDE_PX:
             return (f" (its raw image is {shape[1]}×{shape[0]} px; LibRaw reads no side under "
                     f"{LIBRAW_MIN_SIDE_PX} px)")
@@ -215,6 +237,9 @@ def read_raw(path) -> RawImage:
     except RawFormatError:
         raise
     except (rawpy.LibRawError, OSError, ValueError, NotImplementedError) as exc:
+        reason = unsupported_reason(path)
+        if reason:  # a valid file LibRaw cannot decode is not "corrupt"
+            raise RawFormatError(f"{path}: {reason}") from None
         # rawpy raises NotImplementedError ("filters: N") for CFA layouts it cannot map
         raise RawFormatError(
             f"{path} is not a readable raw file (missing data, truncated or corrupt){_size_hint(path)}: "

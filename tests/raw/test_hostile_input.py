@@ -176,3 +176,14 @@ def test_a_raw_whose_image_data_is_gone_is_refused_not_developed_to_black(tmp_pa
         read_raw(path)
     assert main(["develop", str(path), "-o", str(tmp_path / "out.png"), "-q"]) == 2
     assert "holds no data" in capsys.readouterr().err and not (tmp_path / "out.png").exists()
+
+
+def test_a_jpeg_xl_dng_is_called_unsupported_not_corrupt(tmp_path, good_dng):
+    """Issue 13 #4: a valid JPEG-XL-compressed DNG 1.7 was called "truncated or corrupt"."""
+    data = bytearray(good_dng)
+    struct.pack_into("<H", data, _tag_entry_offset(good_dng, 259) + 8, 52546)  # Compression = JPEG XL
+    path = tmp_path / "jxl.dng"
+    path.write_bytes(bytes(data))
+    with pytest.raises(RawFormatError, match=r"JPEG XL \(DNG 1.7\) compressed .* LibRaw [0-9.]+ does not decode") as info:
+        read_raw(path)
+    assert "corrupt" not in str(info.value)
