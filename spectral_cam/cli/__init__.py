@@ -16,6 +16,7 @@ hidden staging folder that is renamed onto OUTDIR only when every file is comple
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import sys
 
@@ -77,27 +78,38 @@ def main(argv: list[str] | None = None) -> int:
     """Run one ``spectral-cam`` command; the exit status: 0 done, 1 finished with failed
     cells or items, 2 a user error (message, no traceback), 130 interrupted (SIGINT or
     SIGTERM: no partial output is kept)."""
-    import signal
-    import threading
-
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _terminate)
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in COMMANDS:
         args = command_parser(argv[0]).parse_args(argv[1:])
     else:
         build_parser().parse_args(argv)  # prints usage and exits: no command named
         return 2
+    with _sigterm_as_interrupt():
+        try:
+            return args.func(args)
+        except SpectralCamError as exc:
+            print(f"spectral-cam: error: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:  # e.g. an output path under a file, a read-only folder
+            print(f"spectral-cam: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print("spectral-cam: interrupted; no partial output was kept", file=sys.stderr)
+            return 130
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """SIGTERM raises :class:`Terminated` while a command runs (main thread only); the
+    previous handler is restored after, so a program that calls :func:`main` keeps its own."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        return args.func(args)
-    except SpectralCamError as exc:
-        print(f"spectral-cam: error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:  # e.g. an output path under a file, a read-only folder
-        print(f"spectral-cam: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("spectral-cam: interrupted; no partial output was kept", file=sys.stderr)
-        return 130
-
-
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
