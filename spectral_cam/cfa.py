@@ -25,6 +25,7 @@ __all__ = [
     "BAYER_PATTERNS",
     "CFA_PATTERNS",
     "MONOCHROME",
+    "LINEAR",
     "check_cfa",
     "tile_layout",
     "channel_index",
@@ -41,6 +42,9 @@ BAYER_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
 MONOCHROME = "none"
 #: Every CFA a sensor, RAW or analysis accepts.
 CFA_PATTERNS = (*BAYER_PATTERNS, MONOCHROME)
+#: A RAW already holding three colours per pixel (DNG LinearRaw, PhotometricInterpretation
+#: 34892 with three samples: phones' ProRAW, converted raws): (H, W, 3), no mosaic.
+LINEAR = "linear"
 #: Colour index of each letter: 0 = R, 1 = G, 2 = B (also the DNG CFAPattern codes).
 CHANNEL_CODES = {"R": 0, "G": 1, "B": 2}
 _CHANNEL = CHANNEL_CODES
@@ -126,6 +130,10 @@ def channel_index(shape: tuple[int, int], cfa: str) -> np.ndarray:
     ----------
     .. [1] Adobe (2023). DNG Specification 1.7.1.0, CFAPattern.
     """
+    if cfa == LINEAR:  # every pixel holds every colour: the index is the last axis
+        if len(shape) != 3 or shape[2] != 3:
+            raise ConfigError(f"a linear (three-colour) raw is (H, W, 3); got shape {tuple(shape)}")
+        return np.broadcast_to(np.arange(3, dtype=np.uint8), tuple(shape))
     tile = np.array([_CHANNEL[c] for c in check_cfa(cfa)], dtype=np.uint8).reshape(2, 2)
     h, w = int(shape[0]), int(shape[1])
     return np.tile(tile, ((h + 1) // 2, (w + 1) // 2))[:h, :w]

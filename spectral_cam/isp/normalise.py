@@ -47,8 +47,8 @@ def normalise(mosaic: np.ndarray, *, black_level, white_level: float) -> np.ndar
        Reference Values".
     """
     mosaic = np.asarray(mosaic)
-    if mosaic.ndim != 2:
-        raise ConfigError(f"a raw mosaic must be 2-D (H, W); got shape {mosaic.shape}")
+    if mosaic.ndim != 2 and not (mosaic.ndim == 3 and mosaic.shape[2] == 3):
+        raise ConfigError(f"a raw mosaic must be 2-D (H, W), or (H, W, 3) for a linear raw; got shape {mosaic.shape}")
     if not (np.issubdtype(mosaic.dtype, np.integer) or np.issubdtype(mosaic.dtype, np.floating)):
         raise ConfigError(f"a raw mosaic must hold integer or floating-point numbers (DN); got dtype {mosaic.dtype}")
     if mosaic.size == 0:
@@ -58,11 +58,14 @@ def normalise(mosaic: np.ndarray, *, black_level, white_level: float) -> np.ndar
         raise ConfigError(f"the raw mosaic holds {len(bad)} NaN or infinite values (first at row {bad[0][0]}, "
                           f"column {bad[0][1]}); raw values must be finite DN")
     black = np.asarray(black_level, dtype=np.float32)
-    if black.ndim == 2:
+    if black.ndim == 2 and mosaic.ndim == 2:
         reps = (-(-mosaic.shape[0] // black.shape[0]), -(-mosaic.shape[1] // black.shape[1]))
         black = np.tile(black, reps)[: mosaic.shape[0], : mosaic.shape[1]]
+    elif black.ndim == 1 and mosaic.ndim == 3 and black.shape == (3,):
+        pass  # one level per colour of a linear raw: broadcast over the last axis
     elif black.ndim != 0:
-        raise ConfigError(f"black_level must be a number or a 2-D repeat pattern; got shape {black.shape}")
+        raise ConfigError(f"black_level must be a number, a 2-D repeat pattern or one per colour of a linear "
+                          f"raw; got shape {black.shape}")
     if not float(white_level) > float(np.max(black)):
         raise ConfigError(f"white_level {white_level!r} must exceed the black level {float(np.max(black))!r}")
     # per site, as the DNG spec maps raw values: (DN − black_site) / (white − black_site)

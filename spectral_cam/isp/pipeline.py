@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cfa import check_cfa
+from ..cfa import LINEAR, check_cfa
 from ..errors import ConfigError
 from .colour_correction import (
     META_CAMERA_TO_XYZ,
@@ -173,12 +173,15 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
     t = clock()
     mosaic = normalise(raw.mosaic, black_level=raw.black_level, white_level=raw.white_level)
     monochrome = str(raw.cfa).lower() == "none"
-    cfa = "none" if monochrome else check_cfa(raw.cfa)
+    linear_raw = raw.cfa == LINEAR  # three colours per pixel already: no mosaic to denoise or demosaic
+    cfa = raw.cfa if monochrome or linear_raw else check_cfa(raw.cfa)
     timings["normalise"] = clock() - t
 
     t = clock()
     strength = config.denoise_strength
-    if strength > 0:
+    if strength > 0 and linear_raw:
+        info["denoise"] = "skipped: the Poisson–Gaussian model holds on a raw mosaic, not on linear RGB"
+    elif strength > 0:
         noise = noise_model_of(raw) or estimate_noise(mosaic, cfa)
         mosaic = denoise_mosaic(mosaic, cfa, noise=noise, strength=strength, method=config.denoise_method)
         info["noise_model"] = {"S": noise.gain, "O": noise.offset, "source": noise.source}
@@ -200,9 +203,12 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
         timings["white_balance"] = clock() - t
 
         t = clock()
-        rgb = demosaic(balanced, cfa, method=config.demosaic)
+        if linear_raw:
+            rgb, mask = balanced, clipped_mask(mosaic, radius_px=0).any(axis=-1)
+        else:
+            rgb = demosaic(balanced, cfa, method=config.demosaic)
+            mask = clipped_mask(mosaic, radius_px=2)
         timings["demosaic"] = clock() - t
-        mask = clipped_mask(mosaic, radius_px=2)
 
     t = clock()
     # gains are normalised to a smallest gain of 1, so every channel saturates at >= 1

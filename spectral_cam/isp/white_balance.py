@@ -154,4 +154,6 @@ def apply_white_balance(mosaic: np.ndarray, cfa: str, *, gains) -> np.ndarray:
     .. [1] Adobe (2023). DNG Specification 1.7.1.0, AsShotNeutral.
     """
     mosaic = np.asarray(mosaic, dtype=np.float32)
+    if mosaic.ndim == 3:  # a linear raw: one gain per colour plane
+        return mosaic * np.asarray(gains, dtype=np.float32).reshape(3)
     return mosaic * tile_gain_map(mosaic.shape, cfa, gains)

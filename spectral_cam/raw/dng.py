@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cfa import CHANNEL_CODES
+from ..cfa import CHANNEL_CODES, LINEAR
 from ..errors import RawFormatError
 from ..io import atomic_path
 from .image import RawImage, check_raw
@@ -275,7 +275,9 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     path = Path(path)
     model = _ascii(raw.camera_model or "spectral_cam")
     black = np.asarray(raw.black_level, dtype=float)
-    if black.ndim == 0 or np.all(black == black.flat[0]):
+    if raw.cfa == LINEAR:  # one level per sample: BlackLevel holds RepeatRows·RepeatCols·SamplesPerPixel values
+        black_dim, black_values = (1, 1), [float(v) for v in np.broadcast_to(black, (3,))]
+    elif black.ndim == 0 or np.all(black == black.flat[0]):
         black_dim, black_values = (1, 1), [float(black.flat[0])]
     else:
         black_dim, black_values = (2, 2), [float(v) for v in black.reshape(-1)]
@@ -293,14 +295,15 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
          (DNG_TAGS["BlackLevel"], _TIFF_RATIONAL, len(black_values), _rationals(black_values, signed=False), True)),
         (DNG_TAGS["WhiteLevel"], _TIFF_LONG, 1, (int(raw.white_level),), True),
     ]
-    monochrome = raw.cfa == "none"
+    monochrome, linear = raw.cfa == "none", raw.cfa == LINEAR
     if not monochrome:
-        tags += [
-            (DNG_TAGS["CFARepeatPatternDim"], _TIFF_SHORT, 2, (2, 2), True),
-            (DNG_TAGS["CFAPattern"], _TIFF_BYTE, 4, tuple(CHANNEL_CODES[c] for c in raw.cfa), True),
-            (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, 3, (0, 1, 2), True),
-            (DNG_TAGS["CFALayout"], _TIFF_SHORT, 1, (1,), True),
-        ]
+        if not linear:
+            tags += [
+                (DNG_TAGS["CFARepeatPatternDim"], _TIFF_SHORT, 2, (2, 2), True),
+                (DNG_TAGS["CFAPattern"], _TIFF_BYTE, 4, tuple(CHANNEL_CODES[c] for c in raw.cfa), True),
+                (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, 3, (0, 1, 2), True),
+                (DNG_TAGS["CFALayout"], _TIFF_SHORT, 1, (1,), True),
+            ]
         tags += _colour_tags(raw)
         if raw.as_shot_neutral is not None:
             neutral = np.asarray(raw.as_shot_neutral, dtype=float)
@@ -314,9 +317,10 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     exif = [t for t in capture if t[0] in EXIF_IFD_TAGS]
     tags += [t for t in capture if t[0] not in EXIF_IFD_TAGS] + [(_EXIF_PLACEHOLDER, _TIFF_LONG, 1, (0,), True)]
     with atomic_path(path) as tmp:
-        tifffile.imwrite(tmp, mosaic, photometric="cfa" if not monochrome else "minisblack",
+        photometric = "minisblack" if monochrome else "rgb" if linear else "cfa"
+        tifffile.imwrite(tmp, mosaic, photometric=photometric, planarconfig="contig" if linear else None,
                          subfiletype=0, software=_ascii(software), extratags=tags, metadata=None)
-        if monochrome:  # tifffile refuses LinearRaw with one sample; set the tag in place
+        if monochrome or linear:  # tifffile does not write LinearRaw itself; set the tag in place
             with tifffile.TiffFile(tmp, mode="r+b") as tif:
                 tif.pages[0].tags["PhotometricInterpretation"].overwrite(PHOTOMETRIC_LINEAR_RAW)
         _write_exif_ifd(tmp, exif)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cfa import check_cfa
+from ..cfa import LINEAR, check_cfa
 from ..errors import RawFormatError
 
 
@@ -26,7 +26,8 @@ class RawImage:
         (H, W) uint16 digital numbers (DN), one CFA colour per pixel.
     cfa
         Bayer tile read row by row from the top-left pixel ("RGGB", "BGGR", "GRBG",
-        "GBRG"), or "none" for a monochrome sensor.
+        "GBRG"), "none" for a monochrome sensor, or "linear" for a three-colour (H, W, 3)
+        raw (DNG LinearRaw).
     black_level
         DN added by the ADC offset (DNG BlackLevel): a number, or a (2, 2) array per CFA site
         (BlackLevelRepeatDim 2×2) when a camera's channels differ.
@@ -69,16 +70,20 @@ class RawImage:
 
 def check_raw(raw: RawImage) -> np.ndarray:
     mosaic = np.asarray(raw.mosaic)
-    if mosaic.ndim != 2 or mosaic.size == 0:
-        raise RawFormatError(f"RawImage.mosaic must be a non-empty (H, W) array; got shape {mosaic.shape}")
+    linear = raw.cfa == LINEAR
+    if mosaic.size == 0 or (mosaic.ndim != 2 if not linear else (mosaic.ndim != 3 or mosaic.shape[2] != 3)):
+        shape = "(H, W, 3)" if linear else "(H, W)"
+        raise RawFormatError(f"RawImage.mosaic must be a non-empty {shape} array; got shape {mosaic.shape}")
     if mosaic.dtype != np.uint16:
         if not np.issubdtype(mosaic.dtype, np.integer) or mosaic.min() < 0 or mosaic.max() > 65535:
             raise RawFormatError(f"RawImage.mosaic must hold whole numbers in 0..65535; got {mosaic.dtype}")
         mosaic = mosaic.astype(np.uint16)
-    check_cfa(raw.cfa, allow_monochrome=True)
+    if not linear:
+        check_cfa(raw.cfa, allow_monochrome=True)
     black = np.asarray(raw.black_level, dtype=float)
-    if black.ndim not in (0, 2) or (black.ndim == 2 and black.shape != (2, 2)):
-        raise RawFormatError(f"black_level must be a number or a 2×2 array per CFA site; got shape {black.shape}")
+    if black.shape not in ((), (2, 2)) and not (linear and black.shape == (3,)):
+        raise RawFormatError(f"black_level must be a number, a 2×2 array per CFA site or (linear raws) one per "
+                             f"colour; got shape {black.shape}")
     if not 0 < int(raw.white_level) <= 65535 or not (0 <= black.min() and black.max() < int(raw.white_level)):
         raise RawFormatError(f"levels black = {raw.black_level!r}, white = {raw.white_level!r}: need "
                              "0 <= black < white <= 65535")

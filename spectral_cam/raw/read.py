@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cfa import LINEAR
 from ..errors import RawFormatError
 from .dng import DNG_TAGS, ILLUMINANT_A
 from .image import RawImage
@@ -226,7 +227,12 @@ def read_raw(path) -> RawImage:
         with rawpy.imread(str(path)) as handle:
             mosaic = np.array(handle.raw_image_visible, dtype=np.uint16, copy=True)
             colors = int(handle.num_colors)
-            cfa = _cfa_string(handle.raw_pattern, bytes(handle.color_desc), colors)
+            stacked = handle.raw_type == rawpy.RawType.Stack
+            if stacked and colors == 3 and mosaic.ndim == 3 and mosaic.shape[2] >= 3:
+                # a Linear Raw DNG: LibRaw stacks R, G, B (and a spare fourth plane) per pixel
+                mosaic, cfa = np.ascontiguousarray(mosaic[..., :3]), LINEAR
+            else:
+                cfa = _cfa_string(handle.raw_pattern, bytes(handle.color_desc), colors)
             black_levels = [float(v) for v in handle.black_level_per_channel]
             pattern = np.asarray(handle.raw_pattern)
             white = int(handle.white_level)
@@ -244,8 +250,9 @@ def read_raw(path) -> RawImage:
         raise RawFormatError(
             f"{path} is not a readable raw file (missing data, truncated or corrupt){_size_hint(path)}: "
             f"{type(exc).__name__}: {exc}") from None
-    if mosaic.ndim != 2 or mosaic.size == 0:
-        raise RawFormatError(f"{path}: no single-plane raw mosaic (LibRaw raw type {raw_type})")
+    if mosaic.size == 0 or (mosaic.ndim != 2 and cfa != LINEAR):
+        raise RawFormatError(f"{path}: no single-plane raw mosaic nor three-colour linear raw (LibRaw raw type "
+                             f"{raw_type}, {colors} colours)")
     if not mosaic.any():  # every sample 0, below any black level: the data is missing, not dark
         raise RawFormatError(f"{path}: the raw image holds no data (every sample is 0): the file is truncated "
                              f"or its image data is in a format LibRaw {'.'.join(map(str, rawpy.libraw_version))} "
@@ -263,7 +270,9 @@ def read_raw(path) -> RawImage:
     # a corrupt count (one value) or non-finite values: no profile rather than an error
     noise_profile = (float(noise[0]), float(noise[1])) if noise.size >= 2 and np.all(np.isfinite(noise[:2])) else None
     # LibRaw orders black_level_per_channel by colour index; raw_pattern maps sites to it
-    if cfa == "none" or len(set(black_levels[:4])) == 1 or pattern.shape != (2, 2):
+    if cfa == LINEAR:
+        black = float(black_levels[0]) if len(set(black_levels[:3])) == 1 else np.asarray(black_levels[:3], float)
+    elif cfa == "none" or len(set(black_levels[:4])) == 1 or pattern.shape != (2, 2):
         black = float(black_levels[0])
     else:
         black = np.asarray(black_levels, dtype=float)[pattern]
