@@ -1,0 +1,119 @@
+"""Whole-process ``spectral-cam develop`` against a whole-process rawpy (LibRaw AHD) on the same
+DNG, as the frame grows: wall time per megapixel, in the same run (issue 13 #6).
+
+Each DNG is a Bayer mosaic of a smooth random texture with our sensor's colour metadata
+(ColorMatrix1/2, AsShotNeutral, NoiseProfile), written by ``write_dng``. Each side is a fresh
+Python process from start to the written 8-bit PNG, so imports count as a user meets them:
+
+- ours: ``spectral-cam develop RAW -o OUT.png`` (defaults: menon2007, DNG matrix), and with
+  ``--set isp.demosaic=malvar2004``;
+- rawpy: ``rawpy.imread(...).postprocess(demosaic_algorithm=AHD, use_camera_wb=True)`` and an
+  OpenCV PNG write, in a ``python -c`` process.
+
+Usage::
+
+    python benchmarks/bench_develop.py OUTDIR [--sizes 1,6,24] [--repeats 3]
+
+Writes ``OUTDIR/bench_develop.csv`` and ``OUTDIR/bench_develop.png`` (seconds and the ratio
+against rawpy at each size). Medians of interleaved repeats.
+
+References
+----------
+.. [1] Hirakawa & Parks (2005), IEEE TIP 14(3) (AHD); LibRaw documentation (postprocess).
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+RAWPY_SCRIPT = (
+    "import sys, cv2, rawpy\n"
+    "with rawpy.imread(sys.argv[1]) as raw:\n"
+    "    rgb = raw.postprocess(demosaic_algorithm=rawpy.DemosaicAlgorithm.AHD, use_camera_wb=True, output_bps=8)\n"
+    "cv2.imwrite(sys.argv[2], rgb[..., ::-1])\n"
+)
+
+
+def make_dng(path: Path, megapixels: float) -> Path:
+    """A ``megapixels`` Bayer DNG (3:2) of a smooth texture with our sensor's colour metadata."""
+    import cv2
+
+    from spectral_cam import expose, scene_from_dict
+    from spectral_cam.charts import narrow_band_flat
+    from spectral_cam.raw import RawImage, write_dng
+
+    width = int(round(np.sqrt(megapixels * 1e6 * 1.5) / 2)) * 2
+    height = int(round(width / 1.5 / 2)) * 2
+    metadata = expose(narrow_band_flat((32, 32), 0.05), scene_from_dict({"sensor": {"width_px": 32, "height_px": 32},
+                                                                       "exposure": {"time_s": 0.01}}))
+    coarse = np.random.default_rng(0).uniform(300, 3800, (height // 64 + 2, width // 64 + 2)).astype(np.float32)
+    mosaic = cv2.resize(coarse, (width, height), interpolation=cv2.INTER_CUBIC).clip(0, 4095).astype(np.uint16)
+    raw = RawImage(mosaic, "RGGB", metadata.black_level, metadata.white_level, color_matrix=metadata.color_matrix,
+                   color_matrix_2=metadata.color_matrix_2, as_shot_neutral=metadata.as_shot_neutral,
+                   noise_profile=metadata.noise_profile, camera_model=metadata.camera_model, meta=metadata.meta)
+    return write_dng(raw, path)
+
+
+def wall(argv: list[str]) -> float:
+    started = time.perf_counter()
+    subprocess.run(argv, check=True, capture_output=True)
+    return time.perf_counter() - started
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("output")
+    parser.add_argument("--sizes", default="1,6,24", help="megapixels, comma-separated")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+
+    from spectral_cam.apps.bench.common import write_rows
+    from spectral_cam.viz import figure, save_png
+
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    cli = str(Path(sys.executable).with_name("spectral-cam"))
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        for megapixels in (float(v) for v in args.sizes.split(",")):
+            dng = make_dng(Path(folder) / f"{megapixels:g}mp.dng", megapixels)
+            ours, malvar, libraw = [], [], []
+            develop = [cli, "develop", str(dng), "-o", f"{folder}/ours.png", "--force", "-q"]
+            for _ in range(args.repeats):  # interleaved, so drift hits all alike
+                ours.append(wall(develop))
+                malvar.append(wall(develop + ["--set", "isp.demosaic=malvar2004"]))
+                libraw.append(wall([sys.executable, "-c", RAWPY_SCRIPT, str(dng), f"{folder}/rawpy.png"]))
+            row = {"megapixels": megapixels, "ours_s": float(np.median(ours)),
+                   "ours_malvar2004_s": float(np.median(malvar)), "rawpy_ahd_s": float(np.median(libraw))}
+            row["ratio"] = row["ours_s"] / row["rawpy_ahd_s"]
+            row["ratio_malvar2004"] = row["ours_malvar2004_s"] / row["rawpy_ahd_s"]
+            rows.append(row)
+            print(f"{megapixels:g} MP: ours {row['ours_s']:.2f} s (malvar2004 {row['ours_malvar2004_s']:.2f} s), "
+                  f"rawpy AHD {row['rawpy_ahd_s']:.2f} s, ×{row['ratio']:.2f} (×{row['ratio_malvar2004']:.2f})",
+                  file=sys.stderr)
+    write_rows(rows, out / "bench_develop.csv")
+    fig = figure(7, 4)
+    ax, ratio = fig.subplots(1, 2)
+    sizes = [r["megapixels"] for r in rows]
+    ax.plot(sizes, [r["ours_s"] for r in rows], "o-", label="spectral-cam develop (menon2007)")
+    ax.plot(sizes, [r["ours_malvar2004_s"] for r in rows], "o--", label="spectral-cam develop (malvar2004)")
+    ax.plot(sizes, [r["rawpy_ahd_s"] for r in rows], "s-", label="rawpy / LibRaw AHD")
+    ax.set_xlabel("frame (MP)"), ax.set_ylabel("whole process, s"), ax.legend(fontsize=8)
+    ratio.plot(sizes, [r["ratio"] for r in rows], "o-", label="menon2007")
+    ratio.plot(sizes, [r["ratio_malvar2004"] for r in rows], "o--", label="malvar2004")
+    ratio.legend(fontsize=8)
+    ratio.axhline(1.5, color="grey", ls="--", lw=1)
+    ratio.set_xlabel("frame (MP)"), ratio.set_ylabel("ours / rawpy")
+    fig.suptitle("Developing one DNG, whole process (same run, medians)", fontsize=10)
+    save_png(fig, out / "bench_develop.png")
+
+
+if __name__ == "__main__":
+    main()
