@@ -297,17 +297,21 @@ def _slug(name: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", name.casefold()).strip("_")
 
 
+#: The keys of colour-science's ``MSDS_CAMERA_SENSITIVITIES``, written out so that listing the
+#: cameras (``spectral-cam cameras``) does not import colour (~1 s, it loads matplotlib);
+#: tests/test_spectra.py checks the list against colour-science.
+COLOUR_CAMERA_KEYS = ("Nikon 5100 (NPL)", "Sigma SDMerill (NPL)")
+
+
 @functools.lru_cache(maxsize=1)
 def _camera_sources() -> dict[str, object]:
     """slug -> packaged CSV resource or colour-science dataset key."""
-    import colour
-
     sources: dict[str, object] = {}
     folder = resources.files("spectral_cam") / "data" / "cameras"
     for entry in folder.iterdir():
         if entry.name.endswith(".csv"):
             sources[entry.name[:-4]] = entry
-    for key in colour.MSDS_CAMERA_SENSITIVITIES:
+    for key in COLOUR_CAMERA_KEYS:
         sources[_slug(key)] = key
     return dict(sorted(sources.items()))
 

@@ -43,3 +43,11 @@ def test_a_header_and_comments_are_read_past(tmp_path):
     sd = load_spectrum_csv(path, maximum=1.0)
     np.testing.assert_array_equal(sd.wavelengths, [400.0, 700.0])
     np.testing.assert_array_equal(sd.values, [0.1, 0.9])
+
+
+def test_the_written_out_colour_camera_keys_are_colour_sciences():
+    import colour
+
+    from spectral_cam.spectra import COLOUR_CAMERA_KEYS
+
+    assert tuple(colour.MSDS_CAMERA_SENSITIVITIES) == COLOUR_CAMERA_KEYS

@@ -36,6 +36,8 @@ from ..registry import Registry
 __all__ = [
     "ROOT_POLYNOMIAL_TERMS",
     "xyz_d65_white",
+    "mccamy_cct",
+    "von_kries_bradford",
     "dng_camera_to_xyz_d65",
     "camera_to_xyz",
     "camera_to_linear_srgb",
@@ -47,6 +49,25 @@ __all__ = [
 ROOT_POLYNOMIAL_TERMS = {3: 1, 6: 2, 13: 3, 22: 4}
 
 
+# The few colorimetric constants a develop needs are written out here rather than taken from
+# colour-science: ``import colour`` loads matplotlib and scipy (0.8–1.1 s), which a ``develop``
+# of a DNG must not pay. tests/isp/test_colour_constants.py checks each against colour-science.
+
+#: sRGB white (CIE 1931 xy), IEC 61966-2-1:1999 Table 1.
+SRGB_WHITE_XY = np.array([0.3127, 0.3290])
+
+#: Bradford cone-response matrix (Lam 1985; CIE 159:2004, non-linear part dropped).
+BRADFORD = np.array([[0.8951, 0.2664, -0.1614],
+                     [-0.7502, 1.7135, 0.0367],
+                     [0.0389, -0.0685, 1.0296]])
+
+
+def xy_to_xyz(xy) -> np.ndarray:
+    """CIE xy → XYZ at Y = 1."""
+    x, y = (float(v) for v in np.asarray(xy, dtype=np.float64).reshape(2))
+    return np.array([x / y, 1.0, (1.0 - x - y) / y])
+
+
 def xyz_d65_white() -> np.ndarray:
     """CIE XYZ of the sRGB (D65) white point, Y = 1.
 
@@ -54,9 +75,34 @@ def xyz_d65_white() -> np.ndarray:
     ----------
     .. [1] IEC 61966-2-1:1999 (white point x = 0.3127, y = 0.3290).
     """
-    import colour
+    return xy_to_xyz(SRGB_WHITE_XY)
 
-    return colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
+
+def mccamy_cct(xyz) -> float:
+    """Correlated colour temperature (K) of a CIE XYZ by McCamy's cubic in chromaticity.
+
+    References
+    ----------
+    .. [1] McCamy, C. S. (1992). Correlated color temperature as an explicit function of
+       chromaticity coordinates. Color Res. Appl. 17(2), 142–144, eq. (3).
+    """
+    X, Y, Z = (float(v) for v in np.asarray(xyz, dtype=np.float64).reshape(3))
+    total = X + Y + Z
+    x, y = X / total, Y / total
+    n = (x - 0.3320) / (0.1858 - y)
+    return 449.0 * n ** 3 + 3525.0 * n ** 2 + 6823.3 * n + 5520.33
+
+
+def von_kries_bradford(xyz_source_white, xyz_target_white) -> np.ndarray:
+    """(3, 3) von Kries adaptation in Bradford cone space from one white to another.
+
+    References
+    ----------
+    .. [1] Lam, K. M. (1985), PhD thesis, University of Bradford; CIE 159:2004.
+    """
+    source = BRADFORD @ np.asarray(xyz_source_white, dtype=np.float64)
+    target = BRADFORD @ np.asarray(xyz_target_white, dtype=np.float64)
+    return np.linalg.inv(BRADFORD) @ np.diag(target / source) @ BRADFORD
 
 
 #: Correlated colour temperatures (K) of the DNG calibration illuminants D65 and A.
@@ -89,8 +135,6 @@ def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, itera
     .. [2] McCamy, C. S. (1992). Correlated color temperature as an explicit function of
        chromaticity coordinates. Color Res. Appl. 17(2), 142–144.
     """
-    import colour
-
     d65 = np.asarray(color_matrix_d65, dtype=np.float64).reshape(3, 3)
     tungsten = np.asarray(color_matrix_a, dtype=np.float64).reshape(3, 3)
     n = np.asarray(neutral, dtype=np.float64).reshape(3)
@@ -100,7 +144,7 @@ def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, itera
         xyz = np.linalg.solve(matrix, n)
         if not np.all(np.isfinite(xyz)) or xyz.sum() <= 0:
             break
-        cct = float(colour.xy_to_CCT(colour.XYZ_to_xy(xyz), method="McCamy 1992"))
+        cct = mccamy_cct(xyz)
         cct = min(max(cct, CCT_A_K), CCT_D65_K) if np.isfinite(cct) else CCT_D65_K
         new = (1 / cct - 1 / CCT_A_K) / (1 / CCT_D65_K - 1 / CCT_A_K)
         if abs(new - weight) < 1e-6:
@@ -124,8 +168,8 @@ def dng_camera_to_xyz_d65(color_matrix, neutral, *, color_matrix_2=None, adaptat
         matrix is interpolated for the white's colour temperature
         (:func:`interpolate_color_matrix`).
     adaptation
-        colour-science chromatic adaptation transform (``"Bradford"``, ``"CAT02"``, ...)
-        from that white to D65.
+        Chromatic adaptation transform from that white to D65: ``"Bradford"`` (built in),
+        or any other colour-science name (``"CAT02"``, ``"CAT16"``, ...).
 
     Returns
     -------
@@ -143,8 +187,6 @@ def dng_camera_to_xyz_d65(color_matrix, neutral, *, color_matrix_2=None, adaptat
     .. [2] CIE 159:2004, A colour appearance model for colour management systems: CIECAM02
        (Bradford / von Kries adaptation).
     """
-    import colour
-
     cm = np.asarray(color_matrix, dtype=np.float64).reshape(3, 3)
     n = np.asarray(neutral, dtype=np.float64).reshape(3)
     if not np.all(np.isfinite(n)) or np.any(n <= 0):
@@ -162,8 +204,13 @@ def dng_camera_to_xyz_d65(color_matrix, neutral, *, color_matrix_2=None, adaptat
     if not np.all(np.isfinite(xyz_white)) or xyz_white[1] <= 0:
         raise ConfigError("ColorMatrix1 maps the as-shot neutral to a non-physical white")
     target = xyz_d65_white()
-    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
-        xyz_white / xyz_white[1], target, transform=adaptation)
+    if adaptation == "Bradford":
+        cat = von_kries_bradford(xyz_white / xyz_white[1], target)
+    else:
+        import colour
+
+        cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+            xyz_white / xyz_white[1], target, transform=adaptation)
     matrix = cat @ cam_to_xyz @ np.diag(n)
     return matrix / (matrix @ np.ones(3))[1]
 
@@ -253,11 +300,15 @@ def camera_to_linear_srgb(rgb: np.ndarray, transform) -> np.ndarray:
     return xyz_to_linear_srgb(camera_to_xyz(rgb, transform))
 
 
-def _srgb_matrices() -> tuple[np.ndarray, np.ndarray]:
-    import colour
+#: IEC 61966-2-1:1999 eq. (7) and its amendment's inverse, as the standard tabulates them
+#: (4 decimals; the two are not exact inverses, and the standard, like colour-science, keeps both).
+SRGB_TO_XYZ = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
+XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]])
 
-    space = colour.models.RGB_COLOURSPACE_sRGB
-    return np.asarray(space.matrix_XYZ_to_RGB), np.asarray(space.matrix_RGB_to_XYZ)
+
+def _srgb_matrices() -> tuple[np.ndarray, np.ndarray]:
+    """(XYZ → linear sRGB, linear sRGB → XYZ), as IEC 61966-2-1 tabulates them."""
+    return XYZ_TO_SRGB, SRGB_TO_XYZ
 
 
 def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:

@@ -9,7 +9,8 @@ float32 linear RGB, unclipped, for any of the four Bayer phases and any image si
   bilinear too.
 - ``malvar2004``: gradient-corrected linear interpolation, the four 5×5 kernels of Malvar,
   He & Cutler applied with cv2.filter2D in float32 and selected per CFA site.
-- ``menon2007``: directional filtering with a posteriori decision (colour-demosaicing).
+- ``menon2007``: directional filtering with a posteriori decision, colour-demosaicing's
+  algorithm in float32 OpenCV filters (:mod:`spectral_cam.isp.menon2007`).
 - ``vng`` and ``ea``: OpenCV's variable number of gradients and edge-aware demosaicing.
   OpenCV's VNG accepts 8-bit input only (EA 8- or 16-bit). To keep the linear data's
   precision, the mosaic is split in two layers: a coarse layer, scaled to the image
@@ -166,8 +167,10 @@ def malvar2004(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
 
 
 def menon2007(mosaic: np.ndarray, cfa: str = "RGGB", *, refining_step: bool = True) -> np.ndarray:
-    """Directional filtering with a posteriori decision (Menon, Andriani & Calvagno 2007),
-    as implemented by colour-demosaicing.
+    """Directional filtering with a posteriori decision (Menon, Andriani & Calvagno 2007).
+
+    colour-demosaicing's algorithm, computed with OpenCV filters in float32
+    (:mod:`spectral_cam.isp.menon2007`; ~30× faster, and without importing colour).
 
     Parameters
     ----------
@@ -181,18 +184,17 @@ def menon2007(mosaic: np.ndarray, cfa: str = "RGGB", *, refining_step: bool = Tr
     Returns
     -------
     numpy.ndarray
-        (H, W, 3) float32 linear RGB, unclipped (colour-demosaicing does not clip).
+        (H, W, 3) float32 linear RGB, unclipped; measured samples are kept.
 
     References
     ----------
     .. [1] Menon, D., Andriani, S., & Calvagno, G. (2007). IEEE Trans. Image Process.
        16(1), 132–141.
     """
-    from colour_demosaicing import demosaicing_CFA_Bayer_Menon2007
+    from .menon2007 import menon2007_demosaic
 
     mosaic, cfa = _check(mosaic, cfa)
-    out = demosaicing_CFA_Bayer_Menon2007(mosaic, pattern=cfa, refining_step=refining_step)
-    return np.asarray(out, dtype=_F32)
+    return menon2007_demosaic(mosaic, cfa, refining_step=refining_step)
 
 
 #: Mirror padding (pixels, even) around the mosaic for OpenCV's Bayer conversions.

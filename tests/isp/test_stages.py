@@ -402,6 +402,23 @@ def test_estimate_noise_recovers_a_gaussian_sigma():
     assert np.sqrt(estimate_noise(mosaic, "RGGB").offset) == pytest.approx(0.01, rel=0.05)
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("bits", [8, 16])
+def test_quantise_is_the_iec_digital_encoding(dtype, bits):
+    """IEC 61966-2-1 §5: code = round(top·clip(V, 0, 1)); computed here in float64 with NumPy
+    (rounding half to even, as the encoder does) on values across and outside [0, 1]."""
+    top = 2 ** bits - 1
+    rng = np.random.default_rng(3)
+    values = np.concatenate([rng.uniform(-0.3, 1.3, 30000), np.arange(top + 1) / top, [0.0, 1.0, -0.0]])
+    image = values[: values.size // 3 * 3].reshape(-1, 1, 3).astype(dtype)
+    expected = np.rint(np.clip(image.astype(np.float32).astype(np.float64), 0, 1) * top)
+    codes = quantise(image, bits=bits)
+    assert codes.dtype == (np.uint8 if bits == 8 else np.uint16)
+    np.testing.assert_array_equal(codes, expected)
+    with pytest.raises(ConfigError, match="NaN or infinite"):
+        quantise(np.where(np.arange(3) == 1, np.nan, image[:1]), bits=bits)
+
+
 # ----------------------------------------------------------------------------- encoders
 def test_encoders_round_trip(tmp_path):
     import OpenEXR
