@@ -13,7 +13,6 @@ References
 from __future__ import annotations
 
 import math
-import os
 import resource
 from pathlib import Path
 
