@@ -18,7 +18,32 @@ from typing import Iterator
 
 from .errors import ConfigError
 
-__all__ = ["atomic_path", "staged_directory", "write_exr_channels", "exchange_paths", "recover_interrupted"]
+__all__ = ["atomic_path", "staged_directory", "discard_in_progress", "write_exr_channels", "exchange_paths", "recover_interrupted"]
+
+
+#: Staging folders and temporary files being written now: what an interrupt must remove
+#: (:func:`discard_in_progress`), wherever the main thread happens to be when it arrives.
+_IN_PROGRESS: set[Path] = set()
+
+
+def discard_in_progress() -> None:
+    """Remove every staging folder and temporary file still being written (a signal handler
+    calls this first, so that no partial output survives however the interrupt unwinds)."""
+    for path in list(_IN_PROGRESS):
+        if path.is_dir():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)
+        _IN_PROGRESS.discard(path)
+
+
+@contextlib.contextmanager
+def _in_progress(path: Path) -> Iterator[None]:
+    _IN_PROGRESS.add(path)
+    try:
+        yield
+    finally:
+        _IN_PROGRESS.discard(path)
 
 
 @contextlib.contextmanager
@@ -31,11 +56,12 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     tmp = Path(tmp)
     try:
-        yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a result file should not be
-        os.replace(tmp, path)
+        with _in_progress(tmp):
+            yield tmp
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a result file should not be
+            os.replace(tmp, path)
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -55,11 +81,12 @@ def staged_directory(target: str | Path, *, force: bool = False) -> Iterator[Pat
     target.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=target.parent))
     try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(stage, 0o777 & ~umask)  # mkdtemp makes 0700
-        yield stage
-        _publish(stage, target, force=force)
+        with _in_progress(stage):
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(stage, 0o777 & ~umask)  # mkdtemp makes 0700
+            yield stage
+        _publish(stage, target, force=force)  # no longer discardable: it may hold the old result
     finally:
         if stage.exists():
             shutil.rmtree(stage, ignore_errors=True)

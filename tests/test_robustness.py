@@ -91,8 +91,10 @@ def _slow_render_under_way(tmp_path):
     scene = tmp_path / "slow.toml"
     scene.write_text('[sensor]\nwidth_px = 64\nheight_px = 48\n[render]\nspp = 100000\n')
     out = tmp_path / "result"
+    # SIGINT as a terminal delivers it: a suite run in the background inherits it ignored
     proc = subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "render", str(scene), "-o", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 60
     while time.time() < deadline and not any(p.name.startswith(".result.partial-") for p in tmp_path.iterdir()):
         time.sleep(0.2)
@@ -159,3 +161,25 @@ def test_an_image_write_that_fails_is_an_error_not_an_empty_file(tmp_path, monke
     with pytest.raises(OSError, match="No space left"):
         write_png(np.full((4, 4, 3), 0.5), tmp_path / "image.png")
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.timeout(60)
+def test_an_interrupt_discards_partial_output_before_it_unwinds(tmp_path):
+    """The handler removes staging folders and temporary files itself, so output is gone even
+    when the KeyboardInterrupt it raises is lost or converted on its way up."""
+    from spectral_cam.cli import _interrupt
+    from spectral_cam.io import atomic_path, staged_directory
+
+    with pytest.raises(KeyboardInterrupt):
+        with staged_directory(tmp_path / "result") as stage, atomic_path(tmp_path / "lone.txt") as tmp:
+            (stage / "half.dng").write_bytes(b"partial")
+            tmp.write_text("partial")
+            try:
+                _interrupt(signal.SIGINT, None)
+            finally:  # what the interrupt left on disk at the moment it was raised
+                left = sorted(p.name for p in tmp_path.iterdir())
+                from spectral_cam import cli
+
+                while cli._WATCHDOGS:
+                    cli._WATCHDOGS.pop().cancel()
+    assert left == []

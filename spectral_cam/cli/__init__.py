@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import os
 import sys
 
 from ..errors import SpectralCamError
@@ -70,8 +71,34 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised like Ctrl-C so that every staging folder and temporary file is removed."""
 
 
-def _terminate(signum, frame):
-    raise Terminated()
+#: Seconds an interrupted command has to unwind before the process exits regardless (a
+#: KeyboardInterrupt raised inside native code can be lost; a job must still stop).
+INTERRUPT_GRACE_S = 10.0
+_WATCHDOGS: list = []
+_SIGNALLED: list = []
+
+
+def _interrupt(signum, frame):
+    """SIGINT/SIGTERM while a command runs: remove the partial output now (whatever the
+    exception meets on its way up), arm a watchdog, then unwind as Ctrl-C."""
+    import signal
+    import threading
+
+    from ..io import discard_in_progress
+
+    discard_in_progress()
+
+    def hard_exit():
+        discard_in_progress()
+        print("spectral-cam: interrupted; no partial output was kept", file=sys.stderr, flush=True)
+        os._exit(130)
+
+    _SIGNALLED.append(signum)  # native code may re-raise the interrupt unchained (drjit.custom)
+    watchdog = threading.Timer(INTERRUPT_GRACE_S, hard_exit)
+    watchdog.daemon = True
+    watchdog.start()
+    _WATCHDOGS.append(watchdog)  # cancelled when the command has unwound
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -94,22 +121,54 @@ def main(argv: list[str] | None = None) -> int:
             print(f"spectral-cam: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:
-            print("spectral-cam: interrupted; no partial output was kept", file=sys.stderr)
-            return 130
+            return _interrupted()
+        except Exception as exc:
+            # native code can re-raise the interrupt as something else: drjit.custom (Mitsuba's
+            # render in AD variants) as RuntimeError, an import as SystemError
+            if _caused_by_interrupt(exc):
+                return _interrupted()
+            raise
+
+
+def _caused_by_interrupt(exc: BaseException) -> bool:
+    if _SIGNALLED:
+        return True
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def _interrupted() -> int:
+    from ..io import discard_in_progress
+
+    discard_in_progress()
+    print("spectral-cam: interrupted; no partial output was kept", file=sys.stderr)
+    return 130
 
 
 @contextlib.contextmanager
 def _sigterm_as_interrupt():
-    """SIGTERM raises :class:`Terminated` while a command runs (main thread only); the
-    previous handler is restored after, so a program that calls :func:`main` keeps its own."""
+    """SIGINT and SIGTERM run :func:`_interrupt` while a command runs (main thread only); the
+    previous handlers are restored after, so a program that calls :func:`main` keeps its own."""
     import signal
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(signum) is not signal.SIG_IGN:  # an ignored signal (nohup, `&`) stays ignored
+            previous[signum] = signal.signal(signum, _interrupt)
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        while _WATCHDOGS:
+            _WATCHDOGS.pop().cancel()
+        _SIGNALLED.clear()
