@@ -111,6 +111,21 @@ def tile_layout(cfa: str) -> tuple[tuple[int, int], tuple[int, int]] | None:
     return (codes[0], codes[1]), (codes[2], codes[3])
 
 
+def cfa_at(cfa: str, row: int, col: int) -> str:
+    """The Bayer tile read from pixel (``row``, ``col``) of a mosaic whose tile at (0, 0) is
+    ``cfa``: the pattern of a crop that starts there.
+
+    Examples
+    --------
+    >>> cfa_at("RGGB", 0, 1), cfa_at("RGGB", 1, 0), cfa_at("RGGB", 2, 2)
+    ('GRBG', 'GBRG', 'RGGB')
+    """
+    name = check_cfa(cfa, allow_monochrome=True)
+    if name == MONOCHROME:
+        return name
+    return "".join(name[2 * ((row + r) % 2) + (col + c) % 2] for r in (0, 1) for c in (0, 1))
+
+
 def channel_index(shape: tuple[int, int], cfa: str) -> np.ndarray:
     """Colour index (0 = R, 1 = G, 2 = B) of every pixel of a Bayer mosaic.
 

@@ -304,6 +304,7 @@ def synthetic_chart(
     bands: str = "400:700:10",
     patch_px: int = 16,
     gap_px: int = 4,
+    margin_px: int = 0,
 ) -> Chart:
     """Radiance of flat Lambertian patches facing the camera under an illuminant.
 
@@ -326,6 +327,10 @@ def synthetic_chart(
         Band centres ``"start:stop:step"`` in nm (each band ``step`` wide).
     patch_px, gap_px : int
         Patch size and spacing, pixels.
+    margin_px : int
+        Pixels of the chart's surround added on every side outside the frame (even: the
+        CFA phase is kept), stated as the image's ``frame``: a sensor's crop margin, so the
+        RAW's default crop is the chart frame and developers interpolate its edges from data.
 
     Returns
     -------
@@ -342,6 +347,8 @@ def synthetic_chart(
         raise ConfigError(f"patch_px = {patch_px!r}: must be a whole number of pixels >= 4")
     if not (isinstance(gap_px, int) and gap_px >= 0):
         raise ConfigError(f"gap_px = {gap_px!r}: must be a whole number of pixels >= 0")
+    if not (isinstance(margin_px, int) and margin_px >= 0 and margin_px % 2 == 0):
+        raise ConfigError(f"margin_px = {margin_px!r}: must be an even whole number of pixels >= 0")
     grid = spectra.parse_bands(bands)
     names, sds, white = _with_white_reference(refset)
     columns = _grid_columns(len(sds))
@@ -360,6 +367,11 @@ def synthetic_chart(
         top, left = gap_px + row * pitch, gap_px + column * pitch
         data[top:top + patch_px, left:left + patch_px] = patch_radiance[index].astype(np.float32)
         patches.append(Patch(name, left + patch_px / 2, top + patch_px / 2, patch_px / 2, patch_px / 2))
+    frame = None
+    if margin_px:
+        data = np.pad(data, ((margin_px, margin_px), (margin_px, margin_px), (0, 0)), mode="edge")
+        frame = (margin_px, margin_px, height, width)
     image = SpectralImage(data, np.asarray(grid.centres_nm), np.asarray(grid.edges_nm),
-                          meta={"chart": "synthetic", "illuminant": illuminant, "illuminance_lux": illuminance_lux})
+                          meta={"chart": "synthetic", "illuminant": illuminant, "illuminance_lux": illuminance_lux},
+                          frame=frame)
     return Chart(image, patches, len(refset), white, sds, "synthetic")

@@ -9,7 +9,7 @@ without importing Mitsuba (docs/design.md, "Units").
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -44,6 +44,11 @@ class SpectralImage:
         Boolean (H, W) mask of the scene's white reference (the ColorChecker preset's white
         patch interior), the region ``exposure.time_s = "auto"`` exposes for; None where the
         scene has none (the sensor then exposes for the 99th percentile).
+
+    An image rendered through a lens widened by a crop margin
+    (:meth:`~spectral_cam.optics.ThinLens.widened`) holds the configured frame and a ring of
+    real pixels around it: :attr:`frame_window` locates the frame, :meth:`framed` crops it.
+    ``frame`` states that window for a synthetic image (e.g. a chart with its surround).
     """
 
     data: np.ndarray
@@ -54,6 +59,36 @@ class SpectralImage:
     channels: tuple[str, ...] | None = None
     lens: Any = None
     white_reference: np.ndarray | None = None
+    frame: tuple[int, int, int, int] | None = None
+
+    @property
+    def frame_window(self) -> tuple[int, int, int, int] | None:
+        """(top, left, height, width) of the configured frame in :attr:`data`; None when the
+        image is the frame (no margin, or no lens to say)."""
+        if self.frame is not None:
+            return tuple(int(v) for v in self.frame)
+        if self.lens is None or getattr(self.lens, "frame_lens", None) is None:
+            return None
+        top, left, height, width = self.lens.frame_window
+        if (top, left) == (0, 0) and (height, width) == self.data.shape[:2]:
+            return None
+        return top, left, height, width
+
+    def framed(self) -> "SpectralImage":
+        """The configured frame alone (``self`` when there is no margin): data, depth and
+        white reference cropped, ``lens`` the frame's."""
+        window = self.frame_window
+        if window is None:
+            return self
+        top, left, height, width = window
+        crop = (slice(top, top + height), slice(left, left + width))
+
+        def cut(array):
+            return None if array is None else np.ascontiguousarray(array[crop])
+
+        lens = self.lens.layout_lens if self.lens is not None else None
+        return replace(self, data=cut(self.data), depth_m=cut(self.depth_m), white_reference=cut(self.white_reference),
+                       lens=lens, meta=dict(self.meta), frame=None)
 
     @property
     def band_widths_nm(self) -> np.ndarray:

@@ -93,12 +93,15 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     from .render import render
     from .sensor import expose
 
-    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens.layout_lens
     timings: dict[str, float] = {}
-    radiance = render(config, progress=progress, with_depth=with_depth, lens=lens)
-    timings.update({f"render_{k}": v for k, v in radiance.meta["timings_s"].items()})
+    # the sensor has a ring of real pixels around the frame (sensor.crop_margin_px): the RAW
+    # carries them with a default crop, every other output is the frame
+    captured = render(config, progress=progress, with_depth=with_depth, lens=lens, with_margin=True)
+    timings.update({f"render_{k}": v for k, v in captured.meta["timings_s"].items()})
     t0 = time.perf_counter()
-    raw = expose(radiance, config)
+    raw = expose(captured, config)
+    radiance = captured.framed()
     timings["sensor"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     developed = develop(raw, config.isp)

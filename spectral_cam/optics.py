@@ -15,7 +15,7 @@ References
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -126,6 +126,10 @@ class ThinLens:
     sensor_height_m: float
     width_px: int
     height_px: int
+    #: The lens of the configured frame when this one images a larger area (a crop margin,
+    #: a supersampled depth probe): scene presets lay objects out against it, so the frame
+    #: shows the same scene whatever is rendered around it. None: this lens is the frame.
+    frame_lens: "ThinLens | None" = field(default=None, compare=False, repr=False)
 
     @classmethod
     def from_config(cls, lens: LensSection, sensor: SensorSection) -> "ThinLens":
@@ -138,6 +142,44 @@ class ThinLens:
             width_px=sensor.width_px,
             height_px=sensor.height_px,
         )
+
+    # ------------------------------------------------------------------ frame and capture area
+    @property
+    def layout_lens(self) -> "ThinLens":
+        """The lens of the configured frame (this one unless it images a larger area)."""
+        return self.frame_lens if self.frame_lens is not None else self
+
+    def widened(self, margin_px: int) -> "ThinLens":
+        """The same optics on a sensor ``margin_px`` pixels (same pitch) larger on every side:
+        the frame's pixels see exactly the rays they saw before, and a ring of real pixels
+        surrounds them (a DNG's crop margin, a defocus margin).
+
+        Parameters
+        ----------
+        margin_px
+            Whole pixels added on each side, >= 0.
+        """
+        if not (isinstance(margin_px, int) and margin_px >= 0):
+            raise ValueError(f"margin_px {margin_px!r} must be a whole number of pixels >= 0")
+        if margin_px == 0:
+            return self
+        pitch = self.pixel_pitch_m
+        return replace(self, width_px=self.width_px + 2 * margin_px, height_px=self.height_px + 2 * margin_px,
+                       sensor_width_m=self.sensor_width_m + 2 * margin_px * pitch,
+                       sensor_height_m=self.sensor_height_m + 2 * margin_px * pitch, frame_lens=self.layout_lens)
+
+    def supersampled(self, factor: int) -> "ThinLens":
+        """The same sensor area sampled ``factor``× finer along each axis (scene layout kept)."""
+        return replace(self, width_px=self.width_px * factor, height_px=self.height_px * factor,
+                       frame_lens=self.layout_lens)
+
+    @property
+    def frame_window(self) -> tuple[int, int, int, int]:
+        """(top, left, height, width) of the configured frame in this lens's pixels."""
+        frame = self.layout_lens
+        scale = frame.pixel_pitch_m / self.pixel_pitch_m
+        height, width = round(frame.height_px * scale), round(frame.width_px * scale)
+        return (self.height_px - height) // 2, (self.width_px - width) // 2, height, width
 
     # ------------------------------------------------------------------ first-order optics
     @property

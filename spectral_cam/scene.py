@@ -202,12 +202,17 @@ class SensorSection:
     seed: int = 0
     shot_noise: bool = True
     vignetting: bool = True
+    crop_margin_px: int = 8
 
     def __post_init__(self) -> None:
         for key in ("width_px", "height_px"):
             value = getattr(self, key)
             if not isinstance(value, int) or value < 1 or value > 20000:
                 _fail(f"sensor.{key}", value, "must be a whole number of pixels in 1..20000")
+        margin = self.crop_margin_px
+        if not (isinstance(margin, int) and not isinstance(margin, bool) and 0 <= margin <= 256 and margin % 2 == 0):
+            _fail("sensor.crop_margin_px", margin,
+                  "must be an even whole number of pixels in 0..256 (even keeps the CFA phase at the crop)")
         _within("sensor.pixel_pitch_um", self.pixel_pitch_um)
         if self.model != "ideal":
             spectra.camera_sensitivities(self.model)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cfa import LINEAR, check_cfa
+from ..cfa import LINEAR, cfa_at, check_cfa
 from ..errors import ConfigError
 from .colour_correction import (
     META_CAMERA_TO_XYZ,
@@ -118,6 +118,15 @@ def noise_model_of(raw) -> NoiseModel | None:
     return None
 
 
+def _crop_slices(raw) -> tuple[slice, slice]:
+    """Row and column slices of the raw's default crop (the whole mosaic without one)."""
+    from ..raw.image import check_crop
+
+    height, width = np.shape(raw.mosaic)[:2]
+    top, left, rows, cols = check_crop(getattr(raw, "crop", None), (height, width)) or (0, 0, height, width)
+    return slice(top, top + rows), slice(left, left + cols)
+
+
 def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> DevelopedImage:
     """Develop a RAW into a display sRGB image.
 
@@ -175,6 +184,9 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
     monochrome = str(raw.cfa).lower() == "none"
     linear_raw = raw.cfa == LINEAR  # three colours per pixel already: no mosaic to denoise or demosaic
     cfa = raw.cfa if monochrome or linear_raw else check_cfa(raw.cfa)
+    # the image is the raw's default crop: the margin around it is demosaiced (so the crop's
+    # edges are interpolated from real data) and then dropped; statistics come from the crop
+    crop = _crop_slices(raw)
     timings["normalise"] = clock() - t
 
     t = clock()
@@ -190,24 +202,24 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
     if monochrome:
         t = clock()
         gains = np.ones(3)
-        mask = clipped_mask(mosaic, radius_px=0)
-        rgb = np.repeat(mosaic[..., None], 3, axis=-1)
+        mask = clipped_mask(mosaic, radius_px=0)[crop]
+        rgb = np.repeat(mosaic[crop][..., None], 3, axis=-1)
         timings["white_balance"] = clock() - t
         timings["demosaic"] = 0.0
     else:
         t = clock()
-        gains = white_balance_gains(mosaic, cfa, method=config.white_balance,
-                                    as_shot_neutral=raw.as_shot_neutral,
+        gains = white_balance_gains(mosaic[crop], cfa if linear_raw else cfa_at(cfa, crop[0].start, crop[1].start),
+                                    method=config.white_balance, as_shot_neutral=raw.as_shot_neutral,
                                     gains=config.wb_gains or None)
         balanced = apply_white_balance(mosaic, cfa, gains=gains)
         timings["white_balance"] = clock() - t
 
         t = clock()
         if linear_raw:
-            rgb, mask = balanced, clipped_mask(mosaic, radius_px=0).any(axis=-1)
+            rgb, mask = balanced[crop], clipped_mask(mosaic, radius_px=0).any(axis=-1)[crop]
         else:
-            rgb = demosaic(balanced, cfa, method=config.demosaic)
-            mask = clipped_mask(mosaic, radius_px=2)
+            rgb = demosaic(balanced, cfa, method=config.demosaic)[crop]
+            mask = clipped_mask(mosaic, radius_px=2)[crop]
         timings["demosaic"] = clock() - t
 
     t = clock()
@@ -235,6 +247,7 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
         "white_balance_gains": [float(g) for g in gains],
         "colour_transform": source,
         "clipped_fraction": float(mask.mean()) if mask.size else 0.0,
+        "crop": None if getattr(raw, "crop", None) is None else [int(v) for v in raw.crop],
     })
     if isinstance(transform, np.ndarray):
         info["colour_transform_matrix"] = transform.tolist()

@@ -60,7 +60,10 @@ def white_reference_mask(config: SceneConfig, lens: ThinLens | None = None) -> n
     for scenes without one (the sensor then uses the 99th percentile)."""
     if config.scene.preset != "colorchecker" or config.scene.mitsuba_xml:
         return None
-    mask = np.zeros((config.sensor.height_px, config.sensor.width_px), dtype=bool)
+    from ..optics import ThinLens
+
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    mask = np.zeros((lens.height_px, lens.width_px), dtype=bool)  # the frame and any margin
     white = next(p for p in colorchecker_patches(config, lens) if p.name == WHITE_PATCH)
     mask[white.interior(0.2)] = True
     return mask if mask.any() else None

@@ -49,6 +49,9 @@ DNG_TAGS = {
     "ForwardMatrix1": 50964,
     "ForwardMatrix2": 50965,
     "NoiseProfile": 51041,
+    "DefaultCropOrigin": 50719,
+    "DefaultCropSize": 50720,
+    "ActiveArea": 50829,
     # capture metadata (TIFF/EP ISO 12234-2 places these EXIF tags in IFD 0)
     "DateTime": 306,
     "ExposureTime": 33434,
@@ -222,6 +225,20 @@ def _write_exif_ifd(path: Path, tags: list[tuple]) -> None:
     raise RawFormatError(f"{path}: the ExifIFD placeholder is missing")
 
 
+def _crop_tags(crop, shape) -> list[tuple]:
+    """ActiveArea (the whole mosaic: every pixel is real data), DefaultCropOrigin (H, V) and
+    DefaultCropSize (width, height) of the image inside it (DNG 1.7.1.0 ch. 4). Adobe's reader
+    wants at least ~2 pixels of CFA around the crop on every side to interpolate its edges."""
+    if crop is None:
+        return []
+    top, left, height, width = crop
+    return [
+        (DNG_TAGS["ActiveArea"], _TIFF_LONG, 4, (0, 0, int(shape[0]), int(shape[1])), True),
+        (DNG_TAGS["DefaultCropOrigin"], _TIFF_LONG, 2, (int(left), int(top)), True),
+        (DNG_TAGS["DefaultCropSize"], _TIFF_LONG, 2, (int(width), int(height)), True),
+    ]
+
+
 def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str = "spectral_cam") -> Path:
     """Write a RawImage as an uncompressed DNG (atomically).
 
@@ -313,6 +330,7 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     if raw.noise_profile is not None:
         scale, offset = (float(v) for v in raw.noise_profile)
         tags.append((DNG_TAGS["NoiseProfile"], _TIFF_DOUBLE, 2, (scale, offset), True))
+    tags += _crop_tags(raw.crop, mosaic.shape[:2])
     capture = _capture_tags(raw.meta or {})
     exif = [t for t in capture if t[0] in EXIF_IFD_TAGS]
     tags += [t for t in capture if t[0] not in EXIF_IFD_TAGS] + [(_EXIF_PLACEHOLDER, _TIFF_LONG, 1, (0,), True)]

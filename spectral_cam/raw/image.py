@@ -52,6 +52,11 @@ class RawImage:
     forward_matrix, forward_matrix_2
         (3, 3) white-balanced camera RGB → XYZ(D50), calibrated under D65 and under
         Standard A (DNG ForwardMatrix), or None.
+    crop
+        (top, left, height, width) of the image in the mosaic (DNG DefaultCropOrigin and
+        DefaultCropSize): the pixels outside it are a margin of real data that lets a
+        demosaicer interpolate the image's edges; an ISP develops the mosaic and keeps the
+        crop. None: the whole mosaic is the image.
     """
 
     mosaic: np.ndarray
@@ -66,6 +71,7 @@ class RawImage:
     color_matrix_2: np.ndarray | None = None
     forward_matrix: np.ndarray | None = None
     forward_matrix_2: np.ndarray | None = None
+    crop: tuple[int, int, int, int] | None = None
 
 
 def check_raw(raw: RawImage) -> np.ndarray:
@@ -87,4 +93,19 @@ def check_raw(raw: RawImage) -> np.ndarray:
     if not 0 < int(raw.white_level) <= 65535 or not (0 <= black.min() and black.max() < int(raw.white_level)):
         raise RawFormatError(f"levels black = {raw.black_level!r}, white = {raw.white_level!r}: need "
                              "0 <= black < white <= 65535")
+    check_crop(raw.crop, mosaic.shape[:2])
     return np.ascontiguousarray(mosaic)
+
+
+def check_crop(crop, shape) -> tuple[int, int, int, int] | None:
+    """A (top, left, height, width) crop that lies inside a mosaic of ``shape`` (H, W)."""
+    if crop is None:
+        return None
+    values = tuple(crop)
+    if len(values) != 4 or not all(isinstance(v, (int, np.integer)) for v in values):
+        raise RawFormatError(f"RawImage.crop must be four whole numbers (top, left, height, width); got {crop!r}")
+    top, left, height, width = (int(v) for v in values)
+    if top < 0 or left < 0 or height < 1 or width < 1 or top + height > shape[0] or left + width > shape[1]:
+        raise RawFormatError(f"RawImage.crop {values} does not lie inside the {shape[1]}×{shape[0]} mosaic "
+                             "(need top, left >= 0, height, width >= 1, top + height <= H, left + width <= W)")
+    return top, left, height, width

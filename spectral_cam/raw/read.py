@@ -43,6 +43,17 @@ def _xyz_to_camera_from_libraw(rgb_cam: np.ndarray, daylight: np.ndarray) -> np.
     return cam_xyz / neutral.max()
 
 
+def _xyz_to_camera_from_table(cam_xyz: np.ndarray) -> np.ndarray | None:
+    """LibRaw's own XYZ(D65) → camera matrix for the camera (``rgb_xyz_matrix``: Adobe's
+    ColorMatrix for that model, from LibRaw's table), D65 white → max 1; None if absent.
+    For a proprietary raw LibRaw derives rgb_cam only while processing, so this is the matrix."""
+    cam_xyz = np.asarray(cam_xyz, dtype=float)[:3, :3]
+    if not np.all(np.isfinite(cam_xyz)) or abs(np.linalg.det(cam_xyz)) < 1e-12:
+        return None
+    neutral = cam_xyz @ _LIBRAW_XYZ_RGB.sum(axis=1)
+    return cam_xyz / neutral.max() if neutral.max() > 0 else None
+
+
 def _cfa_string(pattern, description: bytes, colors: int) -> str:
     if colors == 1 or pattern is None:
         return "none"
@@ -68,13 +79,53 @@ def _tiff_extras(path: Path) -> dict:
             for page in tif.pages:
                 tags = page.tags
                 for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model", "ColorMatrix1",
-                             "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2", "WhiteLevel"):
+                             "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2", "WhiteLevel",
+                             "DefaultCropOrigin", "DefaultCropSize"):
                     tag = tags.get(DNG_TAGS[name])
                     if tag is not None and name not in extras:
                         extras[name] = tag.value
     except Exception:  # not a TIFF container (CR3, RAF, ...): rawpy's fields are all there is
         return {}
     return extras
+
+
+def _tag_numbers(value) -> list[float]:
+    """A TIFF SHORT/LONG/RATIONAL tag's values as floats (tifffile gives rationals as pairs)."""
+    flat = np.asarray(value, dtype=float).ravel()
+    return list(flat) if flat.size == 2 else [flat[i] / flat[i + 1] for i in range(0, flat.size, 2)]
+
+
+def _default_crop(path: Path, extras: dict, sizes, shape) -> tuple[int, int, int, int] | None:
+    """(top, left, height, width) of the image in the raw mosaic: a DNG's DefaultCropOrigin
+    and DefaultCropSize (relative to its ActiveArea, which LibRaw's visible area already is),
+    else the camera's own crop as LibRaw reports it (relative to the whole raw, so shifted by
+    the visible area's margins, and kept inside it: a camera's crop is advice, e.g. a Canon
+    30D's is one row taller than its visible area); None when the whole mosaic is the image."""
+    origin, size = extras.get("DefaultCropOrigin"), extras.get("DefaultCropSize")
+    if origin is not None and size is not None:
+        try:
+            (left, top), (width, height) = (_tag_numbers(origin)[:2], _tag_numbers(size)[:2])
+            crop = tuple(int(round(v)) for v in (top, left, height, width))
+        except (TypeError, ValueError, ZeroDivisionError, OverflowError):
+            raise RawFormatError(f"{path}: DefaultCropOrigin {origin!r} / DefaultCropSize {size!r} are not two "
+                                 "numbers each; the file's crop tags are corrupt") from None
+    elif getattr(sizes, "crop_width", 0) and getattr(sizes, "crop_height", 0):
+        top = max(int(sizes.crop_top_margin) - int(sizes.top_margin), 0)
+        left = max(int(sizes.crop_left_margin) - int(sizes.left_margin), 0)
+        height = min(int(sizes.crop_height), shape[0] - top)
+        width = min(int(sizes.crop_width), shape[1] - left)
+        if height < 1 or width < 1:
+            return None
+        crop = (top, left, height, width)
+    else:
+        return None
+    if crop == (0, 0, *shape):
+        return None
+    top, left, height, width = crop
+    if top < 0 or left < 0 or height < 1 or width < 1 or top + height > shape[0] or left + width > shape[1]:
+        raise RawFormatError(f"{path}: the default crop (origin {left}, {top}; size {width} × {height}) does not "
+                             f"lie inside the {shape[1]} × {shape[0]} raw image; the file's crop tags are corrupt")
+    return crop
 
 
 def _check_white_level(path: Path, tag, black_levels) -> None:
@@ -156,7 +207,10 @@ _TUNGSTEN_CODES = (ILLUMINANT_A, 3)
 
 def _rational_matrix(value) -> np.ndarray | None:
     """A 3×3 matrix from a TIFF (S)RATIONAL tag as tifffile returns it (values or num/den pairs)."""
-    flat = np.asarray(value, dtype=float).reshape(-1)
+    try:
+        flat = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):  # a corrupt tag type
+        return None
     if flat.size == 18:
         den = flat[1::2]
         if np.any(den == 0):
@@ -168,7 +222,10 @@ def _rational_matrix(value) -> np.ndarray | None:
 def _tungsten_matrix(extras: dict) -> np.ndarray | None:
     """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
     for number in (1, 2):
-        codes = np.asarray(extras.get(f"CalibrationIlluminant{number}", []), dtype=float).reshape(-1)
+        try:
+            codes = np.asarray(extras.get(f"CalibrationIlluminant{number}", []), dtype=float).reshape(-1)
+        except (TypeError, ValueError):  # a corrupt tag type (e.g. ASCII) is no tag
+            continue
         if codes.size and codes[0] in _TUNGSTEN_CODES:  # a tag of count 0 (a corrupt file) is no tag
             value = extras.get(f"ColorMatrix{number}")
             return None if value is None else _rational_matrix(value)
@@ -239,7 +296,9 @@ def read_raw(path) -> RawImage:
             camera_wb = np.asarray(handle.camera_whitebalance, dtype=float)
             daylight = np.asarray(handle.daylight_whitebalance, dtype=float)
             rgb_cam = np.asarray(handle.color_matrix, dtype=float)
+            cam_xyz = np.asarray(handle.rgb_xyz_matrix, dtype=float)
             raw_type = str(handle.raw_type)
+            sizes = handle.sizes
     except RawFormatError:
         raise
     except (rawpy.LibRawError, OSError, ValueError, NotImplementedError) as exc:
@@ -263,6 +322,8 @@ def read_raw(path) -> RawImage:
         if np.all(wb > 0):
             neutral = (1.0 / wb) / (1.0 / wb).max()
         matrix = _xyz_to_camera_from_libraw(rgb_cam, daylight)
+        if matrix is None:
+            matrix = _xyz_to_camera_from_table(cam_xyz)
     extras = _tiff_extras(path)
     _check_white_level(path, extras.get("WhiteLevel"), black_levels)
     noise = extras.get("NoiseProfile")
@@ -281,6 +342,7 @@ def read_raw(path) -> RawImage:
         cfa=cfa,
         black_level=black,
         white_level=white,
+        crop=_default_crop(path, extras, sizes, mosaic.shape[:2]),
         color_matrix=matrix,
         color_matrix_2=_tungsten_matrix(extras) if matrix is not None else None,
         as_shot_neutral=neutral,

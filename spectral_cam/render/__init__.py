@@ -40,6 +40,7 @@ def render(
     progress: Callable[[int, int, float], None] | None = None,
     with_depth: bool = True,
     lens: ThinLens | None = None,
+    with_margin: bool = False,
 ) -> SpectralImage:
     """Render the scene's spectral radiance through the configured lens.
 
@@ -55,6 +56,13 @@ def render(
         The job's lens, built once (default: ``ThinLens.from_config(config.lens,
         config.sensor)``). It travels on the result as ``.lens``, so the sensor's camera
         equation uses the optics the render used.
+    with_margin
+        Also render the sensor's crop margin, ``sensor.crop_margin_px`` real pixels around
+        the frame (the lens :meth:`~spectral_cam.optics.ThinLens.widened`; the scene still
+        laid out for the frame). The result then holds the frame and its margin:
+        ``frame_window`` locates the frame, ``framed()`` crops it, and
+        :func:`~spectral_cam.expose` makes a RAW whose default crop is the frame, so every
+        developer interpolates the frame's edges from real data.
 
     Returns
     -------
@@ -71,10 +79,12 @@ def render(
     """
     import mitsuba as mi
 
-    check_render_memory(config.sensor.width_px, config.sensor.height_px)
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    if with_margin:
+        lens = lens.layout_lens.widened(config.sensor.crop_margin_px)
+    check_render_memory(lens.width_px, lens.height_px)
     variant = choose_variant(config.render.variant)
     mi.set_variant(variant)
-    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     decisions: dict[str, dict] = {}
 
     depth, depth_s = None, 0.0

@@ -185,7 +185,7 @@ def defocus_layers(radiance, lens, *, depth_m: np.ndarray | None = None, coc_rat
                          depth.astype(np.float32), meta, getattr(radiance, "channels", None))
 
 
-def nearest_depth(config, *, supersample: int = 4) -> np.ndarray:
+def nearest_depth(config, *, lens: ThinLens | None = None, supersample: int = 4) -> np.ndarray:
     """Camera-space z (m) of the nearest surface in each pixel, from ``supersample``²
     depth samples per pixel (a pinhole depth render at ``supersample``× the resolution,
     min-pooled), so small objects are not missed as by a 1-sample depth map.
@@ -193,7 +193,10 @@ def nearest_depth(config, *, supersample: int = 4) -> np.ndarray:
     Parameters
     ----------
     config : SceneConfig
-        The scene (its sensor and lens geometry).
+        The scene.
+    lens : ThinLens, optional
+        The lens and sensor area imaged (default: from ``config``); the probe samples the
+        same area ``supersample``× finer, with the scene laid out for the same frame.
     supersample : int
         Depth samples per pixel along each axis, 1–8.
 
@@ -211,13 +214,11 @@ def nearest_depth(config, *, supersample: int = 4) -> np.ndarray:
     
     if not (isinstance(supersample, int) and 1 <= supersample <= 8):
         raise ConfigError(f"depth supersample {supersample!r} must be a whole number in 1..8")
-    width, height = config.sensor.width_px, config.sensor.height_px
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    width, height = lens.width_px, lens.height_px
     factor = max(1, min(supersample, 20000 // max(width, height)))
-    fine = config.replace(**{"sensor.width_px": width * factor, "sensor.height_px": height * factor,
-                             "sensor.pixel_pitch_um": config.sensor.pixel_pitch_um / factor,
-                             "lens.model": "pinhole"})
     mi.set_variant(choose_variant(config.render.variant))
-    depth = render_depth(mi, fine, ThinLens.from_config(fine.lens, fine.sensor))
+    depth = render_depth(mi, config, lens.supersampled(factor))
     return depth.reshape(height, factor, width, factor).min(axis=(1, 3)).astype(np.float32)
 
 
@@ -273,7 +274,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     variant = choose_variant(config.render.variant) if variant is None else variant
     mi.set_variant(variant)
-    width, height = config.sensor.width_px, config.sensor.height_px
+    width, height = lens.width_px, lens.height_px
     band_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
     bands = spectra.parse_bands(band_spec)
     apply, diffraction = decide_diffraction(lens, bands, config.render.diffraction)
@@ -285,7 +286,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
         pinhole["render.bands"] = band_spec  # diffraction is applied per band after the defocus
     started = time.perf_counter()
     if margin_px == "auto":
-        probe = nearest_depth(config, supersample=1)
+        probe = nearest_depth(config, lens=lens, supersample=1)
         finite = probe[np.isfinite(probe)]
         reach = [float(lens.coc_diameter_px(z)) for z in (finite.min(), finite.max())] if finite.size else []
         if not np.all(np.isfinite(probe)):
@@ -297,14 +298,13 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
         raise ConfigError(f"margin_px {margin_px!r} must be 'auto' or a whole number of pixels >= 0")
     margin = min(margin, max(width, height), (20000 - max(width, height)) // 2)
     timings["margin_probe"] = time.perf_counter() - started
-    wide = config.replace(**{"sensor.width_px": width + 2 * margin, "sensor.height_px": height + 2 * margin,
-                             **pinhole})
+    wide = config.replace(**pinhole)
     t0 = time.perf_counter()
-    wide_lens = ThinLens.from_config(wide.lens, wide.sensor)
+    wide_lens = lens.widened(margin)  # the scene stays laid out for the frame
     sharp = trace(wide, wide_lens, "pinhole", variant=variant, progress=progress)
     timings["pinhole_render"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    depth = nearest_depth(wide, supersample=depth_supersample)
+    depth = nearest_depth(wide, lens=wide_lens, supersample=depth_supersample)
     timings["depth"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     blurred = defocus_layers(sharp, wide_lens, depth_m=depth, coc_ratio=coc_ratio)

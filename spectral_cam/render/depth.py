@@ -21,7 +21,7 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     taken as (p − camera origin)·(optical axis) from the ``position`` AOV. One sample per
     pixel keeps it the depth of one surface, never a blend across an edge.
     """
-    width, height = config.sensor.width_px, config.sensor.height_px
+    width, height = lens.width_px, lens.height_px
     film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
             "pixel_format": "luminance", "component_format": "float32"}
     camera = camera_dict(mi, lens, "pinhole", film, 1)

@@ -40,7 +40,7 @@ def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrato
 
     if not config.scene.mitsuba_xml:
         scene = {"type": "scene", "integrator": integrator, "sensor": camera}
-        scene.update(build_objects(config, lens, mi))
+        scene.update(build_objects(config, lens.layout_lens, mi))  # laid out for the frame
         loaded = load_dict(mi, scene)
         return loaded, loaded.sensors()[0], loaded.integrator()
     try:

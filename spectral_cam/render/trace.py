@@ -84,7 +84,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     """
     import mitsuba as mi
 
-    width, height = config.sensor.width_px, config.sensor.height_px
+    width, height = lens.width_px, lens.height_px  # the frame, or the frame and its margin
     decisions = dict(decisions or {})
     spectral_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
     bands = spectra.parse_bands(spectral_spec)
@@ -184,7 +184,7 @@ def light_trace(config: SceneConfig, *, spp: int, seed: int, lens: ThinLens | No
 
     mi.set_variant(choose_variant(config.render.variant))
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
-    width, height = config.sensor.width_px, config.sensor.height_px
+    width, height = lens.width_px, lens.height_px
     film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
             "pixel_format": "luminance", "component_format": "float32"}
     loaded, _, _ = build_scene(mi, config, lens, camera_dict(mi, lens, "thin", film, spp),

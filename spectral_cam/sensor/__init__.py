@@ -232,4 +232,5 @@ def expose(
         color_matrix_2=matrix_a,
         forward_matrix=forward,
         forward_matrix_2=forward_a,
+        crop=radiance.frame_window if hasattr(radiance, "frame_window") else None,
     )

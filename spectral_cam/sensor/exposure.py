@@ -78,6 +78,17 @@ def auto_exposure_time(reference_rates: np.ndarray, *, saturation_e: float, frac
     return fraction * saturation_e / (reference + dark_current_e_per_s), reference
 
 
+def _on_capture(mask: np.ndarray, radiance) -> np.ndarray:
+    """A mask given for the frame, placed in an image that also holds a crop margin."""
+    window = getattr(radiance, "frame_window", None)
+    if window is None or mask.shape != tuple(window[2:]):
+        return mask
+    top, left, height, width = window
+    full = np.zeros(radiance.data.shape[:2], dtype=bool)
+    full[top:top + height, left:left + width] = mask
+    return full
+
+
 def resolve_exposure(radiance: "SpectralImage", config: "SceneConfig", model, *,
                      white_mask: np.ndarray | None = None) -> tuple[float, float | None]:
     """The exposure time of a frame: ``exposure.time_s``, or, for ``"auto"``, the time that
@@ -118,7 +129,7 @@ def resolve_exposure(radiance: "SpectralImage", config: "SceneConfig", model, *,
     if white_mask is None:
         white_mask = getattr(radiance, "white_reference", None)
     if white_mask is not None:
-        mask = np.asarray(white_mask, dtype=bool)
+        mask = _on_capture(np.asarray(white_mask, dtype=bool), radiance)
         if mask.shape != data.shape[:2] or not mask.any():
             raise SensorError(f"white_mask must be a boolean {data.shape[:2]} array with at least one True pixel")
         reference_rates = max_channel_rates(data, model.weights, cos4=model.cos4, mask=mask)

@@ -197,6 +197,9 @@ def validate_radiance(radiance: "SpectralImage", sensor: "SensorSection") -> Non
     if not np.issubdtype(data.dtype, np.floating):
         raise SensorError(f"radiance.data must be float32 or float64, not {data.dtype}")
     height, width, bands = data.shape
+    window = radiance.frame_window if hasattr(radiance, "frame_window") else None
+    if window is not None:  # the frame and a crop margin of real pixels around it
+        height, width = window[2:]
     if (height, width) != (sensor.height_px, sensor.width_px):
         raise SensorError(
             f"radiance is {width}×{height} pixels but the sensor is {sensor.width_px}×{sensor.height_px}; "

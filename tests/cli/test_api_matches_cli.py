@@ -19,7 +19,7 @@ def test_the_readme_snippet_and_the_cli_write_the_same_dng(tmp_path):
     scene_file = "scenes/colorchecker.toml"
     # the README's snippet, on a small frame
     scene = sc.load_scene(scene_file, overrides={"lens.f_number": 2.8, **SMALL})
-    radiance = sc.render(scene)
+    radiance = sc.render(scene, with_margin=True)
     raw = sc.expose(radiance, scene)
     sc.write_dng(raw, tmp_path / "api.dng")
     # the command line on the same scene

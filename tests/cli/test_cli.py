@@ -60,8 +60,10 @@ def test_render_writes_radiance_depth_and_meta(tmp_path, scene_file):
     assert load_scene(out / "scene.toml") == scene_from_dict(meta["config"])  # reproducible as a scene file
     import rawpy
 
-    with rawpy.imread(str(out / "raw.dng")) as raw:
-        assert raw.raw_image_visible.shape == (24, 36)
+    with rawpy.imread(str(out / "raw.dng")) as raw:  # the frame and the 8-px crop margin around it
+        assert raw.raw_image_visible.shape == (24 + 16, 36 + 16)
+        sizes = raw.sizes
+        assert (sizes.crop_top_margin, sizes.crop_left_margin, sizes.crop_height, sizes.crop_width) == (8, 8, 24, 36)
     assert "mitsuba" in meta["versions"]
     # an existing result is never overwritten without --force
     again = run_cli("render", str(scene_file), "-o", str(out))
