@@ -46,3 +46,18 @@ def test_the_design_lists_the_physical_ranges_the_code_enforces():
     for key, (low, high, unit) in PHYSICAL_RANGES.items():
         assert f"| `{key}` | {low:g} | {high:g} | {unit} |" in text, key
     assert f"1..{MAX_SPP}" in text
+
+
+def test_the_readme_develop_speed_comes_from_the_committed_csv():
+    """README numbers come from committed CSVs: the bench-develop block is what the benchmark
+    script writes from docs/bench/bench_develop.csv."""
+    import csv
+    import importlib.util
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("bench_develop", root / "benchmarks" / "bench_develop.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    with open(root / "docs" / "bench" / "bench_develop.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert bench.readme_block(rows) in (root / "README.md").read_text(encoding="utf-8")

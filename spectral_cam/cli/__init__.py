@@ -101,6 +101,27 @@ def _interrupt(signum, frame):
     raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
+#: glibc's malloc returns a freed block of more than ``M_MMAP_THRESHOLD`` (at most 32 MB by
+#: default) to the kernel, which zeroes every page of the next one again: a 24 MP develop, whose
+#: stages each make 100–300 MB arrays, spent about a second in page faults (63 k faults vs 34 k
+#: with the blocks kept in the heap). These two settings keep large blocks in the heap for reuse.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_KEEP_BYTES = 1 << 30
+
+
+def _keep_large_blocks() -> None:
+    """Ask glibc to serve and keep large arrays in the heap (no-op elsewhere)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        libc.mallopt(_M_MMAP_THRESHOLD, ctypes.c_int(_KEEP_BYTES))
+        libc.mallopt(_M_TRIM_THRESHOLD, ctypes.c_int(2 * _KEEP_BYTES - 1))
+    except (OSError, AttributeError):  # not glibc: nothing to tune
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one ``spectral-cam`` command; the exit status: 0 done, 1 finished with failed
     cells or items, 2 a user error (message, no traceback), 130 interrupted (SIGINT or
@@ -111,6 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         build_parser().parse_args(argv)  # prints usage and exits: no command named
         return 2
+    _keep_large_blocks()
     with _sigterm_as_interrupt():
         try:
             return args.func(args)

@@ -14,6 +14,8 @@ References
 
 from __future__ import annotations
 
+import contextlib
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -75,7 +77,7 @@ def _tiff_extras(path: Path) -> dict:
 
     extras: dict = {}
     try:
-        with tifffile.TiffFile(path) as tif:
+        with _quiet(), tifffile.TiffFile(path) as tif:
             for page in tif.pages:
                 tags = page.tags
                 for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model", "ColorMatrix1",
@@ -128,6 +130,25 @@ def _default_crop(path: Path, extras: dict, sizes, shape) -> tuple[int, int, int
     return crop
 
 
+#: Black levels (DN) at or above which a 0 sample cannot be read noise: ≥ 8 DN below black is
+#: several σ of any camera's read noise at that offset.
+MIN_BLACK_FOR_ZERO_CHECK = 8
+
+
+def _check_data_present(path: Path, mosaic: np.ndarray, black_levels, libraw: str) -> None:
+    """Refuse a raw whose image data is missing: LibRaw leaves 0 where a truncated or cut-down
+    file (exiftool's test raws: a Canon 350D DNG, a Panasonic RW2) has no data, and the ISP would
+    develop it to black with exit 0. Every sample 0; or more than half of them 0 although the
+    black level is ≥ 8 DN (read noise does not reach 0 from there); or 99 % of them 0."""
+    zeros = 1.0 - np.count_nonzero(mosaic) / mosaic.size
+    black = float(np.min(black_levels)) if len(black_levels) else 0.0
+    if zeros < 0.99 and not (black >= MIN_BLACK_FOR_ZERO_CHECK and zeros > 0.5):
+        return
+    what = "every sample is 0" if zeros == 1.0 else f"{zeros:.1%} of the samples are 0, black level {black:g} DN"
+    raise RawFormatError(f"{path}: the raw image holds no data ({what}): the file is truncated or cut down, or "
+                         f"its image data is in a format LibRaw {libraw} does not decode{_size_hint(path)}")
+
+
 def _check_white_level(path: Path, tag, black_levels) -> None:
     """Refuse a DNG WhiteLevel at or below its black level: LibRaw then assumes 65535 and the
     image develops several times too dark (a WhiteLevel of 0 on 12-bit data: 16×)."""
@@ -150,7 +171,7 @@ def _raw_ifds(path: Path):
 
     found = []
     try:
-        with tifffile.TiffFile(path) as tif:
+        with _quiet(), tifffile.TiffFile(path) as tif:
             for page in tif.pages:
                 tag = page.tags.get(262)
                 photometric = tag.value if tag is not None and isinstance(tag.value, int) else None
@@ -161,6 +182,59 @@ def _raw_ifds(path: Path):
     except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
         return []
     return found
+
+
+@contextlib.contextmanager
+def _quiet():
+    """tifffile logs an error for each TIFF-like raw it cannot parse (a Panasonic RW2: "RAW
+    format 0x0055 not supported"); our probes only want its answer, LibRaw reads the file."""
+    logger = logging.getLogger("tifffile")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _image_ifds(path: Path) -> list[tuple[int | None, int, int, int]]:
+    """(PhotometricInterpretation, pixels, end of its data, bytes of data) of every IFD of a
+    TIFF-based raw, SubIFDs included (empty for other formats or an unreadable structure)."""
+    import tifffile
+
+    found = []
+    try:
+        with _quiet(), tifffile.TiffFile(path) as tif:
+            pages = list(tif.pages)
+            while pages:
+                page = pages.pop()
+                pages.extend(getattr(page, "pages", None) or [])
+                tag = page.tags.get(262)
+                photometric = tag.value if tag is not None and isinstance(tag.value, int) else None
+                pixels = int(np.prod([n for n in page.shape[:2] if isinstance(n, (int, np.integer))] or [0]))
+                offsets, counts = page.dataoffsets or (), page.databytecounts or ()
+                end = max((int(o) + int(c) for o, c in zip(offsets, counts)), default=0)
+                found.append((photometric, pixels, end, int(sum(int(c) for c in counts))))
+    except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
+        return []
+    return found
+
+
+def _check_data_in_file(path: Path) -> None:
+    """Refuse a TIFF-based raw whose image data is not in the file: a large image whose strips
+    or tiles end past the end of the file (truncated), or a raw image (CFA or LinearRaw) with less
+    than one bit of data per pixel (cut down: a real lossless-JPEG raw needs several). LibRaw
+    decodes such files without an error and fills the missing data with zeros or stale memory."""
+    size = path.stat().st_size
+    for photometric, pixels, end, nbytes in _image_ifds(path):
+        if pixels < 1_000_000:
+            continue  # thumbnails and small previews
+        if end > size:
+            raise RawFormatError(f"{path}: the file is truncated: a {pixels / 1e6:.1f} MP image's data ends at byte "
+                                 f"{end}, but the file has {size} bytes")
+        if photometric in (32803, 34892) and nbytes * 8 < pixels:
+            raise RawFormatError(f"{path}: the raw image holds no data ({nbytes} bytes for {pixels / 1e6:.1f} MP, "
+                                 "under a bit per pixel): the file is cut down or truncated")
 
 
 def _check_tiff_cfa(path: Path) -> None:
@@ -280,6 +354,7 @@ def read_raw(path) -> RawImage:
     if not path.is_file():
         raise RawFormatError(f"raw file {str(path)!r} does not exist")
     _check_tiff_cfa(path)
+    _check_data_in_file(path)
     try:
         with rawpy.imread(str(path)) as handle:
             mosaic = np.array(handle.raw_image_visible, dtype=np.uint16, copy=True)
@@ -312,10 +387,7 @@ def read_raw(path) -> RawImage:
     if mosaic.size == 0 or (mosaic.ndim != 2 and cfa != LINEAR):
         raise RawFormatError(f"{path}: no single-plane raw mosaic nor three-colour linear raw (LibRaw raw type "
                              f"{raw_type}, {colors} colours)")
-    if not mosaic.any():  # every sample 0, below any black level: the data is missing, not dark
-        raise RawFormatError(f"{path}: the raw image holds no data (every sample is 0): the file is truncated "
-                             f"or its image data is in a format LibRaw {'.'.join(map(str, rawpy.libraw_version))} "
-                             "does not decode{_size_hint(path)}")
+    _check_data_present(path, mosaic, black_levels, '.'.join(map(str, rawpy.libraw_version)))
     neutral = matrix = None
     if cfa != "none":
         wb = camera_wb[:3]

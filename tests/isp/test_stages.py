@@ -420,6 +420,31 @@ def test_quantise_is_the_iec_digital_encoding(dtype, bits):
 
 
 # ----------------------------------------------------------------------------- encoders
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_our_png_is_read_pixel_for_pixel_by_libpng_and_pillow(dtype):
+    """png_bytes deflates slices on parallel threads into one zlib stream: libpng (OpenCV)
+    and Pillow, two independent decoders that check the CRCs and Adler-32, read it back exactly."""
+    import io
+
+    from PIL import Image
+
+    from spectral_cam.isp.encode import png_bytes
+
+    rng = np.random.default_rng(4)
+    top = np.iinfo(dtype).max
+    smooth = cv2.resize(rng.uniform(0, top, (40, 30, 3)).astype(np.float32), (1500, 2000))
+    image = np.clip(smooth + rng.normal(0, top / 100, smooth.shape), 0, top).astype(dtype)  # 9 or 18 MB
+    encoded = png_bytes(image, workers=2)
+    back = cv2.imdecode(np.frombuffer(encoded, np.uint8), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    np.testing.assert_array_equal(back, image)
+    decoded = Image.open(io.BytesIO(encoded))
+    assert decoded.size == (1500, 2000)
+    if dtype == np.uint8:  # Pillow reduces 16-bit RGB to 8 bits; libpng above reads those exactly
+        np.testing.assert_array_equal(np.asarray(decoded), image)
+    else:
+        decoded.load()  # still decodes it whole: every CRC and the Adler-32 checked
+
+
 def test_encoders_round_trip(tmp_path):
     import OpenEXR
     import tifffile

@@ -10,11 +10,15 @@ neither image clips.
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import colour
 import numpy as np
 import pytest
 import rawpy
 
+from spectral_cam.errors import RawFormatError
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.raw import read_raw, write_dng
 
@@ -100,3 +104,25 @@ def test_the_canon_data_in_our_dng_keeps_everything_and_develops_as_libraw_devel
     libraw = _libraw_linear_srgb(canon_as_dng)[top:top + height, left:left + width]
     delta_e, exposure = _compare(ours, libraw)
     assert delta_e < 1.5 and exposure == pytest.approx(1.0, abs=0.01), (delta_e, exposure)
+
+
+CUT_DOWN = Path(__file__).resolve().parents[1] / "data" / "cut_down_raws"
+
+
+@pytest.mark.parametrize("name, what", [("canon_350d_cut_down.dng", "22 bytes for 8.2 MP"),
+                                        ("panasonic_lx3_cut_down.rw2", "99.8% of the samples are 0")])
+def test_cut_down_camera_raws_are_refused_not_developed_to_black(tmp_path, cli_env, name, what):
+    """ExifTool's test raws keep the metadata and drop the image data; LibRaw opens them without
+    an error. The DNG's raw SubIFD has 22 bytes of lossless JPEG for 8.2 MP (LibRaw fills the
+    image with zeros, or with stale memory: the check reads the file's structure); the RW2,
+    which tifffile cannot parse, decodes to 0.2 % set samples, far below its black level 15."""
+    import subprocess
+    import sys
+
+    with pytest.raises(RawFormatError, match=f"holds no data \\({re.escape(what)}"):
+        read_raw(CUT_DOWN / name)
+    out = tmp_path / "out.png"
+    done = subprocess.run([sys.executable, "-m", "spectral_cam.cli", "develop", str(CUT_DOWN / name), "-o", str(out)],
+                          capture_output=True, text=True, env=cli_env, timeout=60)
+    assert done.returncode == 2 and "holds no data" in done.stderr and "Traceback" not in done.stderr
+    assert not list(tmp_path.iterdir())

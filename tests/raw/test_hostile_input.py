@@ -187,3 +187,20 @@ def test_a_jpeg_xl_dng_is_called_unsupported_not_corrupt(tmp_path, good_dng):
     with pytest.raises(RawFormatError, match=r"JPEG XL \(DNG 1.7\) compressed .* LibRaw [0-9.]+ does not decode") as info:
         read_raw(path)
     assert "corrupt" not in str(info.value)
+
+
+@pytest.mark.timeout(60)
+def test_a_dng_cut_short_is_refused_as_truncated(tmp_path):
+    """A 1.2 MP DNG with the last 40 % of its bytes gone: its strips end past the end of the
+    file. LibRaw reads it without an error (the missing rows come back as zeros or stale memory)."""
+    import numpy as np
+
+    from spectral_cam.raw import RawImage, read_raw, write_dng
+
+    mosaic = np.random.default_rng(0).integers(300, 4000, (1000, 1200)).astype(np.uint16)
+    path = write_dng(RawImage(mosaic, "RGGB", 256.0, 4095, as_shot_neutral=np.ones(3)), tmp_path / "whole.dng")
+    cut = tmp_path / "cut.dng"
+    data = path.read_bytes()
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    with pytest.raises(RawFormatError, match="truncated: a 1.2 MP image's data ends at byte"):
+        read_raw(cut)
