@@ -26,8 +26,11 @@ from .decisions import AUTO_SPP_PER_PASS, NoiseMonitor, decide_bands, decide_dif
 from .films import band_film, camera_film
 from .scene_dict import build_scene, camera_dict, pass_seed
 
-#: Wavefront lanes per Mitsuba pass (pixels × spp); bounds memory for the vectorised variants.
-LANES_PER_PASS = 1 << 22
+#: Most wavefront lanes (pixels × spp) of one Mitsuba call in the vectorised variants. Mitsuba's
+#: path tracer runs as a symbolic loop whose memory does not grow with the lanes (measured: see
+#: docs/design.md), so this only keeps a call well inside drjit's 32-bit lane indices; a frame
+#: whose samples fit is one call, as a bare ``mi.render`` would be.
+LANES_PER_PASS = 1 << 28
 #: Lanes per pass for the scalar variant (its cost is per sample; smaller passes give progress).
 SCALAR_LANES_PER_PASS = 1 << 20
 
@@ -47,6 +50,44 @@ def power_of_two_at_most(spp: int) -> int:
     [1, 2, 16, 64, 64]
     """
     return 1 << max(int(spp), 1).bit_length() - 1
+
+
+class _PassMean:
+    """The spp-weighted mean of the passes, kept in one float32 frame updated in place: a
+    single pass is Mitsuba's own image (no copy), later passes are added with one
+    multithreaded ``cv2.scaleAdd`` each (no float64 or full-cube temporaries). float32 is
+    enough: a handful of passes adds rounding far below the Monte-Carlo noise."""
+
+    def __init__(self):
+        self.total: np.ndarray | None = None
+        self.spp = 0
+        self.summed = False  # total holds Σ spp·image (True) or the first image itself (False)
+
+    def add(self, image: np.ndarray, spp: int) -> None:
+        import cv2
+
+        if self.total is None:
+            self.total = image if image.flags.writeable else image.copy()
+            self.spp = spp
+            return
+        if not self.summed:
+            self.total *= np.float32(self.spp)
+            self.summed = True
+        rows = self.total.shape[0]
+        flat = self.total.reshape(rows, -1)
+        cv2.scaleAdd(np.ascontiguousarray(image).reshape(rows, -1), float(spp), flat, dst=flat)
+        self.spp += spp
+
+    def peek(self) -> np.ndarray:
+        """The mean so far, as a new array (the running sum is left as it is)."""
+        return self.total / np.float32(self.spp) if self.summed else self.total
+
+    def mean(self) -> np.ndarray:
+        """The mean, computed in place (the accumulator is done)."""
+        if self.summed:
+            self.total /= np.float32(self.spp)
+            self.summed = False
+        return self.total
 
 
 def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
@@ -115,32 +156,32 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
 
-    accumulated = np.zeros((height, width, n_channels), dtype=np.float64)
+    accumulated = _PassMean()
     done, index, seeds = 0, 0, []
     while done < target_spp:
         spp = power_of_two_at_most(min(spp_per_pass, target_spp - done))
         seed = pass_seed(config.render.seed, index)
         image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, seed=seed, spp=spp),
-                           dtype=np.float64).reshape(height, width, n_channels)
-        accumulated += image * spp
+                           dtype=np.float32).reshape(height, width, n_channels)
+        accumulated.add(image, spp)
         done += spp
         index += 1
         seeds.append(seed)
         if progress is not None:
             progress(done, target_spp, time.perf_counter() - started)
-        if monitor is not None and monitor.add(image) and monitor.converged(accumulated / done):
+        if monitor is not None and monitor.add(image) and monitor.converged(accumulated.peek()):
             break
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
         if progress is not None and done < target_spp:
             progress(done, done, time.perf_counter() - started)
-    data = accumulated / done
+    data = accumulated.mean()
     # Mitsuba's film can return values like −1e-19 where a pixel is black (floating-point
     # cancellation); anything clearly negative would be a bug, not rounding
     lowest, highest = float(data.min()), float(data.max())
     if lowest < -1e-6 * max(highest, 1e-30):
         raise RenderError(f"Mitsuba returned negative radiance ({lowest:g}, max {highest:g})")
-    data = np.maximum(data, 0.0).astype(np.float32)
+    np.maximum(data, 0.0, out=data)
     radiance_s = time.perf_counter() - started - load_s
 
     t0 = time.perf_counter()
