@@ -162,8 +162,29 @@ def recover_interrupted(target: str | Path) -> list[Path]:
     return restored
 
 
-def write_exr_channels(channels, path: str | Path, attributes=None) -> Path:
-    """Write named float32 channels as a ZIP-compressed scanline OpenEXR, atomically.
+#: ZIP is used only when it saves at least this fraction of the bytes (estimated on a sample).
+ZIP_WORTH_IT = 0.10
+
+
+def _zip_saves(data: dict) -> float:
+    """Fraction of bytes zlib saves on a sample of the channels' rows (the EXR ZIP codec is
+    zlib after a byte-plane predictor, so this is a fair, cheap estimate of its saving)."""
+    import zlib
+
+    import numpy as np
+
+    arrays = list(data.values())
+    sample = [a[:: max(1, a.shape[0] // 16)] for a in arrays[:: max(1, len(arrays) // 4)]]
+    raw = b"".join(np.ascontiguousarray(a).tobytes() for a in sample)
+    return 1.0 - len(zlib.compress(raw, 1)) / max(len(raw), 1)
+
+
+def write_exr_channels(channels, path: str | Path, attributes=None, *, compression: str = "auto") -> Path:
+    """Write named float32 channels as a scanline OpenEXR, atomically.
+
+    ``compression="auto"`` writes ZIP where it pays and no compression where the data is noise:
+    a 16-spp, 31-band radiance at 2.5 MP compressed by 1.5 % at a cost of 4.4 s (uncompressed:
+    0.3 s), while a smooth depth map shrinks several-fold. OpenEXR compresses on all CPUs.
 
     Parameters
     ----------
@@ -174,6 +195,9 @@ def write_exr_channels(channels, path: str | Path, attributes=None) -> Path:
         Output file.
     attributes : mapping of str to str, optional
         Extra header attributes (e.g. the spectral layout's ``spectralLayoutVersion``).
+    compression : {"auto", "zip", "none"}
+        ``"auto"``: ZIP when a zlib estimate on a sample of rows saves at least
+        :data:`ZIP_WORTH_IT` of the bytes, else none.
 
     Raises
     ------
@@ -188,8 +212,14 @@ def write_exr_channels(channels, path: str | Path, attributes=None) -> Path:
     import numpy as np
     import OpenEXR
 
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **(attributes or {})}
+    if compression not in ("auto", "zip", "none"):
+        raise ConfigError(f"EXR compression {compression!r}; valid: 'auto', 'zip', 'none'")
     data = {name: np.ascontiguousarray(value, dtype=np.float32) for name, value in channels.items()}
+    if compression == "auto":
+        compression = "zip" if _zip_saves(data) >= ZIP_WORTH_IT else "none"
+    codec = OpenEXR.ZIP_COMPRESSION if compression == "zip" else OpenEXR.NO_COMPRESSION
+    OpenEXR.set_global_thread_count(os.cpu_count() or 1)
+    header = {"compression": codec, "type": OpenEXR.scanlineimage, **(attributes or {})}
     path = Path(path)
     with atomic_path(path) as tmp:
         try:

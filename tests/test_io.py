@@ -84,3 +84,25 @@ def test_a_failed_exr_write_is_an_os_error_the_cli_reports(tmp_path, monkeypatch
     err = capsys.readouterr().err
     assert "could not write the OpenEXR file" in err and "No space left" in err and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]
+
+
+@pytest.mark.timeout(60)
+def test_exr_compression_auto_zips_what_compresses_and_keeps_every_bit(tmp_path):
+    """OpenEXR reads back both kinds bit for bit; the header says which codec auto chose:
+    ZIP for a smooth field, none for float noise (which ZIP cannot shrink, but spends seconds on)."""
+    import numpy as np
+    import OpenEXR
+
+    from spectral_cam.io import write_exr_channels
+
+    y, x = np.mgrid[0:64, 0:96].astype(np.float32)
+    smooth = {"Z": (2.0 + 0.001 * x + 0.0 * y).astype(np.float32)}
+    noise = {f"S0.{500 + 10 * i},000000nm": np.random.default_rng(i).uniform(0, 1, (64, 96)).astype(np.float32)
+             for i in range(4)}
+    for channels, codec in ((smooth, OpenEXR.ZIP_COMPRESSION), (noise, OpenEXR.NO_COMPRESSION)):
+        path = write_exr_channels(channels, tmp_path / f"{len(channels)}.exr")
+        with OpenEXR.File(str(path), separate_channels=True) as exr:
+            assert exr.header()["compression"] == codec
+            back = {name: channel.pixels for name, channel in exr.channels().items()}
+        for name, values in channels.items():
+            np.testing.assert_array_equal(back[name], values)
