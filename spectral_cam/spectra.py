@@ -4,6 +4,13 @@ Everything here is a plain function returning :class:`colour.SpectralDistributio
 :class:`colour.MultiSpectralDistributions` objects, or NumPy arrays sampled on a band grid.
 Wavelengths are in nm throughout.
 
+The ``validate_*`` functions check a name, number or CSV the way the loaders would, without
+building a spectrum: scene validation uses them, so loading a scene does not import
+colour-science (~1 s: it imports matplotlib and scipy). colour-science's names are written out
+here for that (:data:`COLOUR_ILLUMINANT_KEYS`, :data:`COLOUR_LIGHT_SOURCE_KEYS`,
+:data:`COLORCHECKER_PATCH_NAMES`, :data:`COLOUR_CAMERA_KEYS`); tests/test_spectra.py checks
+them against colour-science. The spectra themselves load on first use.
+
 Sources
 -------
 - Illuminants and light sources: colour-science (CIE 15:2004 tables and others).
@@ -38,6 +45,13 @@ __all__ = [
     "parse_bands",
     "illuminant",
     "illuminant_names",
+    "validate_illuminant",
+    "validate_reflectance",
+    "validate_transmission",
+    "validate_camera",
+    "COLOUR_ILLUMINANT_KEYS",
+    "COLOUR_LIGHT_SOURCE_KEYS",
+    "COLORCHECKER_PATCH_NAMES",
     "absolute_irradiance",
     "reflectance",
     "colorchecker_reflectances",
@@ -146,6 +160,13 @@ def load_spectrum_csv(path: str | Path, *, maximum: float | None = None) -> "col
     import colour
 
     path = Path(path)
+    wavelengths, values = _read_spectrum_csv(path, maximum=maximum)
+    return colour.SpectralDistribution(dict(zip(wavelengths, values)), name=path.stem)
+
+
+def _read_spectrum_csv(path: Path, *, maximum: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The checked (wavelengths_nm, values) of a spectrum CSV, sorted by wavelength, without
+    colour-science (the checks and messages of :func:`load_spectrum_csv`)."""
     if not path.is_file():
         raise ConfigError(f"spectrum file {str(path)!r} does not exist")
     rows = []
@@ -177,7 +198,7 @@ def load_spectrum_csv(path: str | Path, *, maximum: float | None = None) -> "col
     if maximum is not None and np.any(data[:, 1] > maximum):
         raise ConfigError(f"{path}: values must lie in [0, {maximum:g}] (largest {data[:, 1].max():g}; "
                           "per cent? divide by 100)")
-    return colour.SpectralDistribution(dict(zip(wavelengths, data[:, 1])), name=path.stem)
+    return wavelengths, data[:, 1]
 
 
 def _is_number(text: str) -> bool:
@@ -189,6 +210,38 @@ def _is_number(text: str) -> bool:
 
 
 # ----------------------------------------------------------------------------- illuminants
+#: The keys of colour-science's ``SDS_ILLUMINANTS`` (CIE 15:2004 illuminants and others), written
+#: out so that validating ``illuminant.spd`` does not import colour; tests/test_spectra.py checks
+#: them against colour-science.
+COLOUR_ILLUMINANT_KEYS = (
+    "A", "B", "C", "D50", "D55", "D60", "D65", "D75", "E", "FL1", "FL2", "FL3", "FL4", "FL5", "FL6", "FL7",
+    "FL8", "FL9", "FL10", "FL11", "FL12", "FL3.1", "FL3.2", "FL3.3", "FL3.4", "FL3.5", "FL3.6", "FL3.7",
+    "FL3.8", "FL3.9", "FL3.10", "FL3.11", "FL3.12", "FL3.13", "FL3.14", "FL3.15", "HP1", "HP2", "HP3", "HP4",
+    "HP5", "LED-B1", "LED-B2", "LED-B3", "LED-B4", "LED-B5", "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2",
+    "ID65", "ID50", "ISO 7589 Photographic Daylight", "ISO 7589 Sensitometric Daylight",
+    "ISO 7589 Studio Tungsten", "ISO 7589 Sensitometric Studio Tungsten", "ISO 7589 Photoflood",
+    "ISO 7589 Sensitometric Photoflood", "ISO 7589 Sensitometric Printer",
+)
+#: The keys of colour-science's ``SDS_LIGHT_SOURCES`` (measured lamps), written out and checked
+#: as :data:`COLOUR_ILLUMINANT_KEYS`. 25 hold a "/": they are names, never paths.
+COLOUR_LIGHT_SOURCE_KEYS = (
+    "Natural", "Philips TL-84", "SA", "SC", "T8 Luxline Plus White", "T8 Polylux 3000", "T8 Polylux 4000",
+    "Thorn Kolor-rite", "Cool White FL", "Daylight FL", "HPS", "Incandescent", "LPS", "Mercury",
+    "Metal Halide", "Neodimium Incandescent", "Super HPS", "Triphosphor FL", "3-LED-1 (457/540/605)",
+    "3-LED-2 (473/545/616)", "3-LED-2 Yellow", "3-LED-3 (465/546/614)", "3-LED-4 (455/547/623)",
+    "4-LED No Yellow", "4-LED Yellow", "4-LED-1 (461/526/576/624)", "4-LED-2 (447/512/573/627)",
+    "Luxeon WW 2880", "PHOS-1", "PHOS-2", "PHOS-3", "PHOS-4", "Phosphor LED YAG", "60 A/W (Soft White)",
+    "C100S54 (HPS)", "C100S54C (HPS)", "F32T8/TL830 (Triphosphor)", "F32T8/TL835 (Triphosphor)",
+    "F32T8/TL841 (Triphosphor)", "F32T8/TL850 (Triphosphor)", "F32T8/TL865/PLUS (Triphosphor)",
+    "F34/CW/RS/EW (Cool White FL)", "F34T12/LW/RS/EW", "F34T12WW/RS/EW (Warm White FL)",
+    "F40/C50 (Broadband FL)", "F40/C75 (Broadband FL)", "F40/CWX (Broadband FL)", "F40/DX (Broadband FL)",
+    "F40/DXTP (Delux FL)", "F40/N (Natural FL)", "H38HT-100 (Mercury)", "H38JA-100/DX (Mercury DX)",
+    "MHC100/U/MP/3K", "MHC100/U/MP/4K", "SDW-T 100W/LV (Super HPS)", "Kinoton 75P",
+)
+#: Blackbody temperatures ``illuminant.spd = "blackbody:<K>"`` accepts (K).
+BLACKBODY_RANGE_K = (500.0, 50000.0)
+
+
 @functools.lru_cache(maxsize=1)
 def _illuminant_table() -> dict[str, object]:
     import colour
@@ -200,9 +253,54 @@ def _illuminant_table() -> dict[str, object]:
     return table
 
 
+@functools.lru_cache(maxsize=1)
+def _illuminant_names_by_fold() -> dict[str, str]:
+    """casefolded name -> colour-science's name (illuminants win over light sources)."""
+    return {name.casefold(): name for name in (*COLOUR_LIGHT_SOURCE_KEYS, *COLOUR_ILLUMINANT_KEYS)}
+
+
 def illuminant_names() -> list[str]:
     """Names accepted by :func:`illuminant` (besides ``blackbody:<K>`` and CSV paths)."""
-    return sorted(_illuminant_table(), key=str.casefold)
+    return sorted(_illuminant_names_by_fold().values(), key=str.casefold)
+
+
+def _resolve_illuminant(spec: str) -> tuple[str, object]:
+    """("blackbody", K) | ("name", colour-science's name) | ("csv", path), checked, without
+    colour-science."""
+    spec = str(spec).strip()
+    if spec.lower().startswith("blackbody:"):
+        try:
+            kelvin = float(spec.split(":", 1)[1])
+        except ValueError:
+            kelvin = -1.0
+        low, high = BLACKBODY_RANGE_K
+        if not low <= kelvin <= high:
+            raise ConfigError(f"illuminant {spec!r}: use 'blackbody:<K>' with {low:g} <= K <= {high:g}")
+        return "blackbody", kelvin
+    by_fold = _illuminant_names_by_fold()
+    if spec.casefold() in by_fold:  # before paths: names like "F40/DX (Broadband FL)" hold a "/"
+        return "name", by_fold[spec.casefold()]
+    if _looks_like_path(spec):
+        return "csv", spec
+    raise ConfigError(
+        f"unknown illuminant {spec!r}; valid: 'blackbody:<K>', a CSV path, or one of "
+        + ", ".join(illuminant_names())
+    )
+
+
+def validate_illuminant(spec: str) -> None:
+    """Refuse an ``illuminant.spd`` that :func:`illuminant` would refuse, with the same
+    message, without importing colour-science (a CSV is read and checked).
+
+    Raises
+    ------
+    ConfigError
+        An unknown name (the message lists the valid ones), a blackbody temperature outside
+        500–50000 K, or a CSV that :func:`load_spectrum_csv` refuses.
+    """
+    kind, value = _resolve_illuminant(spec)
+    if kind == "csv":
+        _read_spectrum_csv(Path(value))
 
 
 def illuminant(spec: str) -> "colour.SpectralDistribution":  # noqa: F821
@@ -213,28 +311,24 @@ def illuminant(spec: str) -> "colour.SpectralDistribution":  # noqa: F821
     spec
         A colour-science illuminant or light-source name (``"D65"``, ``"A"``, ``"FL11"``,
         ``"LED-B1"``, ...), ``"blackbody:<temperature in K>"`` or the path of a CSV file.
+
+    References
+    ----------
+    .. [1] CIE 15:2004, Colorimetry, 3rd ed., §3 (standard illuminants) and Planck's law
+       (``colour.sd_blackbody``).
     """
     import colour
 
-    spec = str(spec).strip()
-    if spec.lower().startswith("blackbody:"):
-        try:
-            kelvin = float(spec.split(":", 1)[1])
-        except ValueError:
-            kelvin = -1.0
-        if not 500 <= kelvin <= 50000:
-            raise ConfigError(f"illuminant {spec!r}: use 'blackbody:<K>' with 500 <= K <= 50000")
-        return colour.sd_blackbody(kelvin, colour.SpectralShape(360, 830, 1))
+    kind, value = _resolve_illuminant(spec)
+    if kind == "blackbody":
+        return colour.sd_blackbody(value, colour.SpectralShape(360, 830, 1))
+    if kind == "csv":
+        return load_spectrum_csv(value)
     table = _illuminant_table()
-    by_fold = {name.casefold(): name for name in table}
-    if spec.casefold() in by_fold:  # before paths: names like "F40/DX (Broadband FL)" hold a "/"
-        return table[by_fold[spec.casefold()]].copy()
-    if _looks_like_path(spec):
-        return load_spectrum_csv(spec)
-    raise ConfigError(
-        f"unknown illuminant {spec!r}; valid: 'blackbody:<K>', a CSV path, or one of "
-        + ", ".join(illuminant_names())
-    )
+    if value not in table:  # the written-out names and the installed colour-science disagree
+        raise ConfigError(f"illuminant {value!r} is not in colour-science {colour.__version__}; "
+                          "valid here: 'blackbody:<K>', a CSV path, or one of " + ", ".join(sorted(table)))
+    return table[value].copy()
 
 
 def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, np.ndarray]:
@@ -262,6 +356,17 @@ def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, 
 
 
 # ----------------------------------------------------------------------------- reflectances
+#: The 24 patches of colour-science's ``SDS_COLOURCHECKERS["BabelColor Average"]`` in chart
+#: reading order (McCamy et al. 1976), written out so that validating a patch name does not
+#: import colour; tests/test_spectra.py checks them against colour-science.
+COLORCHECKER_PATCH_NAMES = (
+    "dark skin", "light skin", "blue sky", "foliage", "blue flower", "bluish green", "orange",
+    "purplish blue", "moderate red", "purple", "yellow green", "orange yellow", "blue", "green", "red",
+    "yellow", "magenta", "cyan", "white 9.5 (.05 D)", "neutral 8 (.23 D)", "neutral 6.5 (.44 D)",
+    "neutral 5 (.70 D)", "neutral 3.5 (1.05 D)", "black 2 (1.5 D)",
+)
+
+
 def colorchecker_reflectances() -> dict[str, "colour.SpectralDistribution"]:  # noqa: F821
     """The 24 ColorChecker patches (BabelColor average), in chart reading order."""
     import colour
@@ -269,27 +374,51 @@ def colorchecker_reflectances() -> dict[str, "colour.SpectralDistribution"]:  # 
     return {name: sd.copy() for name, sd in colour.SDS_COLOURCHECKERS[COLORCHECKER_SET].items()}
 
 
+def _resolve_reflectance(spec: float | str) -> tuple[str, object]:
+    """("flat", value) | ("patch", name) | ("csv", path), checked, without colour-science."""
+    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
+        value = float(spec)
+        if not 0.0 <= value <= 1.0:
+            raise ConfigError(f"reflectance {value!r} must lie in [0, 1]")
+        return "flat", value
+    spec = str(spec)
+    by_fold = {name.casefold(): name for name in COLORCHECKER_PATCH_NAMES}
+    if spec.casefold() in by_fold:  # before paths, as for illuminant names
+        return "patch", by_fold[spec.casefold()]
+    if _looks_like_path(spec):
+        return "csv", spec
+    raise ConfigError(
+        f"unknown reflectance {spec!r}; valid: a number in [0, 1], a CSV path, or a "
+        f"ColorChecker patch name: {', '.join(COLORCHECKER_PATCH_NAMES)}"
+    )
+
+
+def validate_reflectance(spec: float | str) -> None:
+    """Refuse a reflectance that :func:`reflectance` would refuse, with the same message,
+    without importing colour-science (a CSV is read and checked, values at most 1).
+
+    Raises
+    ------
+    ConfigError
+        A number outside [0, 1], an unknown patch name (the message lists the 24), or a CSV
+        that :func:`load_spectrum_csv` refuses with ``maximum=1``.
+    """
+    kind, value = _resolve_reflectance(spec)
+    if kind == "csv":
+        _read_spectrum_csv(Path(value), maximum=1.0)
+
+
 def reflectance(spec: float | str) -> "colour.SpectralDistribution":  # noqa: F821
     """A reflectance spectrum: a number in [0, 1] (flat), a ColorChecker patch name
     (``"dark skin"`` ... ``"black 2 (1.5 D)"``) or a CSV path."""
     import colour
 
-    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
-        value = float(spec)
-        if not 0.0 <= value <= 1.0:
-            raise ConfigError(f"reflectance {value!r} must lie in [0, 1]")
+    kind, value = _resolve_reflectance(spec)
+    if kind == "flat":
         return colour.SpectralDistribution({360.0: value, 830.0: value}, name=f"flat {value:g}")
-    spec = str(spec)
-    patches = colorchecker_reflectances()
-    if spec.casefold() not in {name.casefold() for name in patches} and _looks_like_path(spec):
-        return load_spectrum_csv(spec, maximum=1.0)
-    by_fold = {name.casefold(): name for name in patches}
-    if spec.casefold() in by_fold:
-        return patches[by_fold[spec.casefold()]]
-    raise ConfigError(
-        f"unknown reflectance {spec!r}; valid: a number in [0, 1], a CSV path, or a "
-        f"ColorChecker patch name: {', '.join(patches)}"
-    )
+    if kind == "csv":
+        return load_spectrum_csv(value, maximum=1.0)
+    return colorchecker_reflectances()[value]
 
 
 # ----------------------------------------------------------------------------- cameras
@@ -352,12 +481,24 @@ def camera_sensitivities(name: str) -> "colour.MultiSpectralDistributions":  # n
         One of :func:`camera_names` (case and punctuation insensitive, e.g.
         ``"nikon_d850"`` or ``"Nikon D850"``).
     """
+    return _camera_sensitivities_cached(validate_camera(name)).copy()
+
+
+def validate_camera(name: str) -> str:
+    """The slug of a measured camera (``"Nikon D850"`` -> ``"nikon_d850"``), without loading
+    its curves or importing colour-science.
+
+    Raises
+    ------
+    ConfigError
+        An unknown camera; the message lists :func:`camera_names`.
+    """
     slug = _slug(str(name))
     if slug not in _camera_sources():
         raise ConfigError(
             f"unknown camera {name!r}; valid: 'ideal' or one of {', '.join(camera_names())}"
         )
-    return _camera_sensitivities_cached(slug).copy()
+    return slug
 
 
 # ----------------------------------------------------------------------------- filters
@@ -372,13 +513,13 @@ def ir_cut_filter(cutoff_nm: float, *, width_nm: float = 8.0) -> "colour.Spectra
     return colour.SpectralDistribution(dict(zip(wavelengths, values)), name=f"ir_cut:{cutoff_nm:g}")
 
 
-def transmission(spec: float | str | None) -> "colour.SpectralDistribution | None":  # noqa: F821
-    """A filter/lens transmission: ``None``/``1`` (none), a number in (0, 1], a CSV path, or
-    ``"ir_cut:<nm>"`` (an idealised IR-cut filter, see :func:`ir_cut_filter`)."""
+def _resolve_transmission(spec: float | str | None) -> tuple[str, object]:
+    """("none", None) | ("ir_cut", nm) | ("flat", value) | ("csv", path), checked, without
+    colour-science."""
     if spec is None or (isinstance(spec, (int, float)) and float(spec) == 1.0):
-        return None
+        return "none", None
     if isinstance(spec, str) and spec.strip().lower() in ("", "none", "1"):
-        return None
+        return "none", None
     if isinstance(spec, str) and spec.strip().lower().startswith("ir_cut:"):
         try:
             cutoff = float(spec.split(":", 1)[1])
@@ -386,15 +527,49 @@ def transmission(spec: float | str | None) -> "colour.SpectralDistribution | Non
             cutoff = -1.0
         if not 500 <= cutoff <= 800:
             raise ConfigError(f"transmission {spec!r}: use 'ir_cut:<cut-off nm>' with 500 <= nm <= 800")
-        return ir_cut_filter(cutoff)
+        return "ir_cut", cutoff
     if isinstance(spec, str) and not _looks_like_path(spec):
         raise ConfigError(f"unknown transmission {spec!r}; valid: a number in (0, 1], a CSV path, "
                           "or 'ir_cut:<cut-off nm>' (e.g. 'ir_cut:650')")
     if isinstance(spec, (int, float)) and not 0.0 < float(spec) <= 1.0:
         raise ConfigError(f"transmission {spec!r} must lie in (0, 1] (0 would let no light through)")
-    sd = reflectance(spec) if isinstance(spec, (int, float)) else load_spectrum_csv(spec)
-    if np.max(sd.values) > 1.0 + 1e-9:
+    if isinstance(spec, (int, float)):
+        return "flat", spec
+    return "csv", spec
+
+
+def _check_transmission_values(spec, values: np.ndarray) -> None:
+    if np.max(values) > 1.0 + 1e-9:
         raise ConfigError(f"transmission {spec!r} exceeds 1; give a fraction in [0, 1]")
+
+
+def validate_transmission(spec: float | str | None) -> None:
+    """Refuse a lens transmission or IR-cut filter that :func:`transmission` would refuse,
+    with the same message, without importing colour-science (a CSV is read and checked).
+
+    Raises
+    ------
+    ConfigError
+        A number outside (0, 1], an ``ir_cut:<nm>`` outside 500–800 nm, an unknown name, or
+        a CSV that is unreadable or exceeds 1.
+    """
+    kind, value = _resolve_transmission(spec)
+    if kind == "csv":
+        _check_transmission_values(spec, _read_spectrum_csv(Path(value))[1])
+
+
+def transmission(spec: float | str | None) -> "colour.SpectralDistribution | None":  # noqa: F821
+    """A filter/lens transmission: ``None``/``1`` (none), a number in (0, 1], a CSV path, or
+    ``"ir_cut:<nm>"`` (an idealised IR-cut filter, see :func:`ir_cut_filter`)."""
+    kind, value = _resolve_transmission(spec)
+    if kind == "none":
+        return None
+    if kind == "ir_cut":
+        return ir_cut_filter(value)
+    if kind == "flat":
+        return reflectance(value)
+    sd = load_spectrum_csv(value)
+    _check_transmission_values(spec, np.asarray(sd.values))
     return sd
 
 

@@ -51,3 +51,63 @@ def test_the_written_out_colour_camera_keys_are_colour_sciences():
     from spectral_cam.spectra import COLOUR_CAMERA_KEYS
 
     assert tuple(colour.MSDS_CAMERA_SENSITIVITIES) == COLOUR_CAMERA_KEYS
+
+
+def test_the_written_out_illuminant_and_patch_names_are_colour_sciences():
+    import colour
+
+    from spectral_cam.spectra import (
+        COLORCHECKER_PATCH_NAMES,
+        COLORCHECKER_SET,
+        COLOUR_ILLUMINANT_KEYS,
+        COLOUR_LIGHT_SOURCE_KEYS,
+        colorchecker_reflectances,
+        illuminant_names,
+    )
+
+    assert tuple(colour.SDS_ILLUMINANTS) == COLOUR_ILLUMINANT_KEYS
+    assert tuple(colour.SDS_LIGHT_SOURCES) == COLOUR_LIGHT_SOURCE_KEYS
+    assert tuple(colour.SDS_COLOURCHECKERS[COLORCHECKER_SET]) == COLORCHECKER_PATCH_NAMES
+    assert tuple(colorchecker_reflectances()) == COLORCHECKER_PATCH_NAMES
+    assert illuminant_names() == sorted({*colour.SDS_ILLUMINANTS, *colour.SDS_LIGHT_SOURCES}, key=str.casefold)
+
+
+def _outcome(function, spec):
+    """None when ``function(spec)`` succeeds, else its ConfigError's message."""
+    try:
+        function(spec)
+    except ConfigError as exc:
+        return str(exc)
+    return None
+
+
+@pytest.fixture
+def spectrum_files(tmp_path):
+    files = {"good": "wavelength_nm,value\n400,0.2\n700,0.8\n", "above_1": "400,0.5\n700,1.5\n",
+             "negative": "400,0.5\n700,-0.1\n", "garbled": "400,0.5x\n700,0.5\n"}
+    for name, text in files.items():
+        (tmp_path / f"{name}.csv").write_text(text)
+    return {name: str(tmp_path / f"{name}.csv") for name in files}
+
+
+@pytest.mark.parametrize("kind, specs", [
+    ("illuminant", ["D65", "d65", "FL3.15", "F40/DX (Broadband FL)", "Kinoton 75P", "blackbody:3200",
+                    "blackbody:499", "blackbody:x", "sunlight", "", "good", "above_1", "negative", "garbled",
+                    "missing.csv"]),
+    ("reflectance", [0.0, 0.18, 1, 1.5, -0.1, float("nan"), True, "dark skin", "BLACK 2 (1.5 D)", "skin",
+                     "good", "above_1", "negative", "garbled", "missing.csv"]),
+    ("transmission", [None, 1, 1.0, "1", "none", "", 0.5, 0, 1.2, "ir_cut:650", "ir_cut:900", "ir_cut:x",
+                      "hot mirror", "good", "above_1", "negative", "garbled", "missing.csv"]),
+    ("camera", ["nikon_d850", "Nikon D850", "nikon_5100_npl", "Sigma SDMerill (NPL)", "leica", ""]),
+])
+def test_validation_refuses_what_the_loaders_refuse_with_the_same_message(spectrum_files, kind, specs):
+    """The validate_* functions (no colour-science) and the loaders must never disagree."""
+    from spectral_cam import spectra
+
+    loader = {"illuminant": spectra.illuminant, "reflectance": spectra.reflectance,
+              "transmission": spectra.transmission, "camera": spectra.camera_sensitivities}[kind]
+    validator = getattr(spectra, f"validate_{kind}")
+    for spec in specs:
+        spec = spectrum_files.get(spec, spec) if isinstance(spec, str) else spec
+        expected = _outcome(loader, spec)
+        assert _outcome(validator, spec) == expected, spec

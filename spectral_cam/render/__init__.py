@@ -29,7 +29,7 @@ from .defocus import render_layered
 from .depth import render_depth
 from .memory import check_render_memory
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
-from .variants import choose_variant
+from .variants import choose_variant, choose_variant_record
 
 __all__ = ["render", "render_layered", "choose_variant", "SpectralImage", "LANES_PER_PASS", "SCALAR_LANES_PER_PASS"]
 
@@ -83,9 +83,9 @@ def render(
     if with_margin:
         lens = lens.layout_lens.widened(config.sensor.crop_margin_px)
     check_render_memory(lens.width_px, lens.height_px)
-    variant = choose_variant(config.render.variant)
+    variant, variant_record = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
-    decisions: dict[str, dict] = {}
+    decisions: dict[str, dict] = {"variant": variant_record}
 
     depth, depth_s = None, 0.0
     lens_model = config.lens.model

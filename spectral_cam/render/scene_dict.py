@@ -13,17 +13,45 @@ import numpy as np
 
 from ..errors import RenderError
 from ..optics import ThinLens
-from ..scene import SceneConfig
+from ..scene import RENDER_SAMPLERS, SceneConfig
 
 
-def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int) -> dict:
+#: Mitsuba samplers a render may use (``render.sampler``, validated in scene.py), each with the
+#: sample counts per pass
+#: it keeps exactly (others it rounds up: stratified and ldsampler to powers of 4, multijitter 32
+#: to 35, 128 to 132; orthogonal to prime squares, 64 to 121, so it is not offered).
+SAMPLERS = RENDER_SAMPLERS
+
+
+def exact_pass_spp(sampler: str, spp: int) -> int:
+    """The largest samples-per-pixel count ≤ ``spp`` that is a power of two (a seed then gives
+    the same bits every time, see :func:`~spectral_cam.render.trace.power_of_two_at_most`) and
+    that ``sampler`` keeps as it is, so a frame gets exactly the samples asked for.
+
+    Examples
+    --------
+    >>> [exact_pass_spp("multijitter", n) for n in (1, 3, 8, 32, 100, 256)]
+    [1, 2, 8, 16, 64, 256]
+    >>> [exact_pass_spp("independent", n) for n in (3, 32, 100)]
+    [2, 32, 64]
+    """
+    count = 1 << max(int(spp), 1).bit_length() - 1
+    while count > 1:
+        power_of_four = count.bit_length() % 2 == 1
+        if sampler == "independent" or power_of_four or (sampler == "multijitter" and count in (2, 8)):
+            return count
+        count >>= 1
+    return 1
+
+
+def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent") -> dict:
     camera = {
         "type": "thinlens" if model == "thin" else "perspective",
         "fov": lens.fov_x_deg,
         "fov_axis": "x",
         "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0]),
         "film": film,
-        "sampler": {"type": "independent", "sample_count": spp},
+        "sampler": {"type": sampler, "sample_count": spp},
         "near_clip": min(1e-3, lens.focus_distance_m / 10),
     }
     if model == "thin":

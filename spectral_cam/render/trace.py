@@ -22,9 +22,9 @@ from ..errors import RenderError
 from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
-from .decisions import AUTO_SPP_PER_PASS, NoiseMonitor, decide_bands, decide_diffraction
+from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction
 from .films import band_film, camera_film
-from .scene_dict import build_scene, camera_dict, pass_seed
+from .scene_dict import build_scene, camera_dict, exact_pass_spp, pass_seed
 
 #: Most wavefront lanes (pixels × spp) of one Mitsuba call in the vectorised variants. Mitsuba's
 #: path tracer runs as a symbolic loop whose memory does not grow with the lanes (measured: see
@@ -50,6 +50,29 @@ def power_of_two_at_most(spp: int) -> int:
     [1, 2, 16, 64, 64]
     """
     return 1 << max(int(spp), 1).bit_length() - 1
+
+
+def _fixed_passes(sampler: str, spp: int, lane_cap: int):
+    """Pass sizes of a fixed-spp frame: as few calls as the lane cap allows, each a size the
+    sampler keeps exactly."""
+    done = 0
+    while done < spp:
+        size = exact_pass_spp(sampler, min(spp - done, lane_cap))
+        done += size
+        yield size
+
+
+def _auto_passes(sampler: str, max_spp: int, lane_cap: int):
+    """Pass sizes of ``spp = "auto"``: rounds of :data:`AUTO_SPP_MIN_PASSES` equal passes whose
+    size grows 4× a round (a stratified sampler gains within a pass: one pass of 256 is far less
+    noisy than 32 of 8), the last rounds shrunk to fit ``max_spp``; the monitor judges each round."""
+    done, size = 0, auto_spp_per_pass(sampler)
+    while (max_spp - done) // AUTO_SPP_MIN_PASSES >= 1:
+        size = exact_pass_spp(sampler, min(size, lane_cap, (max_spp - done) // AUTO_SPP_MIN_PASSES))
+        for _ in range(AUTO_SPP_MIN_PASSES):
+            done += size
+            yield size
+        size *= 4
 
 
 class _PassMean:
@@ -144,22 +167,24 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     auto_spp = config.render.spp == "auto"
     target_spp = config.render.max_spp if auto_spp else config.render.spp
     lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
-    spp_per_pass = power_of_two_at_most(min(AUTO_SPP_PER_PASS if auto_spp else target_spp, lanes // (width * height)))
+    sampler = config.render.sampler
+    lane_cap = max(lanes // (width * height), 1)
+    spp_per_pass = exact_pass_spp(sampler, min(auto_spp_per_pass(sampler) if auto_spp else target_spp, lane_cap))
     monitor = None
-    if auto_spp:  # equal passes: the pass-to-pass spread estimates the Monte-Carlo noise
-        target_spp = -(-target_spp // spp_per_pass) * spp_per_pass
-        monitor = NoiseMonitor(config, wavelengths, edges, channels)
+    passes = _fixed_passes(sampler, target_spp, lane_cap)
+    if auto_spp:  # rounds of equal passes, growing: each round's spread estimates its noise
+        monitor = NoiseMonitor(config, wavelengths, edges, channels, lens)
+        passes = _auto_passes(sampler, target_spp, lane_cap)
 
     started = time.perf_counter()
-    camera = camera_dict(mi, lens, lens_model, film, spp_per_pass)
+    camera = camera_dict(mi, lens, lens_model, film, spp_per_pass, sampler)
     integrator = {"type": "path", "max_depth": config.render.max_depth}
     scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
 
     accumulated = _PassMean()
     done, index, seeds = 0, 0, []
-    while done < target_spp:
-        spp = power_of_two_at_most(min(spp_per_pass, target_spp - done))
+    for spp in passes:
         seed = pass_seed(config.render.seed, index)
         image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, seed=seed, spp=spp),
                            dtype=np.float32).reshape(height, width, n_channels)
@@ -169,7 +194,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         seeds.append(seed)
         if progress is not None:
             progress(done, target_spp, time.perf_counter() - started)
-        if monitor is not None and monitor.add(image) and monitor.converged(accumulated.peek()):
+        if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
             break
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
@@ -194,6 +219,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         "lens_model": lens_model,
         "spp": done,
         "spp_per_pass": spp_per_pass,
+        "sampler": sampler,
         "passes": index,
         "pass_seeds": seeds,
         "bands": "camera" if use_camera else spectral_spec,

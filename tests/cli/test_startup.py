@@ -1,12 +1,15 @@
 """Start-up (issue 13 #6): the commands that need no rendering — ``develop``, ``cameras``,
 ``--help`` — must not import the renderer (Mitsuba, drjit), Dask, or colour-science
-(whose import loads matplotlib and scipy, ~1 s): a develop should start like rawpy."""
+(whose import loads matplotlib and scipy, ~1 s): a develop should start like rawpy.
+Loading and validating a scene (issue 14 #3) must not either: names are checked against
+written-out lists, spectra load when the render needs them."""
 
 from __future__ import annotations
 
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,7 +45,7 @@ def small_dng(tmp_path_factory):
     return write_dng(raw, tmp_path_factory.mktemp("startup") / "small.dng")
 
 
-@pytest.mark.parametrize("argv", [("--help",), ("cameras",)])
+@pytest.mark.parametrize("argv", [("--help",), ("cameras",), ("render", "--help")])
 def test_listing_commands_import_nothing_heavy(argv):
     assert _modules_imported_by(*argv) == []
 
@@ -52,3 +55,43 @@ def test_develop_imports_nothing_heavy(small_dng, tmp_path, demosaic):
     out = tmp_path / f"{demosaic}.png"
     assert _modules_imported_by("develop", str(small_dng), "-o", str(out), "--set", f"isp.demosaic={demosaic}") == []
     assert out.exists()
+
+
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+
+_LOAD_PROBE = """
+import json, sys
+import spectral_cam
+for path, overrides in json.loads(sys.argv[1]):
+    spectral_cam.load_scene(path, overrides=overrides)
+print(json.dumps([name for name in {heavy!r} if name in sys.modules]))
+"""
+
+
+def _modules_imported_loading(*jobs) -> list[str]:
+    """Heavy modules imported by ``load_scene(path, overrides)`` for each (path, overrides)."""
+    jobs = [[str(path), list(overrides)] for path, overrides in jobs]
+    done = subprocess.run([sys.executable, "-c", _LOAD_PROBE.format(heavy=HEAVY), json.dumps(jobs)],
+                          capture_output=True, text=True, timeout=100, check=False)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_loading_the_bundled_scenes_imports_nothing_heavy():
+    assert _modules_imported_loading((SCENES / "colorchecker.toml", [])) == []
+    assert _modules_imported_loading(*[(path, []) for path in sorted(SCENES.glob("*.toml"))]) == []
+
+
+def test_validating_every_kind_of_spectrum_imports_nothing_heavy(tmp_path):
+    """Names, numbers, CSVs and filters are all checked without colour-science."""
+    spd = tmp_path / "led.csv"
+    spd.write_text("wavelength_nm,value\n400,0\n450,1\n500,0.5\n")
+    scene = SCENES / "colorchecker.toml"
+    assert _modules_imported_loading(
+        (scene, ["illuminant.spd=F40/DX (Broadband FL)", "scene.preset=flat_field", "scene.reflectance=dark skin",
+                 "sensor.model=sigma_sdmerill_npl", "sensor.ir_cut=ir_cut:650", "lens.transmission=0.9"]),
+        (scene, [f"illuminant.spd={spd}", "scene.preset=flat_field", f"scene.reflectance={spd}",
+                 f"lens.transmission={spd}", f"sensor.ir_cut={spd}"]),
+        (scene, ["illuminant.spd=blackbody:3200", "scene.preset=flat_field", "scene.reflectance=0.5",
+                 "sensor.model=ideal", "sensor.cfa=none"]),
+    ) == []
