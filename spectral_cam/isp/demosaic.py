@@ -4,13 +4,18 @@ Every method takes the (white-balanced) float32 linear mosaic and returns (H, W,
 float32 linear RGB, unclipped, for any of the four Bayer phases and any image size
 (odd included).
 
-- ``bilinear``: normalised masked convolution (cv2.filter2D, float32). Mirror padding
-  about the edge pixel (BORDER_REFLECT_101) keeps the CFA phase, so borders are exact
-  bilinear too.
+``bilinear``, ``malvar2004`` and ``menon2007`` are written on the four CFA planes (R, G in red
+rows, G in blue rows, B), so each value is computed only at the sites that keep it, and run by
+:func:`by_planes` on cache-sized row bands on threads, whose per-site colours ``cv2.merge``
+interleaves straight into the output. Mirror padding about the edge pixel (BORDER_REFLECT_101)
+keeps the CFA phase, so borders are exact too.
+
+- ``bilinear``: the mean of the nearest 2 or 4 samples of each missing colour (normalised
+  masked convolution, to float32 rounding).
 - ``malvar2004``: gradient-corrected linear interpolation, the four 5×5 kernels of Malvar,
-  He & Cutler applied with cv2.filter2D in float32 and selected per CFA site.
+  He & Cutler, each evaluated at the sites that use it.
 - ``menon2007``: directional filtering with a posteriori decision, colour-demosaicing's
-  algorithm in float32 OpenCV filters (:mod:`spectral_cam.isp.menon2007`).
+  algorithm in float32 (:mod:`spectral_cam.isp.menon2007`).
 - ``vng`` and ``ea``: OpenCV's variable number of gradients and edge-aware demosaicing.
   OpenCV's VNG accepts 8-bit input only (EA 8- or 16-bit). To keep the linear data's
   precision, the mosaic is split in two layers: a coarse layer, scaled to the image
@@ -36,48 +41,138 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cfa import channel_index, channel_masks, check_cfa, opencv_bayer_code
+from ..cfa import check_cfa, opencv_bayer_code
 from ..errors import ConfigError
 from ..registry import Registry
 
 __all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "vng", "ea"]
 
 _F32 = np.float32
-# bilinear kernels for green (4-neighbour) and red/blue (4 + 4 neighbours)
-_K_G = np.array([[0, 1, 0], [1, 4, 1], [0, 1, 0]], _F32) / 4
-_K_RB = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], _F32) / 4
 
-# Malvar, He & Cutler (2004), Fig. 2, all divided by 8
-_K_G_AT_RB = np.array([
-    [0, 0, -1, 0, 0],
-    [0, 0, 2, 0, 0],
-    [-1, 2, 4, 2, -1],
-    [0, 0, 2, 0, 0],
-    [0, 0, -1, 0, 0]], _F32) / 8
-# a colour at a green site whose horizontal neighbours have that colour
-_K_ROW = np.array([
-    [0, 0, 0.5, 0, 0],
-    [0, -1, 0, -1, 0],
-    [-1, 4, 5, 4, -1],
-    [0, -1, 0, -1, 0],
-    [0, 0, 0.5, 0, 0]], _F32) / 8
-# a colour at a green site whose vertical neighbours have that colour
-_K_COL = np.ascontiguousarray(_K_ROW.T)
-# red at blue sites and blue at red sites
-_K_DIAG = np.array([
-    [0, 0, -1.5, 0, 0],
-    [0, 2, 0, 2, 0],
-    [-1.5, 0, 6, 0, -1.5],
-    [0, 2, 0, 2, 0],
-    [0, 0, -1.5, 0, 0]], _F32) / 8
+#: Output rows per band for the linear methods: a band's planes and intermediates stay in the
+#: CPU cache, and the bands are shared among threads.
+BAND_ROWS = 64
 
 
-def _filter(image: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+class _Scratch:
+    """One thread's named buffers, reused from band to band: ``scratch(key, shape)`` is a
+    C-contiguous float32 (or ``dtype``) array of that shape whose contents are undefined; a
+    key asked for with a smaller shape gets a view of the same memory."""
+
+    def __init__(self):
+        self._buffers: dict[tuple, np.ndarray] = {}
+        self._views: dict[tuple, np.ndarray] = {}
+
+    def __call__(self, key: str, shape: tuple[int, ...], dtype=_F32) -> np.ndarray:
+        view = self._views.get((key, shape, dtype))
+        if view is None:
+            size = int(np.prod(shape))
+            buffer = self._buffers.get((key, dtype))
+            if buffer is None or buffer.size < size:
+                buffer = self._buffers[key, dtype] = np.empty(size, dtype)
+            view = self._views[key, shape, dtype] = buffer[:size].reshape(shape)
+        return view
+
+
+def by_planes(mosaic: np.ndarray, cfa: str, sites, *, pad: int, offset: int, band_rows: int = BAND_ROWS,
+              workers: int | None = None) -> np.ndarray:
+    """Run a demosaicer written on the four CFA planes over row bands on parallel threads.
+
+    The mosaic is mirror-padded about its edge pixels (BORDER_REFLECT_101, which keeps the
+    CFA phase) by ``pad`` pixels and shifted so that the padded mosaic starts on a red site;
+    each band of output rows is cut from it with ``pad`` rows of context on either side (made
+    only for the band: the padded frame is never formed), split into its R, G-in-red-rows,
+    G-in-blue-rows and B planes, and handed to ``sites``, whose per-site colours are
+    interleaved straight into the output with ``cv2.merge`` (no full-frame masks, no per-channel
+    strided writes). Bands run in order on each thread and reuse that thread's buffers.
+
+    Parameters
+    ----------
+    mosaic
+        (H, W) float32 mosaic, C-contiguous.
+    cfa
+        Bayer tile at the top-left pixel (checked).
+    sites
+        ``sites(R, Gr, Gb, B, scratch) -> (at_R, at_Gr, at_Gb, at_B)``, each a triple of
+        (r, g, b) arrays of the band's plane grid, whose element ``[i, j]`` is plane sample
+        ``[i + offset, j + offset]``; ``scratch`` is :class:`_Scratch`.
+    pad
+        Context (pixels, even): the output at a pixel depends on the mosaic within ``pad``.
+    offset
+        Plane samples that ``sites`` leaves out at the band's top and left.
+    band_rows
+        Output rows per band, about (the frame is cut into equal bands, as many for each thread).
+    workers
+        Threads (default: the CPUs).
+    """
+    import os
+
     import cv2
 
-    # filter2D computes a correlation; every kernel here is symmetric, so it equals the
-    # convolution. REFLECT_101 mirrors about the edge pixel, which keeps the CFA phase.
-    return cv2.filter2D(image, cv2.CV_32F, kernel, borderType=cv2.BORDER_REFLECT_101)
+    height, width = mosaic.shape
+    ry, rx = divmod(cfa.index("R"), 2)
+    top, left = pad + ry, pad + rx
+    right = pad + (width + left) % 2
+    wq = (width + left + right) // 2
+    out = np.empty((height, width, 3), _F32)
+    # about band_rows rows a band, each thread the same number of bands; bands down to a
+    # quarter of that when there are fewer than threads; never under 2 rows
+    workers = max(1, workers or os.cpu_count() or 1)
+    n_bands = max(1, round(height / band_rows), min(workers, height // max(band_rows // 4, 1)))
+    if n_bands > workers:
+        n_bands = -(-n_bands // workers) * workers
+    n_bands = min(n_bands, max(height // 2, 1))
+    workers = min(workers, n_bands)
+    edges = [height * k // n_bands for k in range(n_bands + 1)]
+    pairs = width // 2
+    # the output's pixel pairs (x, x + 1), x even, as sites (b, j) of the padded planes
+    b0, j0 = left % 2, left // 2 - offset
+    b1, j1 = (left + 1) % 2, (left + 1) // 2 - offset
+
+    def band(y0: int, y1: int, scratch: _Scratch) -> None:
+        p0 = (y0 + top - pad) // 2 * 2  # padded rows [p0, p1) around output rows [y0, y1)
+        p1 = -(-(y1 + top + pad) // 2) * 2
+        first, last = max(p0 - top, 0), min(p1 - top, height)
+        hq = (p1 - p0) // 2
+        padded = scratch("padded", (2 * hq, 2 * wq))
+        # mirrored rows are added only at the frame's top and bottom (first = 0, last = H)
+        cv2.copyMakeBorder(mosaic[first:last], first - (p0 - top), p1 - top - last, left, right,
+                           cv2.BORDER_REFLECT_101, dst=padded)
+        planes = [scratch(key, (hq, wq)) for key in ("R", "Gr", "Gb", "B")]
+        cv2.split(padded[0::2].reshape(hq, wq, 2), planes[:2])
+        cv2.split(padded[1::2].reshape(hq, wq, 2), planes[2:])
+        values = sites(*planes, scratch)
+        for ys in range(y0, min(y0 + 2, y1)):
+            parity = (ys + top) % 2
+            i = (ys + top - p0) // 2 - offset
+            rows = slice(i, i + (y1 - ys + 1) // 2)
+            first_site, second_site = values[2 * parity + b0], values[2 * parity + b1]
+            if pairs:
+                # every other row, each row's pixel pairs as 6 channels: a view of the output
+                dst = out[ys:y1:2, :2 * pairs].reshape(-1, pairs, 6)
+                src = ([c[rows, j0:j0 + pairs] for c in first_site]
+                       + [c[rows, j1:j1 + pairs] for c in second_site])
+                if not np.may_share_memory(dst, out) or cv2.merge(src, dst=dst) is not dst:  # pragma: no cover
+                    raise RuntimeError("cv2.merge did not write into the output")
+            if width % 2:
+                x = width - 1
+                site, j = values[2 * parity + (x + left) % 2], (x + left) // 2 - offset
+                for c in range(3):
+                    out[ys:y1:2, x, c] = site[c][rows, j]
+
+    def run(k: int) -> None:
+        scratch = _Scratch()
+        for n in range(n_bands * k // workers, n_bands * (k + 1) // workers):
+            band(edges[n], edges[n + 1], scratch)
+
+    if workers == 1:
+        run(0)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            list(pool.map(run, range(workers)))
+    return out
 
 
 def _check(mosaic: np.ndarray, cfa: str) -> tuple[np.ndarray, str]:
@@ -89,8 +184,42 @@ def _check(mosaic: np.ndarray, cfa: str) -> tuple[np.ndarray, str]:
     return mosaic, check_cfa(cfa)
 
 
+def _bilinear_sites(R, Gr, Gb, B, scratch):
+    """Bilinear interpolation on the four planes (one sample of context): each missing colour
+    is the mean of its 2 or 4 nearest samples, as pair means of pair means."""
+    import cv2
+
+    hq, wq = R.shape
+    hi, wi = hq - 2, wq - 2
+
+    def at(X, di, dj):
+        return X[1 + di:hq - 1 + di, 1 + dj:wq - 1 + dj]
+
+    def mean(key, a, b, rows=hi):
+        return cv2.addWeighted(a, 0.5, b, 0.5, 0.0, dst=scratch(key, (rows, wi)))
+
+    # R between horizontal R pairs (at G in red rows), on one extra row for R at blue sites
+    r_gr = mean("r_gr", R[1:, 1:-1], R[1:, 2:], hq - 1)
+    r_b = mean("r_b", r_gr[:-1], r_gr[1:])
+    r_gb = mean("r_gb", at(R, 0, 0), at(R, 1, 0))
+    # B between horizontal B pairs (at G in blue rows), on one extra row for B at red sites
+    b_gb = mean("b_gb", B[:-1, :-2], B[:-1, 1:-1], hq - 1)
+    b_r = mean("b_r", b_gb[:-1], b_gb[1:])
+    b_gr = mean("b_gr", at(B, -1, 0), at(B, 0, 0))
+    g_r = mean("g_r", mean("gh", at(Gr, 0, -1), at(Gr, 0, 0)), mean("gv", at(Gb, -1, 0), at(Gb, 0, 0)))
+    g_b = mean("g_b", mean("gh", at(Gr, 0, 0), at(Gr, 1, 0)), mean("gv", at(Gb, 0, 0), at(Gb, 0, 1)))
+    return ((at(R, 0, 0), g_r, b_r), (r_gr[:-1], at(Gr, 0, 0), b_gr), (r_gb, at(Gb, 0, 0), b_gb[1:]),
+            (r_b, g_b, at(B, 0, 0)))
+
+
 def bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
-    """Bilinear demosaicing by normalised masked convolution.
+    """Bilinear demosaicing: each missing colour is the mean of its nearest 2 or 4 samples.
+
+    Computed on the four CFA planes in cache-sized row bands on threads (:func:`by_planes`),
+    so only the missing sites are computed. Mirror padding about the edge pixel
+    (BORDER_REFLECT_101) keeps the CFA phase, so borders are exact bilinear too; the result
+    equals normalised masked convolution with the kernels [[0, 1, 0], [1, 4, 1], [0, 1, 0]]/4
+    (green) and [[1, 2, 1], [2, 4, 2], [1, 2, 1]]/4 (red, blue) to float32 rounding.
 
     Parameters
     ----------
@@ -110,31 +239,73 @@ def bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
        IEEE Signal Processing Magazine 22(1), 44–54, §"Bilinear interpolation".
     """
     mosaic, cfa = _check(mosaic, cfa)
-    masks = channel_masks(mosaic.shape, cfa)
-    out = np.empty(mosaic.shape + (3,), _F32)
-    for c, kernel in ((0, _K_RB), (1, _K_G), (2, _K_RB)):
-        out[..., c] = _filter(mosaic * masks[..., c], kernel)
-    return out
+    return by_planes(mosaic, cfa, _bilinear_sites, pad=2, offset=1)
 
 
-def _green_neighbour_masks(shape, cfa):
-    """Masks of green sites whose horizontal neighbours are red (``g_r``) or blue."""
-    index = channel_index(shape, cfa)
-    # the colour of the horizontal neighbour of (y, x) is the colour at (y, x ^ 1)
-    tile = np.array([{"R": 0, "G": 1, "B": 2}[c] for c in cfa]).reshape(2, 2)
-    rows = np.arange(shape[0])[:, None] % 2
-    cols = np.arange(shape[1])[None, :] % 2
-    neighbour = tile[rows, 1 - cols]
-    green = index == 1
-    return index, green & (neighbour == 0), green & (neighbour == 2)
+def _malvar_sites(R, Gr, Gb, B, scratch):
+    """Malvar, He & Cutler's 5×5 kernels (Fig. 2, all /8) evaluated only at the sites that use
+    them, on the four planes (one sample of context)."""
+    import cv2
+
+    hq, wq = R.shape
+    hi, wi = hq - 2, wq - 2
+
+    def at(X, di, dj):
+        return X[1 + di:hq - 1 + di, 1 + dj:wq - 1 + dj]
+
+    def add(key, a, b, rows=hi):
+        return cv2.add(a, b, dst=scratch(key, (rows, wi)))
+
+    def weighted(key, a, wa, b, wb):
+        return cv2.addWeighted(a, wa, b, wb, 0.0, dst=scratch(key, (hi, wi)))
+
+    def scale_add(a, w, b):  # b += w·a, in place
+        cv2.scaleAdd(a, w, b, dst=b)
+        return b
+
+    # the four same-colour samples two pixels away, summed, at red and at blue sites
+    s_r = add("s_r", add("t1", at(R, -1, 0), at(R, 1, 0)), add("t2", at(R, 0, -1), at(R, 0, 1)))
+    s_b = add("s_b", add("t1", at(B, -1, 0), at(B, 1, 0)), add("t2", at(B, 0, -1), at(B, 0, 1)))
+    # horizontal pairs, with one more row: [:-1] and [1:] are the pairs in the rows the comments name
+    gr_h = add("gr_h", Gr[1:, :-2], Gr[1:, 1:-1], hq - 1)  # Gr(0, −1) + Gr(0, 0): rows 0, +1
+    gb_h = add("gb_h", Gb[:-1, 1:-1], Gb[:-1, 2:], hq - 1)  # Gb(0, 0) + Gb(0, 1): rows −1, 0
+    r_h = add("r_h", R[1:, 1:-1], R[1:, 2:], hq - 1)  # R(0, 0) + R(0, 1): rows 0, +1
+    b_h = add("b_h", B[:-1, :-2], B[:-1, 1:-1], hq - 1)  # B(0, −1) + B(0, 0): rows −1, 0
+    # green at red and blue sites: ½·C + ¼·(the 4 greens) − ⅛·(the 4 samples of C two away)
+    g_r = weighted("g_r", at(R, 0, 0), 0.5, add("t1", gr_h[:-1], add("t2", at(Gb, -1, 0), at(Gb, 0, 0))), 0.25)
+    scale_add(s_r, -0.125, g_r)
+    g_b = weighted("g_b", at(B, 0, 0), 0.5, add("t1", gb_h[1:], add("t2", at(Gr, 0, 0), at(Gr, 1, 0))), 0.25)
+    scale_add(s_b, -0.125, g_b)
+    # blue at red and red at blue: ¾·C + ¼·(the 4 diagonal samples) − 3/16·(the 4 samples of C two away)
+    b_r = scale_add(s_r, -0.1875, weighted("b_r", at(R, 0, 0), 0.75, add("t1", b_h[:-1], b_h[1:]), 0.25))
+    r_b = scale_add(s_b, -0.1875, weighted("r_b", at(B, 0, 0), 0.75, add("t1", r_h[:-1], r_h[1:]), 0.25))
+    # at a green site, the colour of its row's (column's) neighbours: ⅝·G − ⅛·(the 4 diagonal
+    # greens) + ½·(the row (column) pair) − ⅛·(the greens two away along the row (column))
+    # + 1/16·(the greens two away along the column (row))
+    greens = []
+    for name, G, diagonal, row_pair, column_pair in (
+            ("gr", Gr, (gb_h[:-1], gb_h[1:]), r_h[:-1], (at(B, -1, 0), at(B, 0, 0))),
+            ("gb", Gb, (gr_h[:-1], gr_h[1:]), b_h[1:], (at(R, 0, 0), at(R, 1, 0)))):
+        common = weighted(name + "_c", at(G, 0, 0), 0.625, add("t1", *diagonal), -0.125)
+        along_row = add("t1", at(G, 0, -1), at(G, 0, 1))
+        along_column = add("t2", at(G, -1, 0), at(G, 1, 0))
+        row_colour = weighted(name + "_row", row_pair, 0.5, common, 1.0)
+        scale_add(along_column, 0.0625, scale_add(along_row, -0.125, row_colour))
+        column_colour = weighted(name + "_col", add("t3", *column_pair), 0.5, common, 1.0)
+        scale_add(along_row, 0.0625, scale_add(along_column, -0.125, column_colour))
+        greens.append((row_colour, column_colour))
+    (r_gr, b_gr), (b_gb, r_gb) = greens
+    return ((at(R, 0, 0), g_r, b_r), (r_gr, at(Gr, 0, 0), b_gr), (r_gb, at(Gb, 0, 0), b_gb),
+            (r_b, g_b, at(B, 0, 0)))
 
 
 def malvar2004(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     """Gradient-corrected bilinear demosaicing (Malvar, He & Cutler 2004).
 
-    Four fixed 5×5 kernels (cv2.filter2D, float32) are evaluated over the whole mosaic
-    and selected per CFA site; linear in the data and exact on constant and linearly
-    varying colour fields.
+    The paper's four fixed 5×5 kernels (Fig. 2), each evaluated only at the CFA sites that use
+    it, on the four CFA planes in cache-sized row bands on threads (:func:`by_planes`); linear
+    in the data and exact on constant and linearly varying colour fields. Borders mirror
+    about the edge pixel (BORDER_REFLECT_101), which keeps the CFA phase.
 
     Parameters
     ----------
@@ -154,23 +325,16 @@ def malvar2004(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     .. [1] Malvar, H. S., He, L., & Cutler, R. (2004). Proc. IEEE ICASSP, vol. 3, 485–488.
     """
     mosaic, cfa = _check(mosaic, cfa)
-    index, g_rrow, g_brow = _green_neighbour_masks(mosaic.shape, cfa)
-    g_at_rb = _filter(mosaic, _K_G_AT_RB)
-    along_row = _filter(mosaic, _K_ROW)
-    along_col = _filter(mosaic, _K_COL)
-    diagonal = _filter(mosaic, _K_DIAG)
-    red, blue = index == 0, index == 2
-    r = np.where(red, mosaic, np.where(blue, diagonal, np.where(g_rrow, along_row, along_col)))
-    g = np.where(index == 1, mosaic, g_at_rb)
-    b = np.where(blue, mosaic, np.where(red, diagonal, np.where(g_brow, along_row, along_col)))
-    return np.stack([r, g, b], axis=-1).astype(_F32, copy=False)
+    return by_planes(mosaic, cfa, _malvar_sites, pad=2, offset=1)
 
 
 def menon2007(mosaic: np.ndarray, cfa: str = "RGGB", *, refining_step: bool = True) -> np.ndarray:
     """Directional filtering with a posteriori decision (Menon, Andriani & Calvagno 2007).
 
-    colour-demosaicing's algorithm, computed with OpenCV filters in float32
-    (:mod:`spectral_cam.isp.menon2007`; ~30× faster, and without importing colour).
+    colour-demosaicing's algorithm in float32 on the four CFA planes
+    (:func:`spectral_cam.isp.menon2007.menon2007_sites`, without importing colour), on row
+    bands of :data:`MENON_BAND_ROWS` on threads (:func:`by_planes`); the result equals
+    :func:`spectral_cam.isp.menon2007.menon2007_demosaic`'s bit for bit.
 
     Parameters
     ----------
@@ -191,11 +355,18 @@ def menon2007(mosaic: np.ndarray, cfa: str = "RGGB", *, refining_step: bool = Tr
     .. [1] Menon, D., Andriani, S., & Calvagno, G. (2007). IEEE Trans. Image Process.
        16(1), 132–141.
     """
-    from .menon2007 import REACH_PX, menon2007_demosaic
+    from .menon2007 import REACH_PX, menon2007_sites
 
     mosaic, cfa = _check(mosaic, cfa)
-    return in_strips(mosaic, cfa, lambda part, tile: menon2007_demosaic(part, tile, refining_step=refining_step),
-                     reach_px=REACH_PX)
+
+    def sites(R, Gr, Gb, B, scratch):
+        return menon2007_sites(R, Gr, Gb, B, scratch, refining_step=refining_step)
+
+    return by_planes(mosaic, cfa, sites, pad=REACH_PX, offset=0, band_rows=MENON_BAND_ROWS)
+
+
+#: Output rows per band for menon2007, whose bands overlap by 2 × REACH_PX rows.
+MENON_BAND_ROWS = 256
 
 
 #: Frames at least this large (pixels) are demosaiced in row strips on parallel threads.

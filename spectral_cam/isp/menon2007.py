@@ -2,12 +2,14 @@
 decision (DDFAPD), with the paper's refining step, in float32 on the four CFA planes.
 
 The algorithm is colour-demosaicing's (Mansencal et al.), step for step, rewritten so that a
-24 MP frame develops in about a second and ``colour`` (whose import loads matplotlib, ~1 s) is
-never imported. Every quantity lives on the CFA site where the algorithm uses it: the mosaic is
-split into its four half-resolution planes (R, G in red rows, G in blue rows, B), and every
-convolution of the full-resolution algorithm becomes a sum of a few neighbouring plane samples
-(``at(plane, di, dj)``, a shifted view, no copy), so nothing is computed at a site that discards
-it. Borders: the mosaic is mirror-padded once (about the edge pixel) by :data:`REACH_PX`, more
+12 MP frame demosaics in a fraction of a second and ``colour`` (whose import loads matplotlib,
+~1 s) is never imported. Every quantity lives on the CFA site where the algorithm uses it: the
+mosaic is split into its four half-resolution planes (R, G in red rows, G in blue rows, B), and
+every convolution of the full-resolution algorithm becomes a sum of a few neighbouring plane
+samples (``at(plane, di, dj)``, a shifted view, no copy), so nothing is computed at a site that
+discards it. Each operation writes into a reused buffer (:data:`_SLOTS`), so that
+:func:`spectral_cam.isp.demosaic.menon2007` can run :func:`menon2007_sites` on cache-sized row
+bands on threads. Borders: the mosaic is mirror-padded once (about the edge pixel) by :data:`REACH_PX`, more
 than the chain of steps reaches, and phase-shifted so the padded mosaic starts on a red site;
 colour-demosaicing instead mirrors at each step, so the two differ in the outermost pixels only
 (tests/isp/test_menon2007.py checks the interior against colour-demosaicing to float32 rounding,
@@ -35,16 +37,32 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["menon2007_demosaic", "REACH_PX"]
+__all__ = ["REACH_PX", "menon2007_demosaic", "menon2007_sites"]
 
 _F32 = np.float32
 #: Mirror padding (full-resolution pixels, even): each of the ~8 chained steps reads one plane
 #: sample (two pixels) further, and the outermost ring of every plane is left unset.
 REACH_PX = 20
 
+#: The plane buffer (slot) of each quantity of one band: a quantity takes the slot of one that
+#: is no longer needed, so a band works in 14 planes instead of 29 (less memory, more of it in
+#: the CPU cache). The order of the steps in :func:`menon2007_sites` is what makes this valid.
+_SLOTS = {
+    "gh_r": "a", "gv_r": "b", "gh_b": "c", "gv_b": "d", "difference": "e",
+    "dh_r": "f", "dh_b": "g", "dv_r": "h", "dv_b": "i",
+    # g_r, g_b: where() writes into gv_r, gv_b; the refined ones take the same slots
+    "g_r": "b", "g_b": "d",
+    "rg": "a", "bg": "c", "r_gr": "e", "b_gr": "f", "b_gb": "g", "r_gb": "h",
+    "e_gr": "i", "e_gb": "a", "r_b": "c", "b_r": "j",
+    "f_gr": "i", "f_gb": "a", "f_r": "k", "h_gr": "l", "h_gb": "m", "h_b": "n",
+    "e_b": "k", "e_r": "l",
+}
+
 
 def menon2007_demosaic(mosaic: np.ndarray, cfa: str, *, refining_step: bool = True) -> np.ndarray:
-    """DDFAPD demosaicing of a float32 Bayer mosaic (see the module docstring).
+    """DDFAPD demosaicing of a float32 Bayer mosaic, the whole frame at once on one thread (see
+    the module docstring; :func:`spectral_cam.isp.demosaic.menon2007` runs the same
+    :func:`menon2007_sites` on row bands on threads, with the same result).
 
     Parameters
     ----------
@@ -75,85 +93,182 @@ def menon2007_demosaic(mosaic: np.ndarray, cfa: str, *, refining_step: bool = Tr
     bottom = pad + (height + top) % 2
     right = pad + (width + left) % 2
     d = cv2.copyMakeBorder(np.ascontiguousarray(mosaic, dtype=_F32), top, bottom, left, right, cv2.BORDER_REFLECT_101)
-    R, Gr, Gb, B = (np.ascontiguousarray(d[a::2, b::2]) for a, b in ((0, 0), (0, 1), (1, 0), (1, 1)))
+    planes = (np.ascontiguousarray(d[a::2, b::2]) for a, b in ((0, 0), (0, 1), (1, 0), (1, 1)))
+    buffers: dict = {}
+
+    def scratch(key, shape, dtype=_F32):
+        buffer = buffers.get((key, shape, dtype))
+        if buffer is None:
+            buffer = buffers[key, shape, dtype] = np.empty(shape, dtype)
+        return buffer
+
+    sites = menon2007_sites(*planes, scratch, refining_step=refining_step)
+    out = np.empty(d.shape + (3,), _F32)
+    for (a, b), values in zip(((0, 0), (0, 1), (1, 0), (1, 1)), sites):
+        for c in range(3):
+            out[a::2, b::2, c] = values[c]
+    return out[top:top + height, left:left + width]
+
+
+def menon2007_sites(R, Gr, Gb, B, scratch, *, refining_step: bool = True):
+    """The algorithm on the four planes of a mosaic padded by :data:`REACH_PX` that starts on
+    a red site.
+
+    Every expression of colour-demosaicing's algorithm is evaluated in the same order of
+    float32 operations as NumPy evaluated it before (OpenCV's element-wise add, subtract and
+    absdiff round exactly as NumPy's, and are about twice as fast on these strided views;
+    products by a constant stay NumPy's), into buffers from ``scratch`` (slots: :data:`_SLOTS`)
+    reused from band to band. A quantity that lives on a plane keeps a zero outermost ring, as
+    in the whole-frame algorithm (``plane``).
+
+    Parameters
+    ----------
+    R, Gr, Gb, B
+        (h, w) float32 planes: red, green in red rows, green in blue rows, blue.
+    scratch
+        ``scratch(key, shape, dtype=float32)`` → a reusable C-contiguous buffer
+        (:class:`spectral_cam.isp.demosaic._Scratch`).
+    refining_step
+        Apply the paper's refining step.
+
+    Returns
+    -------
+    tuple
+        (r, g, b) at the R, G-in-red-rows, G-in-blue-rows and B sites, each (h, w); the outermost
+        ring is not valid.
+    """
+    import cv2
+
     h, w = R.shape
-    inner = (slice(1, h - 1), slice(1, w - 1))
+    add, subtract, absdiff = cv2.add, cv2.subtract, cv2.absdiff
+
+    def multiply(a, factor, dst):  # NumPy: OpenCV's multiply by a scalar is several times slower
+        return np.multiply(a, factor, out=dst)
 
     def at(X, di, dj):
         return X[1 + di:h - 1 + di, 1 + dj:w - 1 + dj]
 
-    def plane(expression):
-        out = np.zeros((h, w), _F32)
-        out[inner] = expression
+    def temp(key):  # an interior-sized temporary
+        return scratch("menon:" + key, (h - 2, w - 2))
+
+    def full(key):  # a plane-sized quantity, in its slot
+        return scratch("menon:" + _SLOTS[key], (h, w))
+
+    def plane(key, dtype=_F32):  # a plane-sized quantity with a zero ring, and its interior
+        P = scratch("menon:" + _SLOTS.get(key, key), (h, w), dtype)
+        P[0] = 0
+        P[-1] = 0
+        P[:, 0] = 0
+        P[:, -1] = 0
+        return P, P[1:h - 1, 1:w - 1]
+
+    def where(mask, x, y):  # np.where(mask, x, y), into y
+        cv2.copyTo(x, mask, dst=y)
+        return y
+
+    half, quarter, third, three = _F32(0.5), _F32(0.25), _F32(1.0 / 3.0), _F32(3.0)
+
+    # 1. directional green at red and blue sites:
+    #    half · (G1 + G2 + C) − quarter · (C1 + C2)
+    def green(key, g1, g2, c, c1, c2):
+        P, inner = plane(key)
+        t, u = temp("t1"), temp("t2")
+        multiply(add(add(g1, g2, dst=t), c, dst=t), half, dst=t)
+        multiply(add(c1, c2, dst=u), quarter, dst=u)
+        subtract(t, u, dst=inner)
+        return P
+
+    gh_r = green("gh_r", at(Gr, 0, -1), at(Gr, 0, 0), at(R, 0, 0), at(R, 0, -1), at(R, 0, 1))
+    gv_r = green("gv_r", at(Gb, -1, 0), at(Gb, 0, 0), at(R, 0, 0), at(R, -1, 0), at(R, 1, 0))
+    gh_b = green("gh_b", at(Gb, 0, 0), at(Gb, 0, 1), at(B, 0, 0), at(B, 0, -1), at(B, 0, 1))
+    gv_b = green("gv_b", at(Gr, 0, 0), at(Gr, 1, 0), at(B, 0, 0), at(B, -1, 0), at(B, 1, 0))
+
+    # 2. gradients of the colour differences C − G along each direction, summed over the
+    #    5×5 window; the direction with the smaller sum wins (m: 1 = horizontal)
+    def gradient(key, C, G, di, dj):
+        difference = subtract(C, G, dst=full("difference"))
+        P, inner = plane(key)
+        absdiff(at(difference, 0, 0), at(difference, di, dj), dst=inner)
+        return P
+
+    dh_r = gradient("dh_r", R, gh_r, 0, 1)
+    dh_b = gradient("dh_b", B, gh_b, 0, 1)
+    dv_r = gradient("dv_r", R, gv_r, 1, 0)
+    dv_b = gradient("dv_b", B, gv_b, 1, 0)
+
+    def window(key, own, other, terms):
+        """own(a) + own(b) + three · (own(c) + own(d)) + own(e) + own(f) + other(g) + other(h)"""
+        (a, b, c, d, e, f), (g, k) = terms
+        s, t = temp(key), temp("t1")
+        add(at(own, *a), at(own, *b), dst=s)
+        add(s, multiply(add(at(own, *c), at(own, *d), dst=t), three, dst=t), dst=s)
+        for X, offset in ((own, e), (own, f), (other, g), (other, k)):
+            add(s, at(X, *offset), dst=s)
+        return s
+
+    def decision(key, horizontal, vertical):
+        M, inner = plane(key, np.uint8)
+        cv2.compare(vertical, horizontal, cv2.CMP_GE, dst=inner)
+        return M
+
+    m_r = decision("m_r", window("sh", dh_r, dh_b, (((-1, -1), (-1, 0), (0, -1), (0, 0), (1, -1), (1, 0)),
+                                                   ((-1, -1), (0, -1)))),
+                   window("sv", dv_r, dv_b, (((-1, -1), (0, -1), (-1, 0), (0, 0), (-1, 1), (0, 1)),
+                                             ((-1, -1), (-1, 0)))))
+    m_b = decision("m_b", window("sh", dh_b, dh_r, (((-1, -1), (-1, 0), (0, -1), (0, 0), (1, -1), (1, 0)),
+                                                   ((0, 0), (1, 0)))),
+                   window("sv", dv_b, dv_r, (((-1, -1), (0, -1), (-1, 0), (0, 0), (-1, 1), (0, 1)),
+                                             ((0, 0), (0, 1)))))
+    g_r = where(m_r, gh_r, gv_r)  # into gv_r's buffer
+    g_b = where(m_b, gh_b, gv_b)
+
+    # 3. red and blue at the greens: G + half · (the two neighbouring C − G along the row or column)
+    def greens(g_r, g_b):
+        rg, bg = subtract(R, g_r, dst=full("rg")), subtract(B, g_b, dst=full("bg"))
+        out = []
+        for key, G, diff, (a, b) in (("r_gr", Gr, rg, ((0, 0), (0, 1))), ("b_gr", Gr, bg, ((-1, 0), (0, 0))),
+                                     ("b_gb", Gb, bg, ((0, -1), (0, 0))), ("r_gb", Gb, rg, ((0, 0), (1, 0)))):
+            P, inner = plane(key)
+            t = temp("t1")
+            add(at(G, 0, 0), multiply(add(at(diff, *a), at(diff, *b), dst=t), half, dst=t), dst=inner)
+            out.append(P)
         return out
 
-    half, quarter, third = _F32(0.5), _F32(0.25), _F32(1.0 / 3.0)
-    # 1. directional green at red and blue sites
-    gh_r = plane(half * (at(Gr, 0, -1) + at(Gr, 0, 0) + at(R, 0, 0)) - quarter * (at(R, 0, -1) + at(R, 0, 1)))
-    gv_r = plane(half * (at(Gb, -1, 0) + at(Gb, 0, 0) + at(R, 0, 0)) - quarter * (at(R, -1, 0) + at(R, 1, 0)))
-    gh_b = plane(half * (at(Gb, 0, 0) + at(Gb, 0, 1) + at(B, 0, 0)) - quarter * (at(B, 0, -1) + at(B, 0, 1)))
-    gv_b = plane(half * (at(Gr, 0, 0) + at(Gr, 1, 0) + at(B, 0, 0)) - quarter * (at(B, -1, 0) + at(B, 1, 0)))
-    # 2. gradients of the colour differences, summed over the 5×5 window
-    ch_r, cv_r, ch_b, cv_b = R - gh_r, R - gv_r, B - gh_b, B - gv_b
-    dh_r = plane(np.abs(at(ch_r, 0, 0) - at(ch_r, 0, 1)))
-    dh_b = plane(np.abs(at(ch_b, 0, 0) - at(ch_b, 0, 1)))
-    dv_r = plane(np.abs(at(cv_r, 0, 0) - at(cv_r, 1, 0)))
-    dv_b = plane(np.abs(at(cv_b, 0, 0) - at(cv_b, 1, 0)))
-    del ch_r, cv_r, ch_b, cv_b
-    three = _F32(3.0)
-    sum_h_r = (at(dh_r, -1, -1) + at(dh_r, -1, 0) + three * (at(dh_r, 0, -1) + at(dh_r, 0, 0)) + at(dh_r, 1, -1)
-               + at(dh_r, 1, 0) + at(dh_b, -1, -1) + at(dh_b, 0, -1))
-    sum_h_b = (at(dh_b, -1, -1) + at(dh_b, -1, 0) + three * (at(dh_b, 0, -1) + at(dh_b, 0, 0)) + at(dh_b, 1, -1)
-               + at(dh_b, 1, 0) + at(dh_r, 0, 0) + at(dh_r, 1, 0))
-    sum_v_r = (at(dv_r, -1, -1) + at(dv_r, 0, -1) + three * (at(dv_r, -1, 0) + at(dv_r, 0, 0)) + at(dv_r, -1, 1)
-               + at(dv_r, 0, 1) + at(dv_b, -1, -1) + at(dv_b, -1, 0))
-    sum_v_b = (at(dv_b, -1, -1) + at(dv_b, 0, -1) + three * (at(dv_b, -1, 0) + at(dv_b, 0, 0)) + at(dv_b, -1, 1)
-               + at(dv_b, 0, 1) + at(dv_r, 0, 0) + at(dv_r, 0, 1))
-    m_r = plane(sum_v_r >= sum_h_r).astype(bool)
-    m_b = plane(sum_v_b >= sum_h_b).astype(bool)
-    del sum_h_r, sum_h_b, sum_v_r, sum_v_b, dh_r, dh_b, dv_r, dv_b
-    g_r = np.where(m_r, gh_r, gv_r)
-    g_b = np.where(m_b, gh_b, gv_b)
-    del gh_r, gv_r, gh_b, gv_b
+    #    then R at B and B at R: C ± weight · (R − B at the neighbours along the decision)
+    def across(key, C, sign, weight, mask, horizontal, vertical):
+        """C ± weight · where(mask, sum of horizontal terms, sum of vertical terms)"""
+        x, y = temp("t1"), temp("t2")
+        for terms, dst in ((horizontal, x), (vertical, y)):
+            (X0, o0), (X1, o1) = terms[:2]
+            add(at(X0, *o0), at(X1, *o1), dst=dst)
+            for X, o in terms[2:]:
+                add(dst, at(X, *o), dst=dst)
+        multiply(where(at(mask, 0, 0), x, y), weight, dst=y)
+        P, inner = plane(key)
+        (add if sign > 0 else subtract)(at(C, 0, 0), y, dst=inner)
+        return P
 
-    def greens(g_r, g_b):
-        rg, bg = R - g_r, B - g_b
-        r_gr = plane(at(Gr, 0, 0) + half * (at(rg, 0, 0) + at(rg, 0, 1)))
-        b_gr = plane(at(Gr, 0, 0) + half * (at(bg, -1, 0) + at(bg, 0, 0)))
-        b_gb = plane(at(Gb, 0, 0) + half * (at(bg, 0, -1) + at(bg, 0, 0)))
-        r_gb = plane(at(Gb, 0, 0) + half * (at(rg, 0, 0) + at(rg, 1, 0)))
-        return r_gr, b_gr, r_gb, b_gb
-
-    # 3. red and blue at greens, then R at B and B at R from R − B along the decision
-    r_gr, b_gr, r_gb, b_gb = greens(g_r, g_b)
-    e_gr, e_gb = r_gr - b_gr, r_gb - b_gb
-    r_b = plane(at(B, 0, 0) + half * np.where(at(m_b, 0, 0), at(e_gb, 0, 0) + at(e_gb, 0, 1),
-                                              at(e_gr, 0, 0) + at(e_gr, 1, 0)))
-    b_r = plane(at(R, 0, 0) - half * np.where(at(m_r, 0, 0), at(e_gr, 0, -1) + at(e_gr, 0, 0),
-                                              at(e_gb, -1, 0) + at(e_gb, 0, 0)))
+    r_gr, b_gr, b_gb, r_gb = greens(g_r, g_b)
+    e_gr, e_gb = subtract(r_gr, b_gr, dst=full("e_gr")), subtract(r_gb, b_gb, dst=full("e_gb"))
+    r_b = across("r_b", B, +1, half, m_b, ((e_gb, (0, 0)), (e_gb, (0, 1))), ((e_gr, (0, 0)), (e_gr, (1, 0))))
+    b_r = across("b_r", R, -1, half, m_r, ((e_gr, (0, -1)), (e_gr, (0, 0))), ((e_gb, (-1, 0)), (e_gb, (0, 0))))
     if refining_step:
         # 4a. green at red/blue from the 3-pixel mean of R − G / B − G along the decision
-        f_gr, f_gb, f_r = r_gr - Gr, r_gb - Gb, R - g_r
-        h_gr, h_gb, h_b = b_gr - Gr, b_gb - Gb, B - g_b
-        g_r = plane(at(R, 0, 0) - third * np.where(
-            at(m_r, 0, 0), at(f_gr, 0, -1) + at(f_r, 0, 0) + at(f_gr, 0, 0),
-            at(f_gb, -1, 0) + at(f_r, 0, 0) + at(f_gb, 0, 0)))
-        g_b = plane(at(B, 0, 0) - third * np.where(
-            at(m_b, 0, 0), at(h_gb, 0, 0) + at(h_b, 0, 0) + at(h_gb, 0, 1),
-            at(h_gr, 0, 0) + at(h_b, 0, 0) + at(h_gr, 1, 0)))
-        del f_gr, f_gb, f_r, h_gr, h_gb, h_b
-        # 4b. red and blue at greens again; 4c. R − B at red and blue sites again
-        r_gr, b_gr, r_gb, b_gb = greens(g_r, g_b)
-        e_gr, e_gb, e_b, e_r = r_gr - b_gr, r_gb - b_gb, r_b - B, R - b_r
-        r_b = plane(at(B, 0, 0) + third * np.where(
-            at(m_b, 0, 0), at(e_gb, 0, 0) + at(e_b, 0, 0) + at(e_gb, 0, 1),
-            at(e_gr, 0, 0) + at(e_b, 0, 0) + at(e_gr, 1, 0)))
-        b_r = plane(at(R, 0, 0) - third * np.where(
-            at(m_r, 0, 0), at(e_gr, 0, -1) + at(e_r, 0, 0) + at(e_gr, 0, 0),
-            at(e_gb, -1, 0) + at(e_r, 0, 0) + at(e_gb, 0, 0)))
-
-    out = np.empty(d.shape + (3,), _F32)
-    for c, sites in enumerate(((R, r_gr, r_gb, r_b), (g_r, Gr, Gb, g_b), (b_r, b_gr, b_gb, B))):
-        for (a, b), values in zip(((0, 0), (0, 1), (1, 0), (1, 1)), sites):
-            out[a::2, b::2, c] = values
-    return out[top:top + height, left:left + width]
+        f_gr, f_gb = subtract(r_gr, Gr, dst=full("f_gr")), subtract(r_gb, Gb, dst=full("f_gb"))
+        f_r = subtract(R, g_r, dst=full("f_r"))
+        h_gr, h_gb = subtract(b_gr, Gr, dst=full("h_gr")), subtract(b_gb, Gb, dst=full("h_gb"))
+        h_b = subtract(B, g_b, dst=full("h_b"))
+        g_r = across("g_r", R, -1, third, m_r, ((f_gr, (0, -1)), (f_r, (0, 0)), (f_gr, (0, 0))),
+                     ((f_gb, (-1, 0)), (f_r, (0, 0)), (f_gb, (0, 0))))
+        g_b = across("g_b", B, -1, third, m_b, ((h_gb, (0, 0)), (h_b, (0, 0)), (h_gb, (0, 1))),
+                     ((h_gr, (0, 0)), (h_b, (0, 0)), (h_gr, (1, 0))))
+        # 4b. red and blue at greens again; 4c. R − B at red and blue sites again (e_b and e_r
+        # first, which frees the slots of r_b and b_r)
+        e_b, e_r = subtract(r_b, B, dst=full("e_b")), subtract(R, b_r, dst=full("e_r"))
+        r_gr, b_gr, b_gb, r_gb = greens(g_r, g_b)
+        e_gr, e_gb = subtract(r_gr, b_gr, dst=full("e_gr")), subtract(r_gb, b_gb, dst=full("e_gb"))
+        r_b = across("r_b", B, +1, third, m_b, ((e_gb, (0, 0)), (e_b, (0, 0)), (e_gb, (0, 1))),
+                     ((e_gr, (0, 0)), (e_b, (0, 0)), (e_gr, (1, 0))))
+        b_r = across("b_r", R, -1, third, m_r, ((e_gr, (0, -1)), (e_r, (0, 0)), (e_gr, (0, 0))),
+                     ((e_gb, (-1, 0)), (e_r, (0, 0)), (e_gb, (0, 0))))
+    return (R, g_r, b_r), (r_gr, Gr, b_gr), (r_gb, Gb, b_gb), (r_b, g_b, B)
