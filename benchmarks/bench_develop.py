@@ -87,11 +87,9 @@ def readme_block(rows: list[dict]) -> str:
 
 
 def update_readme(readme: Path, rows: list[dict]) -> None:
-    text = readme.read_text(encoding="utf-8")
-    start, stop = text.find(BEGIN), text.find(END)
-    if start < 0 or stop < start:
-        raise SystemExit(f"{readme} has no {BEGIN} … {END} block")
-    readme.write_text(text[:start] + readme_block(rows) + text[stop + len(END):], encoding="utf-8")
+    from spectral_cam.records import replace_block
+
+    replace_block(readme, BEGIN, END, readme_block(rows))
 
 
 def wall(argv: list[str]) -> float:

@@ -306,11 +306,9 @@ def readme_block(csv_path: Path, not_run: list[str] = ()) -> str:
 
 
 def update_readme(readme: Path, block: str) -> None:
-    text = readme.read_text(encoding="utf-8")
-    start, stop = text.find(BEGIN), text.find(END)
-    if start < 0 or stop < start:
-        raise SystemExit(f"{readme} has no {BEGIN} … {END} block")
-    readme.write_text(text[:start] + block + text[stop + len(END):], encoding="utf-8")
+    from spectral_cam.records import replace_block
+
+    replace_block(readme, BEGIN, END, block)
 
 
 def main(argv=None) -> int:

@@ -25,7 +25,7 @@ import numpy as np
 
 from .io import atomic_path
 
-__all__ = ["json_ready", "write_json", "read_json", "format_number", "exact_number", "write_csv",
+__all__ = ["json_ready", "write_json", "read_json", "format_number", "exact_number", "write_csv", "replace_block",
            "package_versions"]
 
 #: The packages whose versions a result records (with Python and LibRaw).
@@ -128,6 +128,17 @@ def write_csv(rows: Iterable[Mapping[str, Any]], path: str | Path, fields: Seque
                 writer.writerow([number(v) if isinstance(v, (int, float, np.number)) and not isinstance(v, bool)
                                  else ("" if v is None else v) for v in (row.get(f) for f in fields)])
     return path
+
+
+def replace_block(path: str | Path, begin: str, end: str, block: str) -> None:
+    """Replace the text from marker ``begin`` to marker ``end`` (both kept, as ``block`` holds
+    them) in a text file: how benchmarks regenerate their README paragraphs from their CSVs."""
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    start, stop = text.find(begin), text.find(end)
+    if start < 0 or stop < start:
+        raise ValueError(f"{path} has no {begin} … {end} block; add the two markers where it belongs")
+    path.write_text(text[:start] + block + text[stop + len(end):], encoding="utf-8")
 
 
 def package_versions() -> dict[str, str]:

@@ -61,3 +61,17 @@ def test_the_readme_develop_speed_comes_from_the_committed_csv():
     with open(root / "docs" / "bench" / "bench_develop.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
     assert bench.readme_block(rows) in (root / "README.md").read_text(encoding="utf-8")
+
+
+def test_the_readme_render_speed_comes_from_the_committed_csv():
+    """The bench-render table is what benchmarks/bench_render.py writes from docs/bench/render.csv."""
+    import csv
+    import importlib.util
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("bench_render", root / "benchmarks" / "bench_render.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    with open(root / "docs" / "bench" / "render.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert bench.readme_block(rows) in (root / "README.md").read_text(encoding="utf-8")
