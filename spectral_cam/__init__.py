@@ -12,7 +12,11 @@ from __future__ import annotations
 
 import importlib
 
-from .errors import ConfigError, RawFormatError, RenderError, SensorError, SpectralCamError
+from ._lazy_colour import defer_colour_plotting
+
+defer_colour_plotting()  # before anything imports colour: its plotting (matplotlib) loads on use
+
+from .errors import ConfigError, RawFormatError, RenderError, SensorError, SpectralCamError  # noqa: E402
 from .scene import SceneConfig, load_scene, scene_from_dict
 
 from .image import SpectralImage

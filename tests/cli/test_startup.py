@@ -95,3 +95,21 @@ def test_validating_every_kind_of_spectrum_imports_nothing_heavy(tmp_path):
         (scene, ["illuminant.spd=blackbody:3200", "scene.preset=flat_field", "scene.reflectance=0.5",
                  "sensor.model=ideal", "sensor.cfa=none"]),
     ) == []
+
+
+def test_colour_science_loads_its_plotting_only_when_a_user_plots():
+    """spectral_cam defers colour.plotting (matplotlib, ~0.6 s of ``import colour``): colour's own
+    code runs without it, and a user's ``from colour.plotting import …`` still gets the real thing."""
+    code = (
+        "import sys, spectral_cam, colour\n"
+        "assert 'matplotlib' not in sys.modules\n"
+        "assert colour.sd_to_XYZ(colour.SDS_ILLUMINANTS['D65']).shape == (3,)\n"
+        "assert 'matplotlib' not in sys.modules\n"
+        "from colour.plotting import plot_single_colour_swatch, ColourSwatch\n"
+        "import colour.plotting.diagrams\n"
+        "figure, _ = plot_single_colour_swatch(ColourSwatch((0.45, 0.31, 0.04)), show=False)\n"
+        "assert 'matplotlib' in sys.modules and type(figure).__name__ == 'Figure'\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=100,
+                          env={**__import__("os").environ, "MPLBACKEND": "Agg"})
+    assert done.returncode == 0, done.stderr[-2000:]
