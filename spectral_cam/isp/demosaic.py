@@ -369,51 +369,6 @@ def menon2007(mosaic: np.ndarray, cfa: str = "RGGB", *, refining_step: bool = Tr
 MENON_BAND_ROWS = 256
 
 
-#: Frames at least this large (pixels) are demosaiced in row strips on parallel threads.
-STRIP_MIN_PIXELS = 2_000_000
-
-
-def in_strips(mosaic: np.ndarray, cfa: str, method, *, reach_px: int, workers: int | None = None) -> np.ndarray:
-    """Run a demosaicer whose output at a pixel depends only on the mosaic within ``reach_px``
-    on row strips in parallel threads (NumPy releases the GIL in its loops), each strip read with
-    ``reach_px`` real rows of overlap on either side, so the result equals the whole-frame one.
-
-    Parameters
-    ----------
-    mosaic
-        (H, W) float32 mosaic.
-    cfa
-        Bayer tile at the top-left pixel.
-    method
-        ``method(part, tile) -> (h, w, 3)`` for a sub-mosaic and its own top-left tile.
-    reach_px
-        How far (pixels, even) the method's output depends on the mosaic.
-    workers
-        Threads (default: the CPUs; one strip per thread).
-    """
-    import os
-    from concurrent.futures import ThreadPoolExecutor
-
-    from ..cfa import cfa_at
-
-    height = mosaic.shape[0]
-    workers = workers or os.cpu_count() or 1
-    if workers < 2 or mosaic.size < STRIP_MIN_PIXELS or height < 4 * reach_px * workers:
-        return method(mosaic, cfa)
-    edges = [2 * round(height * k / workers / 2) for k in range(workers)] + [height]
-    out = np.empty(mosaic.shape + (3,), _F32)
-
-    def strip(k):
-        top, bottom = edges[k], edges[k + 1]
-        first, last = max(top - reach_px, 0), min(bottom + reach_px, height)
-        part = method(mosaic[first:last], cfa_at(cfa, first, 0))
-        out[top:bottom] = part[top - first:bottom - first]
-
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        list(pool.map(strip, range(workers)))
-    return out
-
-
 #: Mirror padding (pixels, even) around the mosaic for OpenCV's Bayer conversions.
 _OPENCV_PAD = 4
 

@@ -45,18 +45,3 @@ def test_borders_as_accurate_as_the_reference(cfa):
     reference = np.abs(demosaicing_CFA_Bayer_Menon2007(mosaic, cfa) - truth)[border]
     assert ours.mean() <= 1.3 * reference.mean() and ours.max() <= 1.1 * reference.max(), (
         ours.mean(), reference.mean(), ours.max(), reference.max())
-
-
-@pytest.mark.parametrize("cfa", ["RGGB", "GBRG"])
-def test_strips_on_threads_give_the_whole_frame_result(cfa, monkeypatch):
-    """Row strips with REACH_PX of overlap (run on parallel threads for large frames) equal
-    the whole-frame computation exactly."""
-    from spectral_cam.isp import demosaic as module
-    from spectral_cam.isp.menon2007 import menon2007_demosaic
-
-    mosaic = np.random.default_rng(5).uniform(0, 1, (250, 96)).astype(np.float32)
-    whole = menon2007_demosaic(mosaic, cfa)
-    monkeypatch.setattr(module, "STRIP_MIN_PIXELS", 0)
-    for workers in (2, 3):
-        strips = module.in_strips(mosaic, cfa, menon2007_demosaic, reach_px=REACH_PX, workers=workers)
-        np.testing.assert_array_equal(strips, whole)
