@@ -333,8 +333,8 @@ def menon2007(mosaic: np.ndarray, cfa: str = "RGGB", *, refining_step: bool = Tr
 
     colour-demosaicing's algorithm in float32 on the four CFA planes
     (:func:`spectral_cam.isp.menon2007.menon2007_sites`, without importing colour), on row
-    bands of :data:`MENON_BAND_ROWS` on threads (:func:`by_planes`); the result equals
-    :func:`spectral_cam.isp.menon2007.menon2007_demosaic`'s bit for bit.
+    bands of :data:`MENON_BAND_ROWS` on threads (:func:`by_planes`); the result is the same for
+    any cut into bands and threads.
 
     Parameters
     ----------

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["REACH_PX", "menon2007_demosaic", "menon2007_sites"]
+__all__ = ["REACH_PX", "menon2007_sites"]
 
 _F32 = np.float32
 #: Mirror padding (full-resolution pixels, even): each of the ~8 chained steps reads one plane
@@ -57,57 +57,6 @@ _SLOTS = {
     "f_gr": "i", "f_gb": "a", "f_r": "k", "h_gr": "l", "h_gb": "m", "h_b": "n",
     "e_b": "k", "e_r": "l",
 }
-
-
-def menon2007_demosaic(mosaic: np.ndarray, cfa: str, *, refining_step: bool = True) -> np.ndarray:
-    """DDFAPD demosaicing of a float32 Bayer mosaic, the whole frame at once on one thread (see
-    the module docstring; :func:`spectral_cam.isp.demosaic.menon2007` runs the same
-    :func:`menon2007_sites` on row bands on threads, with the same result).
-
-    Parameters
-    ----------
-    mosaic
-        (H, W) float32 linear mosaic, H and W ≥ 2.
-    cfa
-        Bayer tile read from the top-left pixel (``"RGGB"``, ``"BGGR"``, ``"GRBG"``, ``"GBRG"``),
-        already checked.
-    refining_step
-        Apply the paper's refining step (§III-C).
-
-    Returns
-    -------
-    numpy.ndarray
-        (H, W, 3) float32 linear RGB, unclipped; measured samples are kept.
-
-    References
-    ----------
-    .. [1] Menon, D., Andriani, S., & Calvagno, G. (2007). IEEE TIP 16(1), 132–141.
-    """
-    import cv2
-
-    height, width = mosaic.shape
-    ry, rx = divmod(cfa.index("R"), 2)
-    pad = REACH_PX
-    # pad so that the padded mosaic starts on a red site (canonical RGGB) and has even sides
-    top, left = pad + ry, pad + rx
-    bottom = pad + (height + top) % 2
-    right = pad + (width + left) % 2
-    d = cv2.copyMakeBorder(np.ascontiguousarray(mosaic, dtype=_F32), top, bottom, left, right, cv2.BORDER_REFLECT_101)
-    planes = (np.ascontiguousarray(d[a::2, b::2]) for a, b in ((0, 0), (0, 1), (1, 0), (1, 1)))
-    buffers: dict = {}
-
-    def scratch(key, shape, dtype=_F32):
-        buffer = buffers.get((key, shape, dtype))
-        if buffer is None:
-            buffer = buffers[key, shape, dtype] = np.empty(shape, dtype)
-        return buffer
-
-    sites = menon2007_sites(*planes, scratch, refining_step=refining_step)
-    out = np.empty(d.shape + (3,), _F32)
-    for (a, b), values in zip(((0, 0), (0, 1), (1, 0), (1, 1)), sites):
-        for c in range(3):
-            out[a::2, b::2, c] = values[c]
-    return out[top:top + height, left:left + width]
 
 
 def menon2007_sites(R, Gr, Gb, B, scratch, *, refining_step: bool = True):
