@@ -48,30 +48,17 @@ def test_the_design_lists_the_physical_ranges_the_code_enforces():
     assert f"1..{MAX_SPP}" in text
 
 
-def test_the_readme_develop_speed_comes_from_the_committed_csv():
-    """README numbers come from committed CSVs: the bench-develop block is what the benchmark
-    script writes from docs/bench/bench_develop.csv."""
+@pytest.mark.parametrize("script, table", [("bench_develop", "bench_develop.csv"), ("bench_render", "render.csv")])
+def test_the_readme_speed_blocks_come_from_the_committed_csvs(script, table):
+    """README numbers come from committed CSVs: each benchmark's README block is what its script
+    writes from its CSV in docs/bench/."""
     import csv
     import importlib.util
 
     root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("bench_develop", root / "benchmarks" / "bench_develop.py")
+    spec = importlib.util.spec_from_file_location(script, root / "benchmarks" / f"{script}.py")
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
-    with open(root / "docs" / "bench" / "bench_develop.csv", newline="") as handle:
-        rows = list(csv.DictReader(handle))
-    assert bench.readme_block(rows) in (root / "README.md").read_text(encoding="utf-8")
-
-
-def test_the_readme_render_speed_comes_from_the_committed_csv():
-    """The bench-render table is what benchmarks/bench_render.py writes from docs/bench/render.csv."""
-    import csv
-    import importlib.util
-
-    root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("bench_render", root / "benchmarks" / "bench_render.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    with open(root / "docs" / "bench" / "render.csv", newline="") as handle:
+    with open(root / "docs" / "bench" / table, newline="") as handle:
         rows = list(csv.DictReader(handle))
     assert bench.readme_block(rows) in (root / "README.md").read_text(encoding="utf-8")
