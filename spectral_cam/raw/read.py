@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import logging
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -165,23 +166,55 @@ def _check_white_level(path: Path, tag, black_levels) -> None:
 LIBRAW_MIN_SIDE_PX = 22
 
 
-def _raw_ifds(path: Path):
-    """The TIFF pages of a TIFF-based raw holding a CFA image (empty for other formats)."""
+class _Ifd(NamedTuple):
+    """What the raw checks need of one TIFF image file directory."""
+
+    top_level: bool  # an IFD of the main chain (not a SubIFD)
+    photometric: int | None
+    has_cfa_tags: bool  # CFARepeatPatternDim (33421) and CFAPattern (33422) both present
+    shape: tuple[int, ...]
+    compression: int | None
+    pixels: int
+    data_end: int  # where its last strip or tile ends, bytes
+    data_bytes: int
+
+
+def _tiff_ifds(path: Path) -> list[_Ifd]:
+    """Every IFD of a TIFF-based raw, SubIFDs included (empty for other formats, or when
+    tifffile cannot read the structure: LibRaw then gives the verdict)."""
     import tifffile
 
     found = []
     try:
         with _quiet(), tifffile.TiffFile(path) as tif:
-            for page in tif.pages:
+            pages = [(page, True) for page in tif.pages]
+            while pages:
+                page, top_level = pages.pop(0)
+                try:
+                    pages.extend((sub, False) for sub in (getattr(page, "pages", None) or []))
+                except Exception:  # unreadable SubIFDs: the main chain is still checked
+                    pass
                 tag = page.tags.get(262)
-                photometric = tag.value if tag is not None and isinstance(tag.value, int) else None
-                shape = tuple(int(n) for n in page.shape if isinstance(n, (int, np.integer)))
                 compression = page.tags.get(259)
-                found.append((photometric, {code: page.tags.get(code) is not None for code in (33421, 33422)},
-                              shape, compression.value if compression is not None else None))
+                shape = tuple(int(n) for n in page.shape if isinstance(n, (int, np.integer)))
+                offsets, counts = page.dataoffsets or (), page.databytecounts or ()
+                found.append(_Ifd(
+                    top_level=top_level,
+                    photometric=tag.value if tag is not None and isinstance(tag.value, int) else None,
+                    has_cfa_tags=all(page.tags.get(code) is not None for code in (33421, 33422)),
+                    shape=shape,
+                    compression=compression.value if compression is not None else None,
+                    pixels=int(np.prod(shape[:2])) if len(shape) >= 2 else 0,
+                    data_end=max((int(o) + int(c) for o, c in zip(offsets, counts)), default=0),
+                    data_bytes=int(sum(int(c) for c in counts))))
     except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
         return []
     return found
+
+
+def _raw_ifds(path: Path) -> list[_Ifd]:
+    """The IFDs of the main chain (what LibRaw's CFA and compression checks look at)."""
+    return [ifd for ifd in _tiff_ifds(path) if ifd.top_level]
 
 
 @contextlib.contextmanager
@@ -197,51 +230,28 @@ def _quiet():
         logger.setLevel(level)
 
 
-def _image_ifds(path: Path) -> list[tuple[int | None, int, int, int]]:
-    """(PhotometricInterpretation, pixels, end of its data, bytes of data) of every IFD of a
-    TIFF-based raw, SubIFDs included (empty for other formats or an unreadable structure)."""
-    import tifffile
-
-    found = []
-    try:
-        with _quiet(), tifffile.TiffFile(path) as tif:
-            pages = list(tif.pages)
-            while pages:
-                page = pages.pop()
-                pages.extend(getattr(page, "pages", None) or [])
-                tag = page.tags.get(262)
-                photometric = tag.value if tag is not None and isinstance(tag.value, int) else None
-                pixels = int(np.prod([n for n in page.shape[:2] if isinstance(n, (int, np.integer))] or [0]))
-                offsets, counts = page.dataoffsets or (), page.databytecounts or ()
-                end = max((int(o) + int(c) for o, c in zip(offsets, counts)), default=0)
-                found.append((photometric, pixels, end, int(sum(int(c) for c in counts))))
-    except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
-        return []
-    return found
-
-
-def _check_data_in_file(path: Path) -> None:
+def _check_data_in_file(path: Path, ifds: list[_Ifd]) -> None:
     """Refuse a TIFF-based raw whose image data is not in the file: a large image whose strips
     or tiles end past the end of the file (truncated), or a raw image (CFA or LinearRaw) with less
     than one bit of data per pixel (cut down: a real lossless-JPEG raw needs several). LibRaw
     decodes such files without an error and fills the missing data with zeros or stale memory."""
     size = path.stat().st_size
-    for photometric, pixels, end, nbytes in _image_ifds(path):
-        if pixels < 1_000_000:
+    for ifd in ifds:
+        if ifd.pixels < 1_000_000:
             continue  # thumbnails and small previews
-        if end > size:
-            raise RawFormatError(f"{path}: the file is truncated: a {pixels / 1e6:.1f} MP image's data ends at byte "
-                                 f"{end}, but the file has {size} bytes")
-        if photometric in (32803, 34892) and nbytes * 8 < pixels:
-            raise RawFormatError(f"{path}: the raw image holds no data ({nbytes} bytes for {pixels / 1e6:.1f} MP, "
-                                 "under a bit per pixel): the file is cut down or truncated")
+        if ifd.data_end > size:
+            raise RawFormatError(f"{path}: the file is truncated: a {ifd.pixels / 1e6:.1f} MP image's data ends at "
+                                 f"byte {ifd.data_end}, but the file has {size} bytes")
+        if ifd.photometric in (32803, 34892) and ifd.data_bytes * 8 < ifd.pixels:
+            raise RawFormatError(f"{path}: the raw image holds no data ({ifd.data_bytes} bytes for "
+                                 f"{ifd.pixels / 1e6:.1f} MP, under a bit per pixel): the file is cut down or truncated")
 
 
-def _check_tiff_cfa(path: Path) -> None:
+def _check_tiff_cfa(path: Path, ifds: list[_Ifd]) -> None:
     """Refuse a CFA image (PhotometricInterpretation 32803) without CFARepeatPatternDim or
     CFAPattern: LibRaw would decode it with a stale pattern left from the previous file."""
-    for photometric, has, _, _ in _raw_ifds(path):
-        if photometric == 32803 and not all(has.values()):
+    for ifd in ifds:
+        if ifd.top_level and ifd.photometric == 32803 and not ifd.has_cfa_tags:
             raise RawFormatError(f"{path}: a CFA raw image needs the CFARepeatPatternDim (33421) and "
                                  "CFAPattern (33422) tags; this one lacks them")
 
@@ -259,8 +269,9 @@ def unsupported_reason(path: Path) -> str | None:
     """
     import rawpy
 
-    for photometric, _, _, compression in _raw_ifds(path):
-        if photometric in (32803, 34892) and compression in UNSUPPORTED_COMPRESSION:
+    for ifd in _raw_ifds(path):
+        if ifd.photometric in (32803, 34892) and ifd.compression in UNSUPPORTED_COMPRESSION:
+            compression = ifd.compression
             return (f"its raw image is {UNSUPPORTED_COMPRESSION[compression]} compressed (Compression "
                     f"{compression}), which LibRaw {'.'.join(map(str, rawpy.libraw_version))} does not decode; "
                     "convert it to an uncompressed or lossless-JPEG DNG (e.g. with Adobe DNG Converter)")
@@ -268,8 +279,9 @@ def unsupported_reason(path: Path) -> str | None:
 
 
 def _size_hint(path: Path) -> str:
-    for photometric, _, shape, _ in _raw_ifds(path):
-        if photometric in (32803, 34892) and len(shape) >= 2 and min(shape[:2]) < LIBRAW_MIN_SIDE_PX:
+    for ifd in _raw_ifds(path):
+        shape = ifd.shape
+        if ifd.photometric in (32803, 34892) and len(shape) >= 2 and min(shape[:2]) < LIBRAW_MIN_SIDE_PX:
             return (f" (its raw image is {shape[1]}×{shape[0]} px; LibRaw reads no side under "
                     f"{LIBRAW_MIN_SIDE_PX} px)")
     return ""
@@ -353,8 +365,9 @@ def read_raw(path) -> RawImage:
     path = Path(path)
     if not path.is_file():
         raise RawFormatError(f"raw file {str(path)!r} does not exist")
-    _check_tiff_cfa(path)
-    _check_data_in_file(path)
+    ifds = _tiff_ifds(path)  # the file's structure, read once for both checks
+    _check_tiff_cfa(path, ifds)
+    _check_data_in_file(path, ifds)
     try:
         with rawpy.imread(str(path)) as handle:
             mosaic = np.array(handle.raw_image_visible, dtype=np.uint16, copy=True)
