@@ -35,23 +35,6 @@ LANES_PER_PASS = 1 << 28
 SCALAR_LANES_PER_PASS = 1 << 20
 
 
-def power_of_two_at_most(spp: int) -> int:
-    """The largest power of two ≤ ``spp`` (at least 1): the samples per pixel of one pass.
-
-    With the LLVM variant a pass whose samples per pixel is not a power of two gives
-    run-to-run differences in the last bits (measured: 25, 26, 27, 100, 109 spp differ in
-    1–10 % of the values between two renders of one seed; 1, 2, 4, …, 128 never do, at any
-    image size): the film adds a pixel's samples in an order that then depends on the
-    threads. Passes of 2^k spp make a seed give the same bits every time.
-
-    Examples
-    --------
-    >>> [power_of_two_at_most(n) for n in (1, 3, 27, 64, 100)]
-    [1, 2, 16, 64, 64]
-    """
-    return 1 << max(int(spp), 1).bit_length() - 1
-
-
 def _fixed_passes(sampler: str, spp: int, lane_cap: int):
     """Pass sizes of a fixed-spp frame: as few calls as the lane cap allows, each a size the
     sampler keeps exactly."""

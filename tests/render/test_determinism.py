@@ -8,7 +8,7 @@ import pytest
 
 from spectral_cam import render, scene_from_dict
 from spectral_cam.cli import main
-from spectral_cam.render.trace import power_of_two_at_most
+from spectral_cam.render.scene_dict import power_of_two_at_most
 
 pytestmark = pytest.mark.timeout(180)
 
