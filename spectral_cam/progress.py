@@ -97,12 +97,21 @@ class ProgressLine:
             self._last_line = line
 
 
-def spp_progress(label: str, *, enabled: bool = True, stream: TextIO | None = None) -> Callable[[int, int, float], None]:
-    """A ``progress(done_spp, total_spp, seconds)`` callback for :func:`spectral_cam.render`
-    that shows ``label: 64/256 spp (25 %), 1.2 s, ~3 s left``."""
+def spp_progress(label: str, *, enabled: bool = True, stream: TextIO | None = None) -> Callable[..., None]:
+    """A ``progress(done_spp, total_spp, seconds, tile=None)`` callback for
+    :func:`spectral_cam.render` that shows ``label: 64/256 spp (25 %), 1.2 s, ~3 s left``, or
+    for a frame rendered in tiles ``label: tile 3/50 (6 %), 9.1 s, ~140 s left``."""
     line = ProgressLine(enabled=enabled, stream=stream, every_s=math.inf)
 
-    def progress(done: int, total: int, seconds: float) -> None:
+    def progress(done: int, total: int, seconds: float, tile: tuple[int, int] | None = None) -> None:
+        if tile is not None:
+            finished, tiles = tile
+            fraction = (finished + done / total) / tiles if done < total else finished / tiles
+            eta = seconds * (1 - fraction) / fraction if fraction > 0 else 0.0
+            text = f"{label}: tile {min(finished + (done < total), tiles)}/{tiles} ({100 * fraction:.0f} %), " \
+                   f"{seconds:.1f} s, ~{eta:.0f} s left"
+            line.show(text, final=fraction >= 1 or done == 0)
+            return
         rate = done / seconds if seconds > 0 else 0.0
         eta = (total - done) / rate if rate > 0 else 0.0
         text = f"{label}: {done}/{total} spp ({100 * done / total:.0f} %), {seconds:.1f} s, ~{eta:.0f} s left"

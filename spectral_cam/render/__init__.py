@@ -28,7 +28,7 @@ from .decisions import decide_lens_model
 from .defocus import render_layered
 from .depth import render_depth
 from .memory import check_render_memory
-from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
+from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, check_tiling, trace
 from .variants import choose_variant, choose_variant_record
 
 __all__ = ["render", "render_layered", "choose_variant", "SpectralImage", "LANES_PER_PASS", "SCALAR_LANES_PER_PASS"]
@@ -83,6 +83,7 @@ def render(
     if with_margin:
         lens = lens.layout_lens.widened(config.sensor.crop_margin_px)
     check_render_memory(lens.width_px, lens.height_px)
+    check_tiling(config, lens)
     variant, variant_record = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
     decisions: dict[str, dict] = {"variant": variant_record}

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..optics import ThinLens
 from ..scene import SceneConfig
-from .scene_dict import build_scene, camera_dict, pass_seed
+from .scene_dict import build_scene, camera_dict, frame_tiles, pass_seed, tile_sensor
 
 
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
@@ -24,13 +24,19 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     width, height = lens.width_px, lens.height_px
     film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
             "pixel_format": "luminance", "component_format": "float32"}
+    tiles = frame_tiles(width, height)  # the radiance's tiles: bounded memory on large frames
     camera = camera_dict(mi, lens, "pinhole", film, 1)
     scene, sensor, integrator = build_scene(mi, config, lens, camera, {"type": "aov", "aovs": "pos:position"})
-    image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator,
-                                 seed=pass_seed(config.render.seed, 1 << 20), spp=1))
-    position = image.reshape(height, width, -1)[..., :3].astype(np.float64)
     to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
     origin, axis = to_world[:3, 3], to_world[:3, 2] / np.linalg.norm(to_world[:3, 2])
-    z = (position - origin) @ axis
-    hit = np.any(position != 0.0, axis=-1)  # the AOV is all zero where a ray escapes
-    return np.where(hit & (z > 0), z, np.inf).astype(np.float32)
+    depth = np.empty((height, width), np.float32)
+    tiled = len(tiles) > 1
+    for tile, (first, end) in enumerate(tiles):
+        tile_camera = tile_sensor(mi, sensor, camera, (first, end)) if tiled else sensor
+        seed = pass_seed(config.render.seed, 1 << 20, tile if tiled else None)
+        image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=1))
+        position = image.reshape(end - first, width, -1)[..., :3].astype(np.float64)
+        z = (position - origin) @ axis
+        hit = np.any(position != 0.0, axis=-1)  # the AOV is all zero where a ray escapes
+        depth[first:end] = np.where(hit & (z > 0), z, np.inf)
+    return depth

@@ -60,6 +60,46 @@ def exact_pass_spp(sampler: str, spp: int) -> int:
     return 1
 
 
+#: Most pixels of one render call. A larger frame renders in tiles of whole rows (film crop
+#: windows, :func:`frame_tiles`): Mitsuba's film and wavefront then need memory for one tile,
+#: not the frame (measured at 2.5 MP, 31 bands, 16 spp: one call 1.13 GB peak, tiles of
+#: 0.6 MP 0.68 GB, as fast). The grid depends on the frame's size only, so a seed gives the
+#: same image on any machine; frames up to this size render in one call as before.
+TILE_PIXELS = 1 << 20
+#: Tile heights are a multiple of this many rows (an OpenEXR ZIP block is 16 scanlines).
+TILE_ROW_MULTIPLE = 16
+
+
+def frame_tiles(width: int, height: int) -> list[tuple[int, int]]:
+    """Row spans ``(first, end)`` of the render tiles of a ``width`` × ``height`` frame: the
+    whole frame when it has at most :data:`TILE_PIXELS` pixels, else stripes of whole rows,
+    :data:`TILE_ROW_MULTIPLE` rows at the least, each at most :data:`TILE_PIXELS` pixels
+    where the width allows.
+
+    Examples
+    --------
+    >>> frame_tiles(640, 480)
+    [(0, 480)]
+    >>> frame_tiles(4096, 600)
+    [(0, 256), (256, 512), (512, 600)]
+    """
+    if width * height <= TILE_PIXELS:
+        return [(0, height)]
+    rows = max(TILE_ROW_MULTIPLE, TILE_PIXELS // width // TILE_ROW_MULTIPLE * TILE_ROW_MULTIPLE)
+    return [(first, min(first + rows, height)) for first in range(0, height, rows)]
+
+
+def tile_sensor(mi, sensor, camera: dict, rows: tuple[int, int]):
+    """A copy of the loaded ``sensor`` (built from ``camera``, pose included) whose film
+    renders only ``rows`` of the frame: a crop window, so each pixel sees the rays it would
+    see in the whole frame."""
+    first, end = rows
+    film = dict(camera["film"], crop_offset_x=0, crop_offset_y=first, crop_width=camera["film"]["width"],
+                crop_height=end - first)
+    matrix = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
+    return load_dict(mi, dict(camera, film=film, to_world=mi.ScalarTransform4f(matrix)))
+
+
 def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent") -> dict:
     camera = {
         "type": "thinlens" if model == "thin" else "perspective",
@@ -103,7 +143,9 @@ def load_dict(mi, scene_dict: dict):
     except Exception as exc:  # Mitsuba raises plain RuntimeError on bad scenes
         raise RenderError(f"Mitsuba could not load the scene: {exc}") from exc
 
-def pass_seed(seed: int, index: int) -> int:
-    """Distinct, reproducible 32-bit seeds for the passes of one frame."""
-    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
+def pass_seed(seed: int, index: int, tile: int | None = None) -> int:
+    """Distinct, reproducible 32-bit seeds for the passes of one frame (and of each of its
+    tiles, :func:`frame_tiles`; an untiled frame keeps the seeds it always had)."""
+    spawn_key = () if tile is None else (int(tile),)
+    return int(np.random.SeedSequence([seed, index], spawn_key=spawn_key).generate_state(1)[0])
 

@@ -18,13 +18,13 @@ from typing import Callable
 import numpy as np
 
 from .. import spectra
-from ..errors import RenderError
+from ..errors import ConfigError, RenderError
 from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction
 from .films import band_film, camera_film
-from .scene_dict import build_scene, camera_dict, exact_pass_spp, pass_seed
+from .scene_dict import TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, pass_seed, tile_sensor
 
 #: Most wavefront lanes (pixels × spp) of one Mitsuba call in the vectorised variants. Mitsuba's
 #: path tracer runs as a symbolic loop whose memory does not grow with the lanes (measured: see
@@ -96,6 +96,44 @@ class _PassMean:
         return self.total
 
 
+def _checked_radiance(data: np.ndarray) -> np.ndarray:
+    """``data`` with Mitsuba's rounding below zero cleared, in place. Its film can return
+    values like −1e-19 where a pixel is black (floating-point cancellation); anything clearly
+    negative would be a bug, not rounding."""
+    lowest, highest = float(data.min()), float(data.max())
+    if lowest < -1e-6 * max(highest, 1e-30):
+        raise RenderError(f"Mitsuba returned negative radiance ({lowest:g}, max {highest:g})")
+    return np.maximum(data, 0.0, out=data)
+
+
+def _report(progress, done: int, total: int, seconds: float, tile: int, tiles: int) -> None:
+    """Progress of a pass: ``(spp done, spp total, seconds)``, and for a tiled frame also
+    ``tile=(tiles finished, tiles)`` counting the current one when its last pass is done."""
+    if tiles == 1:
+        progress(done, total, seconds)
+    else:
+        progress(done, total, seconds, tile=(tile + (done >= total), tiles))
+
+
+def check_tiling(config: SceneConfig, lens: ThinLens) -> None:
+    """Refuse, before any rendering, what a frame rendered in tiles cannot do:
+    ``render.spp = "auto"`` (it judges the whole frame between passes).
+
+    Raises
+    ------
+    ConfigError
+        With what to set instead.
+    """
+    if config.render.spp == "auto" and len(frame_tiles(lens.width_px, lens.height_px)) > 1:
+        raise ConfigError(_auto_spp_untiled_message(lens.width_px, lens.height_px))
+
+
+def _auto_spp_untiled_message(width: int, height: int) -> str:
+    return (f"render.spp = \"auto\" judges the whole frame between passes, and {width} × {height} px renders in "
+            f"tiles (more than {TILE_PIXELS} px): set render.spp to a number (auto on a frame of the same "
+            f"scene up to {TILE_PIXELS} px shows how many samples it needs)")
+
+
 def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
           depth: np.ndarray | None = None, depth_s: float = 0.0, decisions: dict | None = None,
           progress: Callable[[int, int, float], None] | None = None) -> SpectralImage:
@@ -118,7 +156,9 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         Model decisions made so far (``lens_model``); the film, diffraction and spp
         decisions are added.
     progress : callable, optional
-        Called after each pass with (spp done, spp total, seconds so far).
+        Called after each pass with (spp done, spp total, seconds so far); a frame of more
+        than :data:`~spectral_cam.render.scene_dict.TILE_PIXELS` pixels renders in tiles and
+        adds the keyword ``tile=(tiles finished, tiles)``.
 
     Returns
     -------
@@ -149,15 +189,16 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
 
     auto_spp = config.render.spp == "auto"
     target_spp = config.render.max_spp if auto_spp else config.render.spp
+    tiles = frame_tiles(width, height)
+    if auto_spp and len(tiles) > 1:
+        raise ConfigError(_auto_spp_untiled_message(width, height))
     lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
     sampler = config.render.sampler
-    lane_cap = max(lanes // (width * height), 1)
+    lane_cap = max(lanes // (width * max(end - first for first, end in tiles)), 1)
     spp_per_pass = exact_pass_spp(sampler, min(auto_spp_per_pass(sampler) if auto_spp else target_spp, lane_cap))
     monitor = None
-    passes = _fixed_passes(sampler, target_spp, lane_cap)
     if auto_spp:  # rounds of equal passes, growing: each round's spread estimates its noise
         monitor = NoiseMonitor(config, wavelengths, edges, channels, lens)
-        passes = _auto_passes(sampler, target_spp, lane_cap)
 
     started = time.perf_counter()
     camera = camera_dict(mi, lens, lens_model, film, spp_per_pass, sampler)
@@ -165,31 +206,35 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
 
-    accumulated = _PassMean()
-    done, index, seeds = 0, 0, []
-    for spp in passes:
-        seed = pass_seed(config.render.seed, index)
-        image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, seed=seed, spp=spp),
-                           dtype=np.float32).reshape(height, width, n_channels)
-        accumulated.add(image, spp)
-        done += spp
-        index += 1
-        seeds.append(seed)
-        if progress is not None:
-            progress(done, target_spp, time.perf_counter() - started)
-        if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
-            break
+    tiled = len(tiles) > 1
+    data = np.empty((height, width, n_channels), np.float32) if tiled else None
+    done, seeds = 0, []
+    for tile, rows in enumerate(tiles):
+        passes = _auto_passes(sampler, target_spp, lane_cap) if auto_spp else _fixed_passes(sampler, target_spp, lane_cap)
+        tile_camera = tile_sensor(mi, sensor, camera, rows) if tiled else sensor
+        accumulated = _PassMean()
+        done, index = 0, 0
+        for spp in passes:
+            seed = pass_seed(config.render.seed, index, tile if tiled else None)
+            image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=spp),
+                               dtype=np.float32).reshape(rows[1] - rows[0], width, n_channels)
+            accumulated.add(image, spp)
+            done += spp
+            index += 1
+            seeds.append(seed)
+            if progress is not None:
+                _report(progress, done, target_spp, time.perf_counter() - started, tile, len(tiles))
+            if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
+                break
+        del image
+        if tiled:
+            data[rows[0]:rows[1]] = _checked_radiance(accumulated.mean())
+        else:
+            data = _checked_radiance(accumulated.mean())
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
         if progress is not None and done < target_spp:
             progress(done, done, time.perf_counter() - started)
-    data = accumulated.mean()
-    # Mitsuba's film can return values like −1e-19 where a pixel is black (floating-point
-    # cancellation); anything clearly negative would be a bug, not rounding
-    lowest, highest = float(data.min()), float(data.max())
-    if lowest < -1e-6 * max(highest, 1e-30):
-        raise RenderError(f"Mitsuba returned negative radiance ({lowest:g}, max {highest:g})")
-    np.maximum(data, 0.0, out=data)
     radiance_s = time.perf_counter() - started - load_s
 
     t0 = time.perf_counter()
@@ -205,6 +250,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         "sampler": sampler,
         "passes": index,
         "pass_seeds": seeds,
+        "tiles": [list(rows) for rows in tiles],
         "bands": "camera" if use_camera else spectral_spec,
         "bands_nm": list(wavelengths),
         "channels": list(channels) if channels else None,
