@@ -18,7 +18,7 @@ from typing import Iterator
 
 from .errors import ConfigError
 
-__all__ = ["atomic_path", "staged_directory", "discard_in_progress", "write_exr_channels", "exchange_paths", "recover_interrupted"]
+__all__ = ["atomic_path", "staged_directory", "discard_in_progress", "exchange_paths", "recover_interrupted"]
 
 
 #: Staging folders and temporary files being written now: what an interrupt must remove
@@ -160,71 +160,3 @@ def recover_interrupted(target: str | Path) -> list[Path]:
             restored.append(target)
         shutil.rmtree(trash, ignore_errors=True)
     return restored
-
-
-#: ZIP is used only when it saves at least this fraction of the bytes (estimated on a sample).
-ZIP_WORTH_IT = 0.10
-
-
-def _zip_saves(data: dict) -> float:
-    """Fraction of bytes zlib saves on a sample of the channels' rows (the EXR ZIP codec is
-    zlib after a byte-plane predictor, so this is a fair, cheap estimate of its saving)."""
-    import zlib
-
-    import numpy as np
-
-    arrays = list(data.values())
-    sample = [a[:: max(1, a.shape[0] // 16)] for a in arrays[:: max(1, len(arrays) // 4)]]
-    raw = b"".join(np.ascontiguousarray(a).tobytes() for a in sample)
-    return 1.0 - len(zlib.compress(raw, 1)) / max(len(raw), 1)
-
-
-def write_exr_channels(channels, path: str | Path, attributes=None, *, compression: str = "auto") -> Path:
-    """Write named float32 channels as a scanline OpenEXR, atomically.
-
-    ``compression="auto"`` writes ZIP where it pays and no compression where the data is noise:
-    a 16-spp, 31-band radiance at 2.5 MP compressed by 1.5 % at a cost of 4.4 s (uncompressed:
-    0.3 s), while a smooth depth map shrinks several-fold. OpenEXR compresses on all CPUs.
-
-    Parameters
-    ----------
-    channels : mapping of str to numpy.ndarray
-        Channel name → (H, W) array (converted to float32). OpenEXR stores channels sorted
-        by name.
-    path : path-like
-        Output file.
-    attributes : mapping of str to str, optional
-        Extra header attributes (e.g. the spectral layout's ``spectralLayoutVersion``).
-    compression : {"auto", "zip", "none"}
-        ``"auto"``: ZIP when a zlib estimate on a sample of rows saves at least
-        :data:`ZIP_WORTH_IT` of the bytes, else none.
-
-    Raises
-    ------
-    OSError
-        When the file cannot be written (OpenEXR's RuntimeError, e.g. on a full disk); no
-        partial file is left.
-
-    References
-    ----------
-    .. [1] OpenEXR file layout, https://openexr.com (header attributes, channel lists).
-    """
-    import numpy as np
-    import OpenEXR
-
-    if compression not in ("auto", "zip", "none"):
-        raise ConfigError(f"EXR compression {compression!r}; valid: 'auto', 'zip', 'none'")
-    data = {name: np.ascontiguousarray(value, dtype=np.float32) for name, value in channels.items()}
-    if compression == "auto":
-        compression = "zip" if _zip_saves(data) >= ZIP_WORTH_IT else "none"
-    codec = OpenEXR.ZIP_COMPRESSION if compression == "zip" else OpenEXR.NO_COMPRESSION
-    OpenEXR.set_global_thread_count(os.cpu_count() or 1)
-    header = {"compression": codec, "type": OpenEXR.scanlineimage, **(attributes or {})}
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        try:
-            with OpenEXR.File(header, data) as exr:
-                exr.write(str(tmp))
-        except RuntimeError as exc:  # OpenEXR reports a failed write (a full disk, ...) this way
-            raise OSError(errno.EIO, f"could not write the OpenEXR file ({exc})", str(path)) from None
-    return path

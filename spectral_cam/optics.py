@@ -346,7 +346,8 @@ class ThinLens:
         rows, columns = next_fast_len(height + 2 * pad), next_fast_len(width + 2 * pad, real=True)
         return (rows, columns), (pad + (rows - height - 2 * pad) // 2, pad + (columns - width - 2 * pad) // 2)
 
-    def apply_diffraction(self, data: np.ndarray, wavelengths_nm, *, workers: int | None = None) -> np.ndarray:
+    def apply_diffraction(self, data: np.ndarray, wavelengths_nm, *, workers: int | None = None,
+                          out: np.ndarray | None = None) -> np.ndarray:
         """Blur each band of an (H, W, B) radiance cube by its diffraction OTF.
 
         The render's pixel values already integrate radiance over each pixel (box filter),
@@ -374,11 +375,15 @@ class ThinLens:
             The B band centres, nm.
         workers
             Threads; None: every usable CPU.
+        out
+            Where to write the result: a float32 (H, W, B) array, ``data`` itself included
+            (each group of bands is read whole before it is written back, so blurring in
+            place gives the same bytes and saves a cube: 5.6 GB at 45 MP, 31 bands).
 
         Returns
         -------
         numpy.ndarray
-            (H, W, B) float32.
+            (H, W, B) float32 (``out`` when given).
 
         References
         ----------
@@ -393,7 +398,10 @@ class ThinLens:
         wavelengths = [float(w) for w in np.asarray(wavelengths_nm, dtype=float).ravel()]
         if len(wavelengths) != n_bands:
             raise ValueError(f"{len(wavelengths)} wavelengths for {n_bands} bands")
-        out = np.empty((height, width, n_bands), dtype=np.float32)
+        if out is None:
+            out = np.empty((height, width, n_bands), dtype=np.float32)
+        elif out.shape != data.shape or out.dtype != np.float32:
+            raise ValueError(f"out must be a float32 array of shape {data.shape}; got {out.dtype} {out.shape}")
         if out.size == 0:
             return out
         (rows, columns), (top, left) = self.diffraction_padding(height, width, wavelengths)

@@ -69,17 +69,36 @@ def test_a_kill_between_the_fallback_renames_loses_nothing(tmp_path):
 
 
 def test_a_failed_exr_write_is_an_os_error_the_cli_reports(tmp_path, monkeypatch, capsys):
-    """Issue 12 #11: OpenEXR's RuntimeError on a full disk escaped as a traceback."""
-    import OpenEXR
+    """Issue 12 #11: a full disk during an EXR write escaped as a traceback. The disk fills
+    after the first megabyte the EXR writer writes (/dev/full's error, ENOSPC)."""
+    import builtins
+    import errno
 
+    from spectral_cam import exr
     from spectral_cam.cli import main
 
-    def full_disk(self, *args, **kwargs):
-        raise RuntimeError("Cannot write image file: No space left on device")
+    class FillingDisk:
+        def __init__(self, file):
+            self.file, self.written = file, 0
 
-    monkeypatch.setattr(OpenEXR.File, "write", full_disk)
+        def write(self, data):
+            self.written += len(data)
+            if self.written > 1 << 20:
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return self.file.write(data)
+
+        def __getattr__(self, name):
+            return getattr(self.file, name)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.file.close()
+
+    monkeypatch.setattr(exr, "open", lambda *a, **k: FillingDisk(builtins.open(*a, **k)), raising=False)
     scene = tmp_path / "scene.toml"
-    scene.write_text("[sensor]\nwidth_px = 24\nheight_px = 16\n[render]\nspp = 4\n")
+    scene.write_text("[sensor]\nwidth_px = 240\nheight_px = 160\n[render]\nspp = 1\n")
     assert main(["render", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 2
     err = capsys.readouterr().err
     assert "could not write the OpenEXR file" in err and "No space left" in err and "Traceback" not in err
@@ -93,7 +112,7 @@ def test_exr_compression_auto_zips_what_compresses_and_keeps_every_bit(tmp_path)
     import numpy as np
     import OpenEXR
 
-    from spectral_cam.io import write_exr_channels
+    from spectral_cam.exr import write_exr_channels
 
     y, x = np.mgrid[0:64, 0:96].astype(np.float32)
     smooth = {"Z": (2.0 + 0.001 * x + 0.0 * y).astype(np.float32)}

@@ -230,7 +230,13 @@ def test_diffraction_gives_the_same_bytes_for_any_workers_grouping_and_input_lay
     monkeypatch.setattr(optics, "DIFFRACTION_GROUP_BYTES", 1)
     for workers in (1, 2, 3):
         assert lens.apply_diffraction(cube, wavelengths, workers=workers).tobytes() == expected, workers
+    in_place = cube.copy()  # in place, a band group at a time: every group read before it is written
+    assert lens.apply_diffraction(in_place, wavelengths, workers=2, out=in_place) is in_place
+    assert in_place.tobytes() == expected
     monkeypatch.undo()
+    in_place = cube.copy()
+    lens.apply_diffraction(in_place, wavelengths, out=in_place)
+    assert in_place.tobytes() == expected
     # any dtype and memory layout in; the same float32 values give the same bytes out
     as_float64 = cube.astype(np.float64)
     band_major = np.ascontiguousarray(cube.transpose(2, 0, 1)).transpose(1, 2, 0)

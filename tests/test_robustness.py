@@ -131,7 +131,7 @@ def test_bad_band_edges_in_a_spectral_exr_are_refused(tmp_path, edges):
     import numpy as np
 
     from spectral_cam.charts import narrow_band_flat
-    from spectral_cam.io import write_exr_channels
+    from spectral_cam.exr import write_exr_channels
     from spectral_cam.spectral_exr import channel_name
 
     image = narrow_band_flat((4, 4), 0.05)

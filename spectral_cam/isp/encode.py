@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ..io import atomic_path, write_exr_channels
+from ..exr import write_exr_channels
+from ..io import atomic_path
 from ..registry import Registry
 
 __all__ = [

@@ -239,7 +239,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
 
     t0 = time.perf_counter()
     if diffract:
-        data = lens.apply_diffraction(data, bands.centres_nm)
+        data = lens.apply_diffraction(data, bands.centres_nm, out=data if data.dtype == np.float32 else None)
     diffraction_s = time.perf_counter() - t0
 
     meta = {

@@ -34,7 +34,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import ConfigError
-from ...io import staged_directory, write_exr_channels
+from ...exr import write_exr_channels
+from ...io import staged_directory
 from ...job import Simulation, result_meta, simulate, write_files
 from ...metrics.blur import measure_blur
 from ...records import write_json
