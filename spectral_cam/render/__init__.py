@@ -34,6 +34,17 @@ from .variants import choose_variant, choose_variant_record
 __all__ = ["render", "render_layered", "choose_variant", "SpectralImage", "LANES_PER_PASS", "SCALAR_LANES_PER_PASS"]
 
 
+def _most_channels(config: SceneConfig) -> int:
+    """Values per pixel the render may hold: 6 camera-film channels, else the spectral bands
+    (``"auto"`` counted as spectral: the choice is made later, and may need the spectrum)."""
+    from ..spectra import parse_bands
+    from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT
+
+    if config.render.bands == "camera":
+        return 6
+    return len(parse_bands(config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT))
+
+
 def render(
     config: SceneConfig,
     *,
@@ -82,7 +93,8 @@ def render(
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     if with_margin:
         lens = lens.layout_lens.widened(config.sensor.crop_margin_px)
-    check_render_memory(lens.width_px, lens.height_px)
+    channels = _most_channels(config)
+    check_render_memory(lens.width_px, lens.height_px, channels=channels, layered=config.lens.model == "layered")
     check_tiling(config, lens)
     variant, variant_record = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
@@ -96,6 +108,9 @@ def render(
         depth_s = time.perf_counter() - t0
     if lens_model == "auto":
         lens_model, decisions["lens_model"] = decide_lens_model(lens, depth, config)
+        if lens_model == "layered":  # the choice made, before its render starts
+            check_render_memory(lens.width_px, lens.height_px, channels=channels, layered=True,
+                                what="this frame with the layered lens model that lens.model = \"auto\" chose")
 
     if config.lens.model == "layered" or lens_model == "layered":
         image = render_layered(config, lens=lens, progress=progress, variant=variant)

@@ -20,16 +20,47 @@ from ..errors import ConfigError
 
 __all__ = ["estimate_render_bytes", "available_bytes", "check_render_memory"]
 
-#: Peak resident memory per megapixel of a render → expose → develop job, measured on the
-#: 31-band default (1.36 GB/MP at 1 and 2 MP, 4 spp), rounded up.
-BYTES_PER_MEGAPIXEL = 1.5e9
-#: The process before the frame: Python, NumPy, Mitsuba's JIT, colour-science (measured ≈ 0.3 GB).
-BASE_BYTES = 0.5e9
+#: The process before the frame: Python, NumPy, Mitsuba's JIT and scene, colour-science
+#: (measured 0.45–0.55 GB after a small render).
+BASE_BYTES = 0.6e9
+#: Mitsuba's own memory per pixel of one render call (film, wavefront, result tensor), 31
+#: bands, 16 spp: bare ``mi.render`` peaks at 420–470 MB/MP (docs/bench/bench_render.csv). A
+#: call covers one tile (:data:`~spectral_cam.render.scene_dict.TILE_PIXELS`) at most.
+MITSUBA_BYTES_PER_CALL_PIXEL = 480.0
+#: Bytes per pixel of the frame besides its radiance cube: depth, the sensor's rates and
+#: mosaic, the ISP's float images, diffraction's band planes. Measured whole jobs (31 bands,
+#: 4 spp, peak RSS): 0.88 GB at 1.06 MP, 1.31 GB at 2.55 MP, 2.93 GB at 12.1 MP, 9.58 GB at
+#: 45.7 MP, i.e. 192 B/px beyond the first tile, 124 of them the cube; 100 keeps a margin.
+PIPELINE_BYTES_PER_PIXEL = 100.0
+#: ``lens.model = "layered"`` holds more per pixel: the depth layers being blurred and
+#: composited (measured: 1.83 GB at 1.2 MP, 31 bands, f/2.8 dof_targets, against 0.88 GB
+#: thin lens at 1.06 MP: ~780 B/px more), counted as this many radiance cubes plus the
+#: 4²-sample depth probe.
+LAYERED_EXTRA_CUBES = 6
+LAYERED_DEPTH_BYTES_PER_PIXEL = 64.0
 
 
-def estimate_render_bytes(width_px: int, height_px: int) -> float:
-    """Peak memory (bytes) of a job on a ``width_px`` × ``height_px`` frame."""
-    return BASE_BYTES + BYTES_PER_MEGAPIXEL * width_px * height_px / 1e6
+def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, layered: bool = False) -> float:
+    """Peak memory (bytes) of a render → expose → develop job on a ``width_px`` ×
+    ``height_px`` frame whose radiance has ``channels`` float32 values per pixel (31 bands by
+    default; 6 for ``render.bands = "camera"``); ``layered`` for ``lens.model = "layered"``.
+
+    The frame renders in tiles of at most
+    :data:`~spectral_cam.render.scene_dict.TILE_PIXELS` pixels, so Mitsuba's share is one
+    tile's; the whole frame holds its radiance cube and the pipeline's per-pixel arrays.
+
+    Examples
+    --------
+    >>> round(estimate_render_bytes(8256, 5504) / 1e9, 1)  # a 45 MP full-frame sensor
+    11.3
+    """
+    from .scene_dict import TILE_PIXELS
+
+    pixels = float(width_px) * float(height_px)
+    per_pixel = 4.0 * channels + PIPELINE_BYTES_PER_PIXEL
+    if layered:
+        per_pixel += LAYERED_EXTRA_CUBES * 4.0 * channels + LAYERED_DEPTH_BYTES_PER_PIXEL
+    return BASE_BYTES + pixels * per_pixel + min(pixels, TILE_PIXELS) * MITSUBA_BYTES_PER_CALL_PIXEL
 
 
 def _cgroup_bytes() -> float:
@@ -59,18 +90,32 @@ def available_bytes() -> float:
     return min(_meminfo_bytes(), _cgroup_bytes(), rlimit)
 
 
-def check_render_memory(width_px: int, height_px: int, *, what: str = "this frame") -> None:
-    """Refuse a frame whose job would not fit in memory.
+def check_render_memory(width_px: int, height_px: int, *, channels: int = 31, layered: bool = False,
+                        what: str = "this frame") -> None:
+    """Refuse a frame whose job would not fit in memory (:func:`estimate_render_bytes`).
 
     Raises
     ------
     ConfigError
         With the estimate, what is available and what to change.
     """
-    need, have = estimate_render_bytes(width_px, height_px), available_bytes()
-    if need > have:
-        side = max(2, int(math.sqrt(max(have - BASE_BYTES, 0.0) / BYTES_PER_MEGAPIXEL * 1e6)))
+    def need(width, height, channels=channels, layered=layered):
+        return estimate_render_bytes(width, height, channels, layered=layered)
+
+    have = available_bytes()
+    if need(width_px, height_px) > have:
+        side = 2
+        while need(2 * side, 2 * side) <= have:
+            side *= 2
+        while need(side + 64, side + 64) <= have:
+            side += 64
+        remedies = [f"lower sensor.width_px/height_px (about {side} × {side} px fits)"]
+        if layered:
+            remedies.append(f"lens.model = \"thin\" (path-traced defocus: about "
+                            f"{need(width_px, height_px, layered=False) / 1e9:.1f} GB)")
+        if channels > 6:
+            remedies.append(f"render.bands = \"camera\" (6 values a pixel instead of {channels}: about "
+                            f"{need(width_px, height_px, 6) / 1e9:.1f} GB)")
         raise ConfigError(
-            f"{what} ({width_px} × {height_px} px) needs about {need / 1e9:.1f} GB of memory and "
-            f"{have / 1e9:.1f} GB are available; lower sensor.width_px/height_px (about {side} × {side} px "
-            f"fits) or free memory")
+            f"{what} ({width_px} × {height_px} px) needs about {need(width_px, height_px) / 1e9:.1f} GB of memory "
+            f"and {have / 1e9:.1f} GB are available; {', or '.join(remedies)}; or free memory")
