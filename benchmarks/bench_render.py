@@ -6,20 +6,23 @@ render builds (the ColorChecker preset, our camera and its 31-band box ``specfil
 box filter, the same spp), one ``mi.render``, an EXR written by ``mi.Bitmap``. The scene goes
 to it as JSON (transforms as 4×4 matrices), so it imports nothing of ours.
 
-Measured per size (0.15, 0.6, 2.5, 12 MP at 3:2; fixed-cost row at 16 × 16 px):
+Measured per size (0.15, 0.6, 2.5, 12 MP at 3:2; fixed-cost row at 16 × 16 px; frames above
+1 MP render in tiles):
 
 - render stage: our ``render`` radiance time (``meta["timings_s"]["radiance"]``, in a fresh
   process) vs the bare script's ``mi.render`` call;
 - whole process: ``spectral-cam render`` (render, depth, sensor, DNG, ISP, PNG, spectral EXR)
   vs the bare script, wall time and peak RSS of the process (``os.wait4``), per MP.
 
-Medians of interleaved repeats with one warm-up each. Writes ``OUT/render.csv``,
+Medians of interleaved repeats with one warm-up each. ``--big`` adds one run of a 45 MP
+full-frame sensor (8256 × 5504, 4 spp, no warm-up): ours whole process (its render stage read from
+its meta.json) against the bare script, which holds the whole frame in Mitsuba's film. Writes ``OUT/render.csv``,
 ``OUT/render.png`` and, with ``--readme``, the README block between ``<!-- bench-render:begin -->``
 and ``<!-- bench-render:end -->``.
 
 Usage::
 
-    python benchmarks/bench_render.py docs/bench --readme README.md [--sizes 0.15,0.6,2.5,12] [--repeats 3]
+    python benchmarks/bench_render.py docs/bench --readme README.md [--sizes 0.15,0.6,2.5,12] [--repeats 3] [--big]
 
 References
 ----------
@@ -42,6 +45,8 @@ import numpy as np
 BEGIN, END = "<!-- bench-render:begin -->", "<!-- bench-render:end -->"
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "colorchecker.toml"
 SPP = 16
+#: The ``--big`` frame: a 45 MP full-frame sensor, at 4 spp to keep the run to minutes.
+BIG_FRAME, BIG_SPP = (8256, 5504), 4
 
 BARE_SCRIPT = r"""
 import json, sys, time
@@ -140,37 +145,51 @@ def _size(megapixels: float) -> tuple[int, int]:
     return width, int(round(width / 1.5 / 2)) * 2
 
 
-def measure(megapixels: float, repeats: int, folder: Path, whole: bool) -> dict:
-    width, height = _size(megapixels) if megapixels > 0 else (16, 16)
-    overrides = {"sensor.width_px": width, "sensor.height_px": height, "render.spp": SPP}
+def measure(megapixels: float, repeats: int, folder: Path, whole: bool, *, size: tuple[int, int] | None = None,
+            spp: int = SPP, stage: bool = True) -> dict:
+    width, height = size or (_size(megapixels) if megapixels > 0 else (16, 16))
+    overrides = {"sensor.width_px": width, "sensor.height_px": height, "render.spp": spp}
     bare_scene, variant = scene_json(overrides, folder / f"scene_{width}.json")
     cli = str(Path(sys.executable).with_name("spectral-cam"))
     sets = " ".join(f"--set {k}={v}" for k, v in overrides.items()).split()
-    runs = {
-        "bare": [sys.executable, "-c", BARE_SCRIPT, variant, str(bare_scene), str(SPP), str(folder / "bare.exr")],
-        "stage": [sys.executable, "-c", OURS_STAGE, str(SCENE), json.dumps(overrides)],
-    }
+    runs = {"bare": [sys.executable, "-c", BARE_SCRIPT, variant, str(bare_scene), str(spp), str(folder / "bare.exr")]}
+    if stage:
+        runs["stage"] = [sys.executable, "-c", OURS_STAGE, str(SCENE), json.dumps(overrides)]
     if whole:
         runs["ours"] = [cli, "render", str(SCENE), "-o", str(folder / "ours"), "--force", "-q", *sets]
     times = {name: [] for name in runs}
-    for name, argv in runs.items():  # one unmeasured run each
-        _run(argv)
+    if repeats > 1:
+        for name, argv in runs.items():  # one unmeasured run each
+            _run(argv)
     for repeat in range(repeats):
         order = list(runs)[repeat % len(runs):] + list(runs)[:repeat % len(runs)]
         for name in order:
-            times[name].append(_run(runs[name]))
-    row = {"megapixels": round(width * height / 1e6, 4), "width": width, "height": height, "spp": SPP,
+            try:
+                times[name].append(_run(runs[name]))
+            except RuntimeError as exc:  # the bare script may not fit in memory at all
+                print(f"{name} at {width} x {height}: {exc}", file=sys.stderr)
+    row = {"megapixels": round(width * height / 1e6, 4), "width": width, "height": height, "spp": spp,
            "variant": variant}
-    row["bare_render_s"] = float(np.median([json.loads(out)["render_s"] for _, _, out in times["bare"]]))
-    row["ours_render_s"] = float(np.median([json.loads(out)["render_s"] for _, _, out in times["stage"]]))
-    row["render_ratio"] = row["ours_render_s"] / row["bare_render_s"]
-    row["bare_wall_s"] = float(np.median([w for w, _, _ in times["bare"]]))
-    row["bare_peak_mb"] = float(np.median([m for _, m, _ in times["bare"]]))
+    if times["bare"]:
+        row["bare_render_s"] = float(np.median([json.loads(out)["render_s"] for _, _, out in times["bare"]]))
+        row["bare_wall_s"] = float(np.median([w for w, _, _ in times["bare"]]))
+        row["bare_peak_mb"] = float(np.median([m for _, m, _ in times["bare"]]))
+    if stage:
+        row["ours_render_s"] = float(np.median([json.loads(out)["render_s"] for _, _, out in times["stage"]]))
+    else:  # from the whole run's own record
+        row["ours_render_s"] = json.loads((folder / "ours" / "meta.json").read_text())["timings_s"]["render_radiance"]
     if whole:
         row["ours_wall_s"] = float(np.median([w for w, _, _ in times["ours"]]))
         row["ours_peak_mb"] = float(np.median([m for _, m, _ in times["ours"]]))
-        row["wall_ratio"] = row["ours_wall_s"] / row["bare_wall_s"]
+    if times["bare"]:
+        row["render_ratio"] = row["ours_render_s"] / row["bare_render_s"]
+        if whole:
+            row["wall_ratio"] = row["ours_wall_s"] / row["bare_wall_s"]
     return row
+
+
+def _has(row: dict, key: str) -> bool:
+    return row.get(key) not in (None, "")
 
 
 def readme_block(rows: list[dict]) -> str:
@@ -178,17 +197,24 @@ def readme_block(rows: list[dict]) -> str:
              "`python benchmarks/bench_render.py docs/bench --readme README.md` renders the bundled ColorChecker "
              f"({SPP} spp, 31 bands) with `spectral-cam render` and with a bare Mitsuba script of the same scene "
              "(one `mi.render`, EXR written), in one run ([CSV](docs/bench/render.csv), "
-             "[chart](docs/bench/render.png)):", "",
+             "[chart](docs/bench/render.png)). Frames above 1 MP render in tiles:", "",
              "| frame | render stage, ours / bare | whole process, ours / bare | peak memory, ours / bare |",
              "|---|---|---|---|"]
     for r in rows:
         label = f"{int(r['width'])} × {int(r['height'])}" + (" (fixed cost)" if float(r["megapixels"]) < 0.01 else "")
-        stage = f"{float(r['ours_render_s']):.2f} / {float(r['bare_render_s']):.2f} s (×{float(r['render_ratio']):.2f})"
-        if r.get("ours_wall_s") not in (None, ""):
-            wall = f"{float(r['ours_wall_s']):.2f} / {float(r['bare_wall_s']):.2f} s (×{float(r['wall_ratio']):.2f})"
-            peak = f"{float(r['ours_peak_mb']):.0f} / {float(r['bare_peak_mb']):.0f} MB"
+        if int(r["spp"]) != SPP:
+            label += f", {int(r['spp'])} spp"
+        if _has(r, "bare_render_s"):
+            stage = f"{float(r['ours_render_s']):.2f} / {float(r['bare_render_s']):.2f} s (×{float(r['render_ratio']):.2f})"
         else:
-            wall, peak = "—", f"— / {float(r['bare_peak_mb']):.0f} MB"
+            stage = f"{float(r['ours_render_s']):.2f} s / bare did not run"
+        wall = peak = "—"
+        if _has(r, "ours_wall_s") and _has(r, "bare_wall_s"):
+            wall = f"{float(r['ours_wall_s']):.2f} / {float(r['bare_wall_s']):.2f} s (×{float(r['wall_ratio']):.2f})"
+        if _has(r, "ours_peak_mb") or _has(r, "bare_peak_mb"):
+            peak = " / ".join(f"{float(r[k]):.0f}" if _has(r, k) else "—" for k in ("ours_peak_mb", "bare_peak_mb")) + " MB"
+            if _has(r, "ours_peak_mb") and _has(r, "bare_peak_mb"):
+                peak += f" (×{float(r['ours_peak_mb']) / float(r['bare_peak_mb']):.2f})"
         lines.append(f"| {label} | {stage} | {wall} | {peak} |")
     lines.append(END)
     return "\n".join(lines)
@@ -204,19 +230,31 @@ def chart(rows: list[dict], path: Path) -> None:
     from spectral_cam.viz import figure, save_png
 
     sized = [r for r in rows if float(r["megapixels"]) >= 0.01]
-    fig = figure(8, 3.5)
-    left, right = fig.subplots(1, 2)
-    mp = [float(r["megapixels"]) for r in sized]
-    left.plot(mp, [float(r["ours_render_s"]) / float(r["megapixels"]) for r in sized], "o-", label="ours, render stage")
-    left.plot(mp, [float(r["bare_render_s"]) / float(r["megapixels"]) for r in sized], "s--", label="bare mi.render")
-    left.set_xscale("log"), left.set_xlabel("frame (MP)"), left.set_ylabel("s per MP"), left.legend(fontsize=8)
-    whole = [r for r in sized if r.get("ours_wall_s") not in (None, "")]
-    right.plot(mp, [float(r["render_ratio"]) for r in sized], "o-", label="render stage")
-    right.plot([float(r["megapixels"]) for r in whole], [float(r["wall_ratio"]) for r in whole], "s-",
-               label="whole process")
-    right.axhline(1.0, color="grey", lw=1)
-    right.set_xscale("log"), right.set_xlabel("frame (MP)"), right.set_ylabel("ours / bare"), right.legend(fontsize=8)
-    fig.suptitle(f"spectral-cam render vs bare Mitsuba, ColorChecker, {SPP} spp, 31 bands", fontsize=10)
+    fig = figure(12, 3.6)
+    cost, ratio, memory = fig.subplots(1, 3)
+
+    def series(axis, key_rows, value, style, label):
+        axis.plot([float(r["megapixels"]) for r in key_rows], [value(r) for r in key_rows], style, label=label)
+
+    def per_mp_16spp(key):  # render seconds per MP, scaled to 16 spp (the 45 MP run has 4)
+        return lambda r: float(r[key]) / float(r["megapixels"]) * SPP / float(r["spp"])
+
+    paired = [r for r in sized if _has(r, "render_ratio")]
+    series(cost, sized, per_mp_16spp("ours_render_s"), "o-", "ours, render stage")
+    series(cost, paired, per_mp_16spp("bare_render_s"), "s--", "bare mi.render")
+    cost.set_ylabel(f"s per MP at {SPP} spp")
+    series(ratio, paired, lambda r: float(r["render_ratio"]), "o-", "render stage")
+    series(ratio, [r for r in sized if _has(r, "wall_ratio")], lambda r: float(r["wall_ratio"]), "s-", "whole process")
+    ratio.axhline(1.0, color="grey", lw=1)
+    ratio.set_ylabel("ours / bare")
+    series(memory, [r for r in sized if _has(r, "ours_peak_mb")],
+           lambda r: float(r["ours_peak_mb"]) / float(r["megapixels"]), "o-", "ours, whole process")
+    series(memory, [r for r in sized if _has(r, "bare_peak_mb")],
+           lambda r: float(r["bare_peak_mb"]) / float(r["megapixels"]), "s--", "bare script")
+    memory.set_ylabel("peak RSS, MB per MP")
+    for axis in (cost, ratio, memory):
+        axis.set_xscale("log"), axis.set_xlabel("frame (MP)"), axis.legend(fontsize=8)
+    fig.suptitle("spectral-cam render vs bare Mitsuba, ColorChecker, 31 bands (tiles above 1 MP)", fontsize=10)
     save_png(fig, path)
 
 
@@ -224,7 +262,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("output")
     parser.add_argument("--sizes", default="0.15,0.6,2.5,12")
-    parser.add_argument("--whole-up-to", type=float, default=2.5, help="whole-process runs up to this size (MP)")
+    parser.add_argument("--whole-up-to", type=float, default=12, help="whole-process runs up to this size (MP)")
+    parser.add_argument("--big", action="store_true", help="add one 45 MP (8256 x 5504) run at 4 spp")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--readme", default=None)
     args = parser.parse_args()
@@ -237,6 +276,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         for megapixels in [0.0] + [float(v) for v in args.sizes.split(",")]:
             row = measure(megapixels, args.repeats, Path(folder), whole=megapixels <= args.whole_up_to)
+            rows.append(row)
+            print(json.dumps(row), file=sys.stderr)
+        if args.big:
+            row = measure(0, 1, Path(folder), whole=True, size=BIG_FRAME, spp=BIG_SPP, stage=False)
             rows.append(row)
             print(json.dumps(row), file=sys.stderr)
     write_rows(rows, out / "render.csv")
