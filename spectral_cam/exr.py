@@ -75,14 +75,20 @@ def _header(names: Sequence[str], width: int, height: int, compression: str, ext
     return struct.pack("<ii", _MAGIC, version) + b"".join(attributes) + b"\0"
 
 
-def _zip_chunk(raw: bytes) -> bytes:
-    """OpenEXR's ZIP codec on one chunk: even bytes then odd bytes, byte-wise differences
-    (+128, modulo 256), zlib; the raw bytes themselves where that does not shrink them."""
+def _predicted(raw: bytes) -> bytes:
+    """The bytes OpenEXR's ZIP codec hands to zlib: even bytes then odd bytes, each the
+    difference from the one before plus 128, modulo 256."""
     data = np.frombuffer(raw, np.uint8)
     interleaved = np.concatenate([data[0::2], data[1::2]])
-    predicted = interleaved.copy()
-    predicted[1:] = (interleaved[1:].astype(np.int16) - interleaved[:-1] + 128).astype(np.uint8)
-    packed = zlib.compress(predicted.tobytes(), ZIP_LEVEL)
+    predicted = np.diff(interleaved, prepend=np.uint8(128))  # uint8 arithmetic wraps modulo 256
+    predicted += np.uint8(128)
+    return predicted.tobytes()
+
+
+def _zip_chunk(raw: bytes) -> bytes:
+    """OpenEXR's ZIP codec on one chunk (:func:`_predicted`, then zlib); the raw bytes
+    themselves where that does not shrink them."""
+    packed = zlib.compress(_predicted(raw), ZIP_LEVEL)
     return packed if len(packed) < len(raw) else raw
 
 
@@ -173,10 +179,12 @@ def write_exr(path: str | Path, names: Sequence[str], width: int, height: int,
 
 
 def zip_saves(rows: Callable[[int, int], np.ndarray], height: int) -> float:
-    """Fraction of bytes zlib saves on 16 rows spread over the image (the EXR ZIP codec is
-    zlib after a byte-plane predictor, so this is a fair, cheap estimate of its saving)."""
+    """Fraction of bytes the ZIP codec saves on 16 rows spread over the image, through its own
+    predictor (:func:`_predicted`): on noisy float radiance the predictor costs more than
+    it gains (a 12 MP, 16-spp ColorChecker: plain zlib saves 10 %, the codec 2 %), so
+    judging by plain zlib chose ZIP for 2 % at 40 s."""
     sample = b"".join(_chunk_bytes(np.asarray(rows(y, y + 1))) for y in range(0, height, max(1, height // 16)))
-    return 1.0 - len(zlib.compress(sample, 1)) / max(len(sample), 1)
+    return 1.0 - len(zlib.compress(_predicted(sample), 1)) / max(len(sample), 1)
 
 
 def resolve_compression(compression: str, rows: Callable[[int, int], np.ndarray], height: int) -> str:

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..optics import ThinLens
 from ..scene import SceneConfig
-from .scene_dict import build_scene, camera_dict, frame_tiles, pass_seed, tile_sensor
+from .scene_dict import build_scene, camera_dict, frame_tiles, pass_seed, release_render_memory, tile_sensor
 
 
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
@@ -39,4 +39,6 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
         z = (position - origin) @ axis
         hit = np.any(position != 0.0, axis=-1)  # the AOV is all zero where a ray escapes
         depth[first:end] = np.where(hit & (z > 0), z, np.inf)
+    del image
+    release_render_memory()
     return depth

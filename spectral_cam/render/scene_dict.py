@@ -143,6 +143,16 @@ def load_dict(mi, scene_dict: dict):
     except Exception as exc:  # Mitsuba raises plain RuntimeError on bad scenes
         raise RenderError(f"Mitsuba could not load the scene: {exc}") from exc
 
+def release_render_memory() -> None:
+    """Hand the memory drjit keeps for reuse after a render back to the system. The depth
+    pass's buffers do not fit the radiance render's, and nothing after the last render
+    allocates through drjit: kept, they only raise the job's peak (measured at 0.6 MP:
+    522 → 474 MB with the depth pass's released)."""
+    import drjit as dr
+
+    dr.flush_malloc_cache()
+
+
 def pass_seed(seed: int, index: int, tile: int | None = None) -> int:
     """Distinct, reproducible 32-bit seeds for the passes of one frame (and of each of its
     tiles, :func:`frame_tiles`; an untiled frame keeps the seeds it always had)."""

@@ -24,7 +24,7 @@ from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction
 from .films import band_film, camera_film
-from .scene_dict import TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, pass_seed, tile_sensor
+from .scene_dict import TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, pass_seed, release_render_memory, tile_sensor
 
 #: Most wavefront lanes (pixels × spp) of one Mitsuba call in the vectorised variants. Mitsuba's
 #: path tracer runs as a symbolic loop whose memory does not grow with the lanes (measured: see
@@ -231,6 +231,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
             data[rows[0]:rows[1]] = _checked_radiance(accumulated.mean())
         else:
             data = _checked_radiance(accumulated.mean())
+    release_render_memory()
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
         if progress is not None and done < target_spp:
