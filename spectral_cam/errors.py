@@ -6,7 +6,7 @@ its message without a traceback and programs can catch one base class.
 
 from __future__ import annotations
 
-__all__ = ["SpectralCamError", "ConfigError", "RenderError", "SensorError", "RawFormatError"]
+__all__ = ["SpectralCamError", "ConfigError", "RenderError", "SensorError", "RawFormatError", "SceneWarning"]
 
 
 class SpectralCamError(Exception):
@@ -27,3 +27,9 @@ class SensorError(SpectralCamError, ValueError):
 
 class RawFormatError(SpectralCamError, ValueError):
     """A RAW/DNG/EXR file is unreadable, truncated or lacks a required tag."""
+
+
+class SceneWarning(UserWarning):
+    """A scene setting that runs but does not do what it seems to: ``[illuminant]`` on an XML
+    scene that its own emitters light, a focal length that replaces the XML camera's field of
+    view. The CLI prints it as one line."""

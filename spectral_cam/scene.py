@@ -143,14 +143,18 @@ class SceneSection:
 @dataclass(frozen=True)
 class IlluminantSection:
     """The light: a named SPD, ``blackbody:<K>`` or a CSV path, at ``illuminance_lux`` on a
-    surface facing the camera."""
+    surface facing the camera. ``spd = "auto"``: the scene's own light, D65 for a preset and
+    its emitters' spectrum for an XML scene (``emitter`` names the one to use when it has
+    several; otherwise the one sending the camera most light: ``render/lights.py``)."""
 
-    spd: str = "D65"
+    spd: str = "auto"
     illuminance_lux: float = 1000.0
+    emitter: str = ""
 
     def __post_init__(self) -> None:
         _within("illuminant.illuminance_lux", self.illuminance_lux)
-        spectra.validate_illuminant(self.spd)
+        if self.spd != "auto":
+            spectra.validate_illuminant(self.spd)
 
 
 @dataclass(frozen=True)
@@ -464,8 +468,45 @@ def scene_from_dict(
                 f"override {dotted!r}: use section.key with a section among {', '.join(_SECTIONS)}"
             )
         merged.setdefault(section, {})[key] = value
-    sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS}
+    sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS if name != "lens"}
+    lens_table = _lens_for_xml_camera(dict(merged.get("lens", {})), sections["scene"], sections["sensor"])
+    sections["lens"] = section_from_table("lens", lens_table, base_dir)
     return SceneConfig(**sections)
+
+
+def _lens_for_xml_camera(lens: dict[str, Any], scene: SceneSection, sensor: SensorSection) -> dict[str, Any]:
+    """The lens table with ``focal_length_mm`` resolved: for a user's XML scene left unset (or
+    ``"auto"``) it keeps the XML camera's horizontal field of view on this sensor
+    (:func:`spectral_cam.xml_scene.focal_length_for_fov`); given, and changing that field of
+    view by more than 1 %, it is kept with a :class:`SceneWarning` that says what replaced what.
+    Without an XML camera (or for a preset) ``"auto"`` is the default 8 mm."""
+    from .xml_scene import focal_length_for_fov, xml_field_of_view
+
+    given = lens.get("focal_length_mm", "auto")
+    fov = xml_field_of_view(scene.mitsuba_xml) if scene.mitsuba_xml else None
+    if fov is None:
+        if given == "auto":
+            lens["focal_length_mm"] = LensSection.focal_length_mm
+        return lens
+    focus = lens.get("focus_distance_m", LensSection.focus_distance_m)
+    if not isinstance(focus, (int, float)) or isinstance(focus, bool) or focus <= 0:
+        return lens  # LensSection reports it
+    width_m = sensor.width_px * sensor.pixel_pitch_um * 1e-6
+    derived = focal_length_for_fov(fov.fov_x_deg, width_m, float(focus))
+    if given == "auto":
+        lens["focal_length_mm"] = derived
+    elif isinstance(given, (int, float)) and not isinstance(given, bool) and abs(given / derived - 1) > 0.01:
+        import warnings
+
+        from .errors import SceneWarning
+
+        image_distance = given * focus * 1e3 / (focus * 1e3 - given) if focus * 1e3 > given else math.inf
+        ours = 2 * math.degrees(math.atan(width_m * 1e3 / 2 / image_distance))
+        warnings.warn(f"lens.focal_length_mm = {given:g} gives a {ours:.3g}° field of view on this "
+                      f"{width_m * 1e3:.3g} mm-wide sensor, replacing the XML camera's {fov.fov_x_deg:.3g}° field of "
+                      f"view ({fov.source}); leave lens.focal_length_mm unset to keep it "
+                      f"({derived:.4g} mm)", SceneWarning, stacklevel=4)
+    return lens
 
 
 def section_from_table(name: str, table: Mapping[str, Any], base_dir: str | Path = ".") -> Any:

@@ -268,6 +268,8 @@ def _resolve_illuminant(spec: str) -> tuple[str, object]:
     """("blackbody", K) | ("name", colour-science's name) | ("csv", path), checked, without
     colour-science."""
     spec = str(spec).strip()
+    if spec == "auto":  # a preset's own light; an XML scene's is resolved from its emitters first
+        return "name", "D65"
     if spec.lower().startswith("blackbody:"):
         try:
             kelvin = float(spec.split(":", 1)[1])

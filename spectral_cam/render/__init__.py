@@ -27,6 +27,7 @@ from ..presets import white_reference_mask
 from .decisions import decide_lens_model
 from .defocus import render_layered
 from .depth import render_depth
+from .lights import resolve_light
 from .memory import check_render_memory
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, check_tiling, trace
 from .variants import choose_variant, choose_variant_record
@@ -99,6 +100,9 @@ def render(
     variant, variant_record = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
     decisions: dict[str, dict] = {"variant": variant_record}
+    config, decisions["illuminant"] = resolve_light(config)  # an XML scene's own light
+    if config.scene.mitsuba_xml:
+        decisions["field_of_view"] = _xml_field_of_view_record(config, lens)
 
     depth, depth_s = None, 0.0
     lens_model = config.lens.model
@@ -120,4 +124,21 @@ def render(
         image = trace(config, lens, lens_model, variant=variant, depth=depth, depth_s=depth_s,
                       decisions=decisions, progress=progress)
     image.white_reference = white_reference_mask(config, lens)
+    image.meta["illuminant_spd"] = config.illuminant.spd  # what white balance and the truth assume
     return image
+
+
+def _xml_field_of_view_record(config: SceneConfig, lens: ThinLens) -> dict:
+    """Whether the render keeps an XML camera's horizontal field of view (meta.json)."""
+    from ..xml_scene import xml_field_of_view
+
+    ours = lens.layout_lens.fov_x_deg
+    xml = xml_field_of_view(config.scene.mitsuba_xml)
+    if xml is None:
+        return {"choice": "ours", "fov_x_deg": ours, "reason": "the XML has no perspective or thin-lens camera "
+                "whose field of view could be read; lens.focal_length_mm sets it"}
+    kept = abs(ours / xml.fov_x_deg - 1) <= 0.01
+    return {"choice": "kept" if kept else "replaced", "fov_x_deg": ours, "xml_fov_x_deg": xml.fov_x_deg,
+            "focal_length_mm": config.lens.focal_length_mm, "xml_camera": xml.source,
+            "reason": "lens.focal_length_mm derived from the XML camera" if kept else
+            "lens.focal_length_mm set in the scene file replaces the XML camera's field of view"}

@@ -70,6 +70,21 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 # ----------------------------------------------------------------------------- expose
+def _with_scene_light(config: "SceneConfig", radiance: "SpectralImage") -> "SceneConfig":
+    """``config`` with ``illuminant.spd = "auto"`` replaced by the light the render resolved
+    (an XML scene's emitter, recorded in ``radiance.meta["illuminant_spd"]``); a preset's
+    "auto" is D65. An XML scene whose light is unknown is refused rather than exposed as D65."""
+    if config.illuminant.spd != "auto":
+        return config
+    resolved = (radiance.meta or {}).get("illuminant_spd")
+    if resolved is None:
+        if config.scene.mitsuba_xml:
+            raise SensorError("illuminant.spd = 'auto' on an XML scene: expose a radiance from "
+                              "spectral_cam.render (it reads the scene's emitters), or set illuminant.spd")
+        resolved = "D65"
+    return config.replace(**{"illuminant.spd": resolved})
+
+
 def expose(
     radiance: "SpectralImage",
     config: "SceneConfig",
@@ -134,6 +149,7 @@ def expose(
     """
     started = time.perf_counter()
     timings: dict[str, float] = {}
+    config = _with_scene_light(config, radiance)
     sensor, exposure = config.sensor, config.exposure
     _check_sensor(sensor)
     validate_radiance(radiance, sensor)

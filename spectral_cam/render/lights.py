@@ -1,0 +1,291 @@
+"""The light of a user's Mitsuba XML scene, read from its own emitters.
+
+White balance, the fitted colour matrix and the ground truth need the spectrum that lights the
+scene. A preset is lit by ``[illuminant]``; an XML scene by its emitters, whatever
+``[illuminant]`` says. With ``illuminant.spd = "auto"`` (the default) :func:`resolve_light`
+reads each emitter's spectrum as Mitsuba renders it (so ``blackbody``, ``d65``,
+regular/irregular/uniform spectra, RGB upsampled under D65, textured area lights, ``constant``,
+``envmap`` and ``sunsky`` all work): the mean of ``Emitter.sample_direction``'s spectral
+weights, L(λ)/pdf, over directions from the point the camera looks at, which estimates the
+spectral irradiance that emitter sends there up to a constant factor. It picks one emitter
+(``illuminant.emitter``, else the one that sends the camera most light, measured by rendering
+the scene with each emitter alone, the others dimmed 10²⁰-fold) and returns the scene with
+``illuminant.spd`` set to it: ``"blackbody:<K>"`` for a blackbody, else a CSV of its samples.
+
+References
+----------
+.. [1] Jakob, W., et al. (2022). Mitsuba 3 documentation, "Emitters" (``area``, ``point``,
+   ``spot``, ``directional``, ``constant``, ``envmap``, ``sunsky``) and "Spectra"
+   (``blackbody``, ``d65``, ``regular``, ``irregular``, ``uniform``).
+.. [2] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §12 (light sampling: an estimate of
+   incident radiance integrals from L/pdf).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import warnings
+from dataclasses import dataclass, replace
+from dataclasses import replace as dataclass_replace
+
+import numpy as np
+
+from ..errors import ConfigError, RenderError, SceneWarning
+from ..scene import SceneConfig
+
+__all__ = ["SceneEmitter", "scene_emitters", "resolve_light", "LIGHT_GRID_NM"]
+
+#: Wavelengths (nm) at which emitter spectra are sampled: Mitsuba's spectral range, 5 nm.
+LIGHT_GRID_NM = np.arange(360.0, 831.0, 5.0)
+#: Directions sampled per wavelength group when reading an emitter's spectrum.
+DIRECTION_SAMPLES = 4096
+#: Frame (px) and samples of the renders that measure which emitter sends the camera most light.
+PROBE_SIZE, PROBE_SPP = (48, 32), 16
+#: How much the other emitters are dimmed while one is measured.
+DIM = 1e-20
+# Parameters that set an emitter's strength (scaled to dim it); a temperature is lowered instead.
+_STRENGTH_SUFFIXES = ("value", "values", "data", "scale", "sun_scale", "sky_scale")
+_COLD_K = 100.0  # a blackbody at 100 K sends ~1e-89 of its 2856-K light in the visible
+
+
+@dataclass(frozen=True)
+class SceneEmitter:
+    """One emitter of a scene.
+
+    Attributes
+    ----------
+    name : str
+        Its id, or its shape's id for an area light (``emitter_<n>`` when it has none).
+    plugin : str
+        Mitsuba's class (``AreaLight``, ``PointLight``, ``ConstantBackgroundEmitter``, ...).
+    spectrum : numpy.ndarray
+        Relative spectral irradiance it sends to the point the camera looks at, on
+        :data:`LIGHT_GRID_NM` (max 1).
+    temperature_k : float or None
+        The blackbody temperature, for a ``blackbody`` spectrum.
+    share : float or None
+        Fraction of the light the camera receives that comes from it (when measured).
+    """
+
+    name: str
+    plugin: str
+    spectrum: np.ndarray
+    temperature_k: float | None = None
+    share: float | None = None
+
+
+def _emitter_prefixes(mi, scene) -> list[tuple[object, str, str]]:
+    """(emitter, name, traverse-key prefix) of every emitter; area lights are named by their shape."""
+    by_shape = {}
+    for shape in scene.shapes():
+        if shape.emitter() is not None:
+            by_shape[id(shape.emitter())] = shape.id()
+    found = []
+    for index, emitter in enumerate(scene.emitters()):
+        shape_id = by_shape.get(id(emitter))
+        if shape_id is not None:
+            name, prefix = shape_id or f"emitter_{index}", f"{shape_id}.emitter." if shape_id else None
+        else:
+            name, prefix = emitter.id() or f"emitter_{index}", f"{emitter.id()}." if emitter.id() else None
+        found.append((emitter, name, prefix))
+    return found
+
+
+def _look_point(mi, scene, sensor):
+    """Where the camera's central ray meets the scene (else the scene's centre)."""
+    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(0.5, 0.5), mi.Point2f(0.5, 0.5))
+    hit = scene.ray_intersect(ray)
+    if bool(np.asarray(hit.is_valid())[0]):
+        point = np.array([np.asarray(c)[0] for c in hit.p]) + 1e-4 * np.array([np.asarray(c)[0] for c in hit.n])
+        return point
+    box = scene.bbox()
+    return np.array([(box.min[i] + box.max[i]) / 2 for i in range(3)])
+
+
+def _irradiance_spectrum(mi, dr, emitter, point) -> np.ndarray:
+    """Mean of L(λ)/pdf over sampled directions from ``point``, on :data:`LIGHT_GRID_NM`."""
+    rng = np.random.default_rng(0)
+    n = DIRECTION_SAMPLES
+    u = mi.Point2f(rng.random(n).astype(np.float32), rng.random(n).astype(np.float32))
+    out = np.zeros(len(LIGHT_GRID_NM))
+    for start in range(0, len(LIGHT_GRID_NM), 4):
+        chunk = np.resize(LIGHT_GRID_NM[start:start + 4], 4)
+        it = dr.zeros(mi.Interaction3f, n)
+        it.p = mi.Point3f(*[float(c) for c in point])
+        it.wavelengths = mi.Spectrum(*[mi.Float(float(w)) for w in chunk])
+        _, weight = emitter.sample_direction(it, u, True)
+        means = [float(np.mean(np.asarray(weight[i]))) for i in range(4)]
+        count = min(4, len(LIGHT_GRID_NM) - start)
+        out[start:start + count] = means[:count]
+    return out
+
+
+def _temperature(params, prefix: str | None) -> float | None:
+    if prefix is None:
+        return None
+    keys = [k for k in params.keys() if k.startswith(prefix) and k.endswith(".temperature")]
+    return float(params[keys[0]]) if len(keys) == 1 else None
+
+
+def _strength_keys(params, prefix: str) -> list[str]:
+    return [k for k in params.keys() if k.startswith(prefix) and
+            (k.rsplit(".", 1)[-1] in _STRENGTH_SUFFIXES or k.endswith(".temperature"))]
+
+
+def _shares(mi, scene, sensor, integrator, emitters) -> list[float] | None:
+    """Fraction of the camera's light from each emitter: the scene rendered with each alone
+    (the others dimmed by :data:`DIM`) through a small luminance-like film; None where an
+    emitter's strength cannot be set (no id, or no strength parameter)."""
+    params = mi.traverse(scene)
+    groups = []
+    for _, _, prefix in emitters:
+        keys = _strength_keys(params, prefix) if prefix else []
+        if not keys:
+            return None
+        groups.append(keys)
+    original = {k: params[k] if isinstance(params[k], float) else type(params[k])(params[k])
+                for keys in groups for k in keys}
+    totals = []
+    try:
+        for lit in range(len(groups)):
+            for index, keys in enumerate(groups):
+                for key in keys:
+                    if index == lit:
+                        params[key] = original[key]
+                    elif key.endswith(".temperature"):
+                        params[key] = _COLD_K
+                    else:
+                        params[key] = original[key] * DIM
+            params.update()
+            image = mi.render(scene, sensor=sensor, integrator=integrator, spp=PROBE_SPP, seed=lit)
+            totals.append(float(np.asarray(image, dtype=np.float64).sum()))
+    finally:
+        for key, value in original.items():
+            params[key] = value
+        params.update()
+    total = sum(totals)
+    return [t / total for t in totals] if total > 0 else None
+
+
+def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[SceneEmitter]:
+    """The emitters of ``config``'s XML scene with their spectra (and, when there are several,
+    the share of the camera's light each sends).
+
+    Raises
+    ------
+    ConfigError
+        For a scene that is not an XML scene.
+    RenderError
+        When Mitsuba cannot load it.
+    """
+    import drjit as dr
+    import mitsuba as mi
+
+    from ..optics import ThinLens
+    from .scene_dict import build_scene, camera_dict
+    from .variants import choose_variant
+
+    if not config.scene.mitsuba_xml:
+        raise ConfigError("scene_emitters reads a Mitsuba XML scene (scene.mitsuba_xml); a preset is lit by "
+                          "[illuminant]")
+    mi.set_variant(choose_variant(config.render.variant))
+    lens = ThinLens.from_config(config.lens, config.sensor)
+    width = PROBE_SIZE[0]
+    height = max(1, round(width * lens.height_px / lens.width_px))
+    probe = dataclass_replace(lens, width_px=width, height_px=height, frame_lens=lens.layout_lens)  # same view
+    film = {"type": "specfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+            "visible": {"type": "spectrum", "value": [(400.0, 1.0), (700.0, 1.0)]}}
+    camera = camera_dict(mi, probe, "pinhole", film, PROBE_SPP)
+    scene, sensor, integrator = build_scene(mi, config, probe, camera, {"type": "path", "max_depth": config.render.max_depth})
+    found = _emitter_prefixes(mi, scene)
+    if not found:
+        return []
+    params = mi.traverse(scene)
+    point = _look_point(mi, scene, sensor)
+    emitters = []
+    for emitter, name, prefix in found:
+        spectrum = _irradiance_spectrum(mi, dr, emitter, point)
+        peak = spectrum.max()
+        emitters.append(SceneEmitter(name, str(emitter).split("[")[0].strip(),
+                                     spectrum / peak if peak > 0 else spectrum, _temperature(params, prefix)))
+    if measure_shares and len(found) > 1:
+        shares = _shares(mi, scene, sensor, integrator, found)
+        if shares is not None:
+            emitters = [replace(e, share=s) for e, s in zip(emitters, shares)]
+    return emitters
+
+
+def _spectrum_csv(emitter: SceneEmitter) -> str:
+    """A CSV of the emitter's spectrum in the cache folder, named by its content."""
+    from .variants import probe_cache_path
+
+    text = "wavelength_nm,relative_power\n" + "".join(
+        f"{w:g},{v:.9g}\n" for w, v in zip(LIGHT_GRID_NM, emitter.spectrum))
+    folder = probe_cache_path().parent / "scene_lights"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{hashlib.sha256(text.encode()).hexdigest()[:16]}.csv"
+    if not path.exists():
+        from ..io import atomic_path
+
+        with atomic_path(path) as temporary:
+            temporary.write_text(text)
+    return str(path)
+
+
+def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
+    """The scene with ``illuminant.spd`` set to the light that lights it, and a record of the
+    choice (for meta.json's ``model_decisions["illuminant"]``).
+
+    A preset keeps ``[illuminant]`` (``"auto"`` is D65). An XML scene with ``spd = "auto"`` takes
+    its emitter's spectrum (``illuminant.emitter``, else the one sending the camera most
+    light); with ``spd`` set, it keeps it and warns (:class:`~spectral_cam.errors.SceneWarning`)
+    that the emitters light the scene, not ``[illuminant]``.
+
+    Raises
+    ------
+    ConfigError
+        ``illuminant.emitter`` names no emitter of the scene (the message lists them), or an
+        XML scene has no emitter and ``spd = "auto"``.
+    """
+    spd, chosen_name = config.illuminant.spd, config.illuminant.emitter
+    if not config.scene.mitsuba_xml:
+        if spd == "auto":
+            return config.replace(**{"illuminant.spd": "D65"}), {"choice": "D65", "reason": "the preset's light "
+                                                                 "(illuminant.spd = 'auto')"}
+        return config, {"choice": spd, "reason": "illuminant.spd"}
+    if spd != "auto":
+        warnings.warn(f"illuminant.spd = {spd!r} does not light the XML scene {config.scene.mitsuba_xml} (its "
+                      f"emitters do); white balance, the colour matrix and the ground truth use {spd!r} as "
+                      "asked. Leave [illuminant] unset to use the scene's own light.", SceneWarning, stacklevel=2)
+        return config, {"choice": spd, "reason": "illuminant.spd set for an XML scene (warned)"}
+    emitters = scene_emitters(config)
+    if not emitters:
+        raise ConfigError(f"the XML scene {config.scene.mitsuba_xml} has no emitter, so nothing lights it; "
+                          "add one, or set illuminant.spd to the light its ground truth should assume")
+    names = [e.name for e in emitters]
+    if chosen_name:
+        if chosen_name not in names:
+            raise ConfigError(f"illuminant.emitter = {chosen_name!r} is not an emitter of {config.scene.mitsuba_xml}; "
+                              f"its emitters: {', '.join(names)}")
+        chosen, reason = emitters[names.index(chosen_name)], "illuminant.emitter"
+    elif len(emitters) == 1:
+        chosen, reason = emitters[0], "the scene's only emitter"
+    elif all(e.share is not None for e in emitters):
+        chosen = max(emitters, key=lambda e: e.share)
+        reason = f"sends the camera {100 * chosen.share:.0f} % of its light (each emitter rendered alone)"
+    else:
+        raise ConfigError(f"the XML scene {config.scene.mitsuba_xml} has {len(emitters)} emitters whose shares of "
+                          f"the light cannot be measured (give each an id); choose one with illuminant.emitter: "
+                          f"{', '.join(names)}")
+    if chosen.temperature_k is not None:
+        resolved = f"blackbody:{chosen.temperature_k:g}"
+    else:
+        resolved = _spectrum_csv(chosen)
+    record = {"choice": resolved, "emitter": chosen.name, "plugin": chosen.plugin, "reason": reason,
+              "emitters": {e.name: {"plugin": e.plugin, "share": e.share, "temperature_k": e.temperature_k}
+                           for e in emitters}}
+    if not np.any(chosen.spectrum > 0):
+        raise RenderError(f"emitter {chosen.name!r} sends no light to what the camera looks at; choose another "
+                          f"with illuminant.emitter ({', '.join(names)})")
+    return config.replace(**{"illuminant.spd": resolved}), record
+

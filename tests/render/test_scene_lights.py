@@ -1,0 +1,174 @@
+"""Issue 15 #1: a user's XML scene is white-balanced, colour-corrected and given its ground truth
+under its own emitters' light, and keeps its camera's field of view."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from spectral_cam import scene_from_dict
+from spectral_cam.errors import ConfigError, SceneWarning
+from spectral_cam.render.lights import LIGHT_GRID_NM, resolve_light, scene_emitters
+from spectral_cam.xml_scene import xml_field_of_view
+
+pytestmark = pytest.mark.timeout(240)
+
+CAMERA = """<sensor type="perspective">
+    <float name="fov" value="{fov}"/>{axis}
+    <transform name="to_world"><lookat origin="0, 1.2, -3" target="0, 0.4, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="320"/><integer name="height" value="240"/></film>
+  </sensor>"""
+
+ROOM = """<scene version="3.0.0">
+  {camera}
+  <shape type="rectangle" id="floor">
+    <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><spectrum name="reflectance" value="0.8"/></bsdf>
+  </shape>
+  <shape type="sphere" id="ball"><point name="center" value="0.6, 0.4, 0.5"/><float name="radius" value="0.4"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.2, 0.1"/></bsdf></shape>
+  {lights}
+</scene>"""
+
+TUNGSTEN = """<shape type="rectangle" id="lamp">
+    <transform name="to_world"><scale value="1.5"/><rotate x="1" angle="90"/><translate value="0, 3, 0"/></transform>
+    <emitter type="area"><spectrum name="radiance" type="blackbody"><float name="temperature" value="2856"/></spectrum></emitter>
+  </shape>"""
+
+
+def _scene(tmp_path, lights=TUNGSTEN, fov=60.0, axis="", **sections):
+    path = tmp_path / "room.xml"
+    path.write_text(ROOM.format(camera=CAMERA.format(fov=fov, axis=axis), lights=lights))
+    sections.setdefault("sensor", {"width_px": 48, "height_px": 36})
+    sections.setdefault("render", {"spp": 16})
+    return scene_from_dict({"scene": {"mitsuba_xml": str(path)}, **sections})
+
+
+def _relative(values):
+    values = np.asarray(values, float)
+    return values / values.max()
+
+
+def test_a_tungsten_area_light_is_read_as_cie_illuminant_a(tmp_path):
+    """Issue check: the 2856 K blackbody emitter equals colour-science's Standard Illuminant A
+    (Planck at 2856 K with c2 = 1.435e-2 m·K) in shape within 0.5 % over 380–780 nm."""
+    import colour
+
+    config = _scene(tmp_path)
+    (lamp,) = scene_emitters(config)
+    assert lamp.name == "lamp" and lamp.plugin == "AreaLight" and lamp.temperature_k == pytest.approx(2856)
+    a = colour.SDS_ILLUMINANTS["A"].copy().align(colour.SpectralShape(360, 830, 5))
+    visible = (LIGHT_GRID_NM >= 380) & (LIGHT_GRID_NM <= 780)
+    ratio = lamp.spectrum[visible] / a.values[visible]
+    assert np.ptp(ratio / ratio.mean()) < 0.005
+    resolved, record = resolve_light(config)
+    assert resolved.illuminant.spd == "blackbody:2856" and record["emitter"] == "lamp"
+
+
+def test_a_tabulated_emitter_spectrum_is_taken_as_the_file_writes_it(tmp_path):
+    """An irregular spectrum on a point light: the resolved CSV holds the XML's own numbers
+    (linearly interpolated between them, zero outside, as Mitsuba's irregular spectrum is)."""
+    from spectral_cam.spectra import load_spectrum_csv
+
+    xml_points = [(400, 1.0), (450, 3.0), (600, 2.0), (700, 0.5)]
+    value = ", ".join(f"{w}:{v}" for w, v in xml_points)
+    lights = f'<emitter type="point" id="bulb"><point name="position" value="0, 2, 0"/>' \
+             f'<spectrum name="intensity" value="{value}"/></emitter>'
+    resolved, record = resolve_light(_scene(tmp_path, lights=lights))
+    assert record["emitter"] == "bulb" and resolved.illuminant.spd.endswith(".csv")
+    sd = load_spectrum_csv(resolved.illuminant.spd)
+    expected = np.interp(sd.wavelengths, *zip(*xml_points), left=0.0, right=0.0)
+    np.testing.assert_allclose(_relative(sd.values), _relative(expected), atol=2e-3)
+
+
+def test_the_emitter_sending_the_camera_most_light_is_chosen_and_recorded(tmp_path):
+    weak_blue = '<emitter type="point" id="blue_bulb"><point name="position" value="-1, 1, -1"/>' \
+                '<spectrum name="intensity" value="400:0.5, 500:0.1, 700:0.01"/></emitter>'
+    config = _scene(tmp_path, lights=TUNGSTEN + weak_blue)
+    resolved, record = resolve_light(config)
+    assert record["emitter"] == "lamp" and resolved.illuminant.spd == "blackbody:2856"
+    shares = {name: e["share"] for name, e in record["emitters"].items()}
+    assert set(shares) == {"lamp", "blue_bulb"} and sum(shares.values()) == pytest.approx(1.0)
+    assert shares["lamp"] > 0.9
+    chosen = config.replace(**{"illuminant.emitter": "blue_bulb"})
+    assert resolve_light(chosen)[1]["emitter"] == "blue_bulb"
+    with pytest.raises(ConfigError, match="lamp, blue_bulb|blue_bulb, lamp"):
+        resolve_light(config.replace(**{"illuminant.emitter": "sun"}))
+
+
+def test_setting_illuminant_for_an_xml_scene_is_a_warning(tmp_path):
+    config = _scene(tmp_path, illuminant={"spd": "D65"})
+    with pytest.warns(SceneWarning, match="does not light the XML scene"):
+        resolved, record = resolve_light(config)
+    assert resolved.illuminant.spd == "D65"
+
+
+def test_a_white_floor_under_tungsten_develops_neutral_without_touching_illuminant(tmp_path):
+    """Acceptance: as-shot white balance and the matrix from the scene's own 2856 K light make
+    the white floor neutral (chroma C*ab < 1 in CIELAB, colour-science); assuming D65, as
+    before, leaves it orange (C*ab > 10)."""
+    import colour
+
+    from spectral_cam.job import simulate
+
+    def floor_chroma(config):
+        sim = simulate(config)
+        h, w = sim.developed.image.shape[:2]
+        patch = sim.developed.image[int(0.75 * h):int(0.95 * h), int(0.1 * w):int(0.4 * w)]
+        srgb = np.clip(patch.reshape(-1, 3).astype(float).mean(axis=0), 0.0, 1.0)  # display sRGB in [0, 1]
+        lab = colour.XYZ_to_Lab(colour.sRGB_to_XYZ(srgb))
+        return math.hypot(lab[1], lab[2]), sim
+
+    isp = {"tone": "srgb"}
+    chroma, sim = floor_chroma(_scene(tmp_path, sensor={"width_px": 96, "height_px": 72}, isp=isp))
+    assert sim.config.illuminant.spd == "blackbody:2856"
+    assert sim.radiance.meta["model_decisions"]["illuminant"]["emitter"] == "lamp"
+    assert chroma < 1.0, chroma
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        wrong, _ = floor_chroma(_scene(tmp_path, sensor={"width_px": 96, "height_px": 72}, isp=isp,
+                                       illuminant={"spd": "D65"}))
+    assert wrong > 10.0, wrong
+
+
+@pytest.mark.parametrize("fov, axis, expected_x", [
+    (60.0, "", 60.0),
+    # fov on y of a 320 × 240 film: tan(x/2) = tan(30°)·320/240
+    (60.0, '<string name="fov_axis" value="y"/>', 2 * math.degrees(math.atan(math.tan(math.radians(30)) * 4 / 3))),
+    # diagonal: tan(x/2) = tan(30°)·320/400
+    (60.0, '<string name="fov_axis" value="diagonal"/>', 2 * math.degrees(math.atan(math.tan(math.radians(30)) * 0.8))),
+])
+def test_the_xml_cameras_field_of_view_is_kept(tmp_path, fov, axis, expected_x):
+    """Unset lens.focal_length_mm: the focal length is derived so our thin lens, focused where
+    the file says, has the XML camera's horizontal field of view on our sensor."""
+    from spectral_cam.optics import ThinLens
+
+    config = _scene(tmp_path, fov=fov, axis=axis)
+    assert xml_field_of_view(config.scene.mitsuba_xml).fov_x_deg == pytest.approx(expected_x, rel=1e-9)
+    assert ThinLens.from_config(config.lens, config.sensor).fov_x_deg == pytest.approx(expected_x, rel=1e-9)
+
+
+def test_a_focal_length_that_replaces_the_xml_field_of_view_warns_and_is_recorded(tmp_path):
+    from spectral_cam import render
+
+    with pytest.warns(SceneWarning, match="replacing the XML camera's 60° field of view"):
+        config = _scene(tmp_path, lens={"focal_length_mm": 25.0})
+    image = render(config, with_depth=False)
+    record = image.meta["model_decisions"]["field_of_view"]
+    assert record["choice"] == "replaced" and record["xml_fov_x_deg"] == pytest.approx(60.0)
+    kept = render(_scene(tmp_path), with_depth=False).meta["model_decisions"]["field_of_view"]
+    assert kept["choice"] == "kept" and kept["fov_x_deg"] == pytest.approx(60.0)
+
+
+def test_a_35mm_equivalent_focal_length_sets_the_diagonal_field_of_view(tmp_path):
+    """Mitsuba's focal_length is 35 mm-film equivalent: the diagonal of 36 × 24 mm."""
+    path = tmp_path / "f.xml"
+    path.write_text('<scene version="3.0.0"><sensor type="thinlens"><string name="focal_length" value="28mm"/>'
+                    '<film type="hdrfilm"><integer name="width" value="300"/><integer name="height" value="200"/>'
+                    '</film></sensor></scene>')
+    diagonal_half_tan = math.hypot(36, 24) / 2 / 28
+    expected = 2 * math.degrees(math.atan(diagonal_half_tan * 300 / math.hypot(300, 200)))
+    assert xml_field_of_view(path).fov_x_deg == pytest.approx(expected, rel=1e-12)
