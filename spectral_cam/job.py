@@ -98,7 +98,8 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     # the sensor has a ring of real pixels around the frame (sensor.crop_margin_px): the RAW
     # carries them with a default crop, every other output is the frame
     captured = render(config, progress=progress, with_depth=with_depth, lens=lens, with_margin=True)
-    config = config.replace(**{"illuminant.spd": captured.meta["illuminant_spd"]})  # an XML scene's own light
+    config = config.replace(**{"illuminant.spd": captured.meta["illuminant_spd"],  # an XML scene's own light
+                               "illuminant.emitter": captured.meta["illuminant_emitter"]})
     timings.update({f"render_{k}": v for k, v in captured.meta["timings_s"].items()})
     t0 = time.perf_counter()
     raw = expose(captured, config)

@@ -477,17 +477,22 @@ def scene_from_dict(
 def _lens_for_xml_camera(lens: dict[str, Any], scene: SceneSection, sensor: SensorSection) -> dict[str, Any]:
     """The lens table with ``focal_length_mm`` resolved: for a user's XML scene left unset (or
     ``"auto"``) it keeps the XML camera's horizontal field of view on this sensor
-    (:func:`spectral_cam.xml_scene.focal_length_for_fov`); given, and changing that field of
-    view by more than 1 %, it is kept with a :class:`SceneWarning` that says what replaced what.
-    Without an XML camera (or for a preset) ``"auto"`` is the default 8 mm."""
+    (:func:`spectral_cam.xml_scene.focal_length_for_fov`); a value given is kept (the render
+    records, and warns, when it replaces the XML camera's field of view). Without an XML camera
+    (or for a preset) ``"auto"`` is the default 8 mm."""
     from .xml_scene import focal_length_for_fov, xml_field_of_view
 
     given = lens.get("focal_length_mm", "auto")
-    fov = xml_field_of_view(scene.mitsuba_xml) if scene.mitsuba_xml else None
-    if fov is None:
-        if given == "auto":
-            lens["focal_length_mm"] = LensSection.focal_length_mm
+    if given != "auto":
         return lens
+    fov = xml_field_of_view(scene.mitsuba_xml) if scene.mitsuba_xml else None
+    focus = lens.get("focus_distance_m", LensSection.focus_distance_m)
+    if fov is None or not isinstance(focus, (int, float)) or isinstance(focus, bool) or focus <= 0:
+        lens["focal_length_mm"] = LensSection.focal_length_mm  # LensSection reports a bad focus
+        return lens
+    width_m = sensor.width_px * sensor.pixel_pitch_um * 1e-6
+    lens["focal_length_mm"] = focal_length_for_fov(fov.fov_x_deg, width_m, float(focus))
+    return lens
     focus = lens.get("focus_distance_m", LensSection.focus_distance_m)
     if not isinstance(focus, (int, float)) or isinstance(focus, bool) or focus <= 0:
         return lens  # LensSection reports it

@@ -122,6 +122,29 @@ def _keep_large_blocks() -> None:
         pass
 
 
+@contextlib.contextmanager
+def _scene_warnings_as_lines():
+    """Print a :class:`~spectral_cam.errors.SceneWarning` as ``spectral-cam: warning: ...``
+    (one line, no source location); other warnings as Python shows them."""
+    import warnings
+
+    from ..errors import SceneWarning
+
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, SceneWarning):
+            print(f"spectral-cam: warning: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = shown
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one ``spectral-cam`` command; the exit status: 0 done, 1 finished with failed
     cells or items, 2 a user error (message, no traceback), 130 interrupted (SIGINT or
@@ -133,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         build_parser().parse_args(argv)  # prints usage and exits: no command named
         return 2
     _keep_large_blocks()
-    with _sigterm_as_interrupt():
+    with _sigterm_as_interrupt(), _scene_warnings_as_lines():
         try:
             return args.func(args)
         except SpectralCamError as exc:

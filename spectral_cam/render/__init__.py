@@ -125,6 +125,7 @@ def render(
                       decisions=decisions, progress=progress)
     image.white_reference = white_reference_mask(config, lens)
     image.meta["illuminant_spd"] = config.illuminant.spd  # what white balance and the truth assume
+    image.meta["illuminant_emitter"] = config.illuminant.emitter
     return image
 
 
@@ -138,6 +139,15 @@ def _xml_field_of_view_record(config: SceneConfig, lens: ThinLens) -> dict:
         return {"choice": "ours", "fov_x_deg": ours, "reason": "the XML has no perspective or thin-lens camera "
                 "whose field of view could be read; lens.focal_length_mm sets it"}
     kept = abs(ours / xml.fov_x_deg - 1) <= 0.01
+    if not kept:
+        import warnings
+
+        from ..errors import SceneWarning
+
+        warnings.warn(f"lens.focal_length_mm = {config.lens.focal_length_mm:g} gives a {ours:.3g}° field of view on "
+                      f"this {lens.layout_lens.sensor_width_m * 1e3:.3g} mm-wide sensor, replacing the XML camera's "
+                      f"{xml.fov_x_deg:.3g}° field of view ({xml.source}); leave lens.focal_length_mm unset to keep "
+                      "it", SceneWarning, stacklevel=3)
     return {"choice": "kept" if kept else "replaced", "fov_x_deg": ours, "xml_fov_x_deg": xml.fov_x_deg,
             "focal_length_mm": config.lens.focal_length_mm, "xml_camera": xml.source,
             "reason": "lens.focal_length_mm derived from the XML camera" if kept else

@@ -128,8 +128,16 @@ def _temperature(params, prefix: str | None) -> float | None:
 
 
 def _strength_keys(params, prefix: str) -> list[str]:
-    return [k for k in params.keys() if k.startswith(prefix) and
-            (k.rsplit(".", 1)[-1] in _STRENGTH_SUFFIXES or k.endswith(".temperature"))]
+    """The parameters that dim an emitter: its scale factors where it has them (envmap,
+    sunsky), else a blackbody's temperature, else its spectrum's values. One kind only: two
+    factors of 10⁻²⁰ underflow float32 to zero, and an all-zero tabulated spectrum or
+    environment map has no sampling distribution (Mitsuba refuses it)."""
+    keys = [k for k in params.keys() if k.startswith(prefix)]
+    for wanted in (("scale", "sun_scale", "sky_scale"), ("temperature",), _STRENGTH_SUFFIXES):
+        found = [k for k in keys if k.rsplit(".", 1)[-1] in wanted]
+        if found:
+            return found
+    return []
 
 
 def _shares(mi, scene, sensor, integrator, emitters) -> list[float] | None:
@@ -238,8 +246,10 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
 
     A preset keeps ``[illuminant]`` (``"auto"`` is D65). An XML scene with ``spd = "auto"`` takes
     its emitter's spectrum (``illuminant.emitter``, else the one sending the camera most
-    light); with ``spd`` set, it keeps it and warns (:class:`~spectral_cam.errors.SceneWarning`)
-    that the emitters light the scene, not ``[illuminant]``.
+    light) and names that emitter in ``illuminant.emitter``; with ``spd`` set and no
+    ``emitter``, it keeps ``spd`` and warns (:class:`~spectral_cam.errors.SceneWarning`) that
+    the emitters light the scene, not ``[illuminant]``; with both set (a scene resolved
+    before) it keeps both.
 
     Raises
     ------
@@ -253,6 +263,8 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
             return config.replace(**{"illuminant.spd": "D65"}), {"choice": "D65", "reason": "the preset's light "
                                                                  "(illuminant.spd = 'auto')"}
         return config, {"choice": spd, "reason": "illuminant.spd"}
+    if spd != "auto" and chosen_name:  # resolved before (a re-render, a resolved scene.toml)
+        return config, {"choice": spd, "emitter": chosen_name, "reason": "resolved from the scene's emitter earlier"}
     if spd != "auto":
         warnings.warn(f"illuminant.spd = {spd!r} does not light the XML scene {config.scene.mitsuba_xml} (its "
                       f"emitters do); white balance, the colour matrix and the ground truth use {spd!r} as "
@@ -287,5 +299,5 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
     if not np.any(chosen.spectrum > 0):
         raise RenderError(f"emitter {chosen.name!r} sends no light to what the camera looks at; choose another "
                           f"with illuminant.emitter ({', '.join(names)})")
-    return config.replace(**{"illuminant.spd": resolved}), record
+    return config.replace(**{"illuminant.spd": resolved, "illuminant.emitter": chosen.name}), record
 

@@ -154,9 +154,10 @@ def test_the_xml_cameras_field_of_view_is_kept(tmp_path, fov, axis, expected_x):
 def test_a_focal_length_that_replaces_the_xml_field_of_view_warns_and_is_recorded(tmp_path):
     from spectral_cam import render
 
-    with pytest.warns(SceneWarning, match="replacing the XML camera's 60° field of view"):
-        config = _scene(tmp_path, lens={"focal_length_mm": 25.0})
-    image = render(config, with_depth=False)
+    config = _scene(tmp_path, lens={"focal_length_mm": 25.0})
+    with pytest.warns(SceneWarning, match="replacing the XML camera's 60° field of view") as caught:
+        image = render(config, with_depth=False)
+    assert len([w for w in caught if issubclass(w.category, SceneWarning)]) == 1  # said once
     record = image.meta["model_decisions"]["field_of_view"]
     assert record["choice"] == "replaced" and record["xml_fov_x_deg"] == pytest.approx(60.0)
     kept = render(_scene(tmp_path), with_depth=False).meta["model_decisions"]["field_of_view"]
@@ -172,3 +173,16 @@ def test_a_35mm_equivalent_focal_length_sets_the_diagonal_field_of_view(tmp_path
     diagonal_half_tan = math.hypot(36, 24) / 2 / 28
     expected = 2 * math.degrees(math.atan(diagonal_half_tan * 300 / math.hypot(300, 200)))
     assert xml_field_of_view(path).fov_x_deg == pytest.approx(expected, rel=1e-12)
+
+
+def test_the_cli_says_a_scene_warning_in_one_line(tmp_path, capsys):
+    from spectral_cam.cli import main
+
+    config = _scene(tmp_path)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(f'[scene]\nmitsuba_xml = "{config.scene.mitsuba_xml}"\n[illuminant]\nspd = "D65"\n'
+                     "[sensor]\nwidth_px = 32\nheight_px = 24\n[render]\nspp = 4\n")
+    assert main(["render", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 0
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if "warning" in line]
+    assert len(lines) == 1 and lines[0].startswith("spectral-cam: warning: illuminant.spd = 'D65' does not light")
