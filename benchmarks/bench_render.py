@@ -13,7 +13,8 @@ Measured per size (0.15, 0.6, 2.5, 12 MP at 3:2; fixed-cost row at 16 × 16 px; 
 - render stage: our ``render`` radiance time (``meta["timings_s"]["radiance"]``, in a fresh
   process) vs the bare script's ``mi.render`` call;
 - whole process: ``spectral-cam render`` (render, depth, sensor, DNG, ISP, PNG, spectral EXR)
-  vs the bare script, wall time and peak RSS of the process (``os.wait4``), per MP.
+  vs the bare script, wall time and peak RSS of the process (``os.wait4`` in a small launcher
+  process, see :data:`LAUNCHER`), per MP.
 
 Medians of interleaved repeats with one warm-up each. ``--big`` adds one run of a 45 MP
 full-frame sensor (8256 × 5504, 4 spp, no warm-up): ours whole process (its render stage read from
@@ -34,7 +35,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
@@ -139,17 +139,29 @@ def scene_json(overrides: dict, path: Path) -> tuple[Path, str]:
     return path, variant
 
 
+#: Runs one command and reports its peak RSS. The bench's own process holds Mitsuba and the
+#: scene (a few hundred MB), and Linux carries a process's peak RSS across execve, so a child
+#: forked from it would report at least the bench's size; forked from this small launcher it
+#: reports its own.
+LAUNCHER = r"""
+import json, os, subprocess, sys
+proc = subprocess.Popen(json.loads(sys.argv[1]), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+out = proc.stdout.read()
+_, status, usage = os.wait4(proc.pid, 0)
+sys.stdout.write(out + "\n__peak_kb__ %d\n" % usage.ru_maxrss)
+sys.exit(os.waitstatus_to_exitcode(status))
+"""
+
+
 def _run(argv: list[str]) -> tuple[float, float, str]:
-    """(wall s, peak RSS MB, stdout) of one child process."""
+    """(wall s, peak RSS MB, stdout) of one child process, started by :data:`LAUNCHER`."""
     started = time.perf_counter()
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    out = proc.stdout.read()
-    _, status, usage = os.wait4(proc.pid, 0)
+    done = subprocess.run([sys.executable, "-c", LAUNCHER, json.dumps(argv)], capture_output=True, text=True)
     wall = time.perf_counter() - started
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        raise RuntimeError(f"{argv[:4]} failed ({proc.returncode})")
-    return wall, usage.ru_maxrss / 1024.0, out
+    if done.returncode != 0:
+        raise RuntimeError(f"{argv[:4]} failed ({done.returncode})")
+    out, _, peak = done.stdout.rpartition("__peak_kb__ ")
+    return wall, float(peak) / 1024.0, out
 
 
 def _size(megapixels: float) -> tuple[int, int]:

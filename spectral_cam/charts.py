@@ -1,8 +1,9 @@
 """Synthetic test targets and reflectance sets: what the studies, validation and benchmarks
 put in front of the sensor without a render.
 
-- reflectance sets (:func:`reflectance_set`): the ColorChecker, the 190 rawtoaces training
-  spectra, the 99 CIE 2017 samples, the CIE 13.3 and NIST CQS samples, or a CSV;
+- reflectance sets (:func:`reflectance_set`, from :mod:`spectral_cam.reflectance_sets`): the
+  ColorChecker, the 190 rawtoaces training spectra, the 99 CIE 2017 samples, the CIE 13.3 and
+  NIST CQS samples, or a CSV;
 - :func:`lambertian_radiance`: band radiance L_b = ∫_b ρ(λ)·E(λ)/π dλ of reflectances under
   an illuminant scaled to an illuminance;
 - :func:`synthetic_chart`: a chart of flat patches of that radiance, with the patch
@@ -22,11 +23,9 @@ References
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -35,6 +34,7 @@ from .colorimetry import WHITE_PATCH, white_patch_index
 from .errors import ConfigError
 from .image import SpectralImage
 from .presets import Patch
+from .reflectance_sets import REFLECTANCE_SETS, ReflectanceSet, reflectance_set  # noqa: F401  (re-exported)
 from .scene import SPECTRAL_BANDS_DEFAULT
 
 __all__ = ["REFLECTANCE_SETS", "ReflectanceSet", "reflectance_set", "Chart", "synthetic_chart",
@@ -102,152 +102,6 @@ def narrow_band_flat(shape: tuple[int, int], band_radiance: float, wavelength_nm
     spectrum = np.zeros(len(grid), np.float32)
     spectrum[int(np.argmin(np.abs(np.asarray(grid.centres_nm) - wavelength_nm)))] = band_radiance
     return uniform_image(spectrum, shape, grid)
-
-
-@dataclass(frozen=True)
-class ReflectanceSet:
-    """Named reflectance spectra (fractions, per wavelength in nm).
-
-    Attributes
-    ----------
-    name : str
-        Set name as the plan gives it.
-    description : str
-        Provenance.
-    names : tuple of str
-        Patch names.
-    sds : tuple of colour.SpectralDistribution
-        The reflectances.
-    """
-
-    name: str
-    description: str
-    names: tuple[str, ...]
-    sds: tuple
-
-    def __len__(self) -> int:
-        return len(self.sds)
-
-
-def _colorchecker():
-    patches = spectra.colorchecker_reflectances()
-    return list(patches.keys()), list(patches.values())
-
-
-def _rawtoaces():
-    import colour
-
-    msds = colour.characterisation.read_training_data_rawtoaces_v1()
-    sds = msds.to_sds()
-    return [sd.name for sd in sds], sds
-
-
-def _cie2017():
-    from colour.quality import cfi2017
-
-    msds = cfi2017.load_TCS_CIE2017(cfi2017.SPECTRAL_SHAPE_CIE2017)
-    sds = msds.to_sds()
-    return [sd.name for sd in sds], sds
-
-
-def _named_mapping(mapping, key: str):
-    table = mapping[key] if key in mapping else mapping  # colour-science < 0.4.5 had a flat table
-    return list(table.keys()), [sd.copy() for sd in table.values()]
-
-
-def _cri():
-    import colour
-
-    return _named_mapping(colour.quality.SDS_TCS, "CIE 1995")
-
-
-def _cqs():
-    import colour
-
-    return _named_mapping(colour.quality.SDS_VS, "NIST CQS 9.0")
-
-
-#: Built-in reflectance sets: name -> (description, loader).
-REFLECTANCE_SETS: dict[str, tuple[str, Callable]] = {
-    "colorchecker": ("24 ColorChecker patches, BabelColor average of 30 charts (Pascale 2006)", _colorchecker),
-    "rawtoaces": ("190 training reflectances of AMPAS rawtoaces (colour-science)", _rawtoaces),
-    "cie2017": ("99 colour samples of the CIE 2017 colour fidelity index (CIE 224:2017)", _cie2017),
-    "cri": ("14 test colour samples of CIE 13.3-1995 (colour rendering index)", _cri),
-    "cqs": ("15 samples of the NIST colour quality scale 9.0 (Davis & Ohno 2010)", _cqs),
-}
-
-
-def _csv_set(path: Path) -> tuple[list[str], list]:
-    """A reflectance table: ``wavelength_nm, name1, name2, ...`` with a header row."""
-    import colour
-
-    if not path.is_file():
-        raise ConfigError(f"reflectance set {str(path)!r}: file does not exist")
-    try:
-        with path.open(newline="", encoding="utf-8") as handle:
-            rows = [row for row in csv.reader(handle) if row and not row[0].strip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"reflectance set {path}: cannot read it as a text CSV ({exc})") from None
-    if len(rows) < 3 or len(rows[0]) < 2:
-        raise ConfigError(f"reflectance set {path}: need a header 'wavelength_nm,name1,...' and >= 2 rows")
-    header = [cell.strip() for cell in rows[0]]
-    try:
-        body = np.array([[float(cell) for cell in row] for row in rows[1:]], dtype=float)
-    except ValueError as exc:
-        raise ConfigError(f"reflectance set {path}: non-numeric value ({exc})") from None
-    if body.shape[1] != len(header) or not np.all(np.isfinite(body)):
-        raise ConfigError(f"reflectance set {path}: every row needs {len(header)} finite numbers")
-    body = body[np.argsort(body[:, 0])]
-    values = body[:, 1:]
-    if np.any(values < 0) or np.any(values > 2):
-        raise ConfigError(f"reflectance set {path}: reflectances must be fractions in [0, 2] "
-                          "(per cent? divide by 100)")
-    names = header[1:]
-    sds = [colour.SpectralDistribution(dict(zip(body[:, 0], values[:, i])), name=name)
-           for i, name in enumerate(names)]
-    return names, sds
-
-
-def reflectance_set(name: str, *, base_dir: str | Path = ".") -> ReflectanceSet:
-    """Load a built-in reflectance set or a CSV table.
-
-    Parameters
-    ----------
-    name : str
-        One of :data:`REFLECTANCE_SETS` (``"colorchecker"``, ``"rawtoaces"``,
-        ``"cie2017"``, ``"cri"``, ``"cqs"``) or the path of a CSV file whose header is
-        ``wavelength_nm,<patch name>,...`` and whose values are reflectance fractions.
-    base_dir : str or path-like
-        Folder relative CSV paths are resolved against.
-
-    Returns
-    -------
-    ReflectanceSet
-
-    Raises
-    ------
-    ConfigError
-        For an unknown name (listing the valid ones) or an unreadable CSV.
-
-    References
-    ----------
-    .. [1] See the module references (CIE 224:2017, CIE 13.3-1995, Davis & Ohno 2010,
-       rawtoaces, Pascale 2006).
-    """
-    text = str(name).strip()
-    if text.lower().endswith(".csv") or "/" in text:
-        path = Path(text).expanduser()
-        if not path.is_absolute():
-            path = Path(base_dir) / path
-        names, sds = _csv_set(path)
-        return ReflectanceSet(text, f"reflectances from {path.name}", tuple(names), tuple(sds))
-    key = text.casefold()
-    if key not in REFLECTANCE_SETS:
-        raise ConfigError(f"unknown reflectance set {name!r}; valid: {', '.join(REFLECTANCE_SETS)} "
-                          "or a CSV path (wavelength_nm, one column per patch)")
-    description, loader = REFLECTANCE_SETS[key]
-    names, sds = loader()
-    return ReflectanceSet(key, description, tuple(str(n) for n in names), tuple(sds))
 
 
 # ============================================================================ the chart

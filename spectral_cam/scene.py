@@ -66,6 +66,7 @@ PHYSICAL_RANGES = {
     "scene.depths_m": (1e-4, 1e6, "m"),
     "scene.source_radius_m": (1e-7, 1e3, "m"),
     "scene.checker_px": (1.0, 1e5, "px"),
+    "scene.leaf_radius_px": (0.5, 1e5, "px"),
     "illuminant.illuminance_lux": (1e-6, 1e7, "lx"),
     "lens.focal_length_mm": (0.1, 1e4, "mm"),
     "lens.f_number": (0.5, 1000.0, ""),
@@ -103,6 +104,9 @@ class SceneSection:
     (pixels). ``fill`` is the fraction of the frame width the chart covers and
     ``gap`` the fraction of each patch pitch left as dark border. ``reflectance`` is the
     flat-field target (a number in [0, 1], a ColorChecker patch name or a CSV path).
+    ``leaf_*`` shape ``dead_leaves``: disc radii on the sensor (pixels, power law between the
+    two), the expected fraction of the view covered, the reflectance set the discs draw from
+    and the layout's seed; its discs lie at depths spread over ``depths_m``.
     """
 
     preset: str = "colorchecker"
@@ -115,6 +119,10 @@ class SceneSection:
     edge_angle_deg: float = 5.0
     source_radius_m: float = 0.002
     checker_px: float = 16.0
+    leaf_radius_px: tuple[float, ...] = (3.0, 120.0)
+    leaf_coverage: float = 0.99
+    leaf_reflectances: str = "cie2017"
+    leaf_seed: int = 0
 
     def __post_init__(self) -> None:
         if not self.mitsuba_xml and self.preset not in PRESETS:
@@ -137,6 +145,20 @@ class SceneSection:
             _fail("scene.edge_angle_deg", self.edge_angle_deg, "must lie in [0, 45)")
         _within("scene.source_radius_m", self.source_radius_m)
         _within("scene.checker_px", self.checker_px)
+        if len(self.leaf_radius_px) != 2 or not self.leaf_radius_px[0] < self.leaf_radius_px[1]:
+            _fail("scene.leaf_radius_px", list(self.leaf_radius_px), "give [smallest, largest] disc radius in "
+                  "pixels, smallest < largest")
+        for radius in self.leaf_radius_px:
+            _within("scene.leaf_radius_px", radius)
+        if not 0 < self.leaf_coverage <= 0.9999:
+            _fail("scene.leaf_coverage", self.leaf_coverage, "must lie in (0, 0.9999]: the expected fraction "
+                  "of the view the discs cover")
+        if not isinstance(self.leaf_seed, int) or isinstance(self.leaf_seed, bool) or self.leaf_seed < 0:
+            _fail("scene.leaf_seed", self.leaf_seed, "must be a whole number >= 0")
+        if (self.leaf_reflectances not in spectra.REFLECTANCE_SET_NAMES
+                and not str(self.leaf_reflectances).lower().endswith(".csv")):
+            _fail("scene.leaf_reflectances", self.leaf_reflectances,
+                  f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV (wavelength_nm, one column per sample)")
         spectra.validate_reflectance(self.reflectance)
 
 

@@ -361,6 +361,11 @@ def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, 
 #: The 24 patches of colour-science's ``SDS_COLOURCHECKERS["BabelColor Average"]`` in chart
 #: reading order (McCamy et al. 1976), written out so that validating a patch name does not
 #: import colour; tests/test_spectra.py checks them against colour-science.
+#: Names of the built-in reflectance sets (:data:`spectral_cam.reflectance_sets.REFLECTANCE_SETS`, which
+#: loads them), here so that validating a scene loads none; tests/test_charts.py
+#: keeps the two equal.
+REFLECTANCE_SET_NAMES = ("colorchecker", "rawtoaces", "cie2017", "cri", "cqs")
+
 COLORCHECKER_PATCH_NAMES = (
     "dark skin", "light skin", "blue sky", "foliage", "blue flower", "bluish green", "orange",
     "purplish blue", "moderate red", "purple", "yellow green", "orange yellow", "blue", "green", "red",

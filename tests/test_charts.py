@@ -58,3 +58,10 @@ def test_a_narrow_band_flat_holds_its_radiance_in_one_band():
     lit = np.flatnonzero(image.data[0, 0])
     assert lit.tolist() == [15] and image.wavelengths_nm[15] == 550.0  # nearest band centre
     assert np.all(image.data[..., 15] == np.float32(0.25))
+
+
+def test_the_reflectance_set_names_scene_validation_knows_are_the_loadable_ones():
+    from spectral_cam.charts import REFLECTANCE_SETS
+    from spectral_cam.spectra import REFLECTANCE_SET_NAMES
+
+    assert tuple(REFLECTANCE_SETS) == REFLECTANCE_SET_NAMES
