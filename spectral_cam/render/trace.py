@@ -96,14 +96,23 @@ class _PassMean:
         return self.total
 
 
-def _checked_radiance(data: np.ndarray) -> np.ndarray:
-    """``data`` with Mitsuba's rounding below zero cleared, in place. Its film can return
-    values like −1e-19 where a pixel is black (floating-point cancellation); anything clearly
-    negative would be a bug, not rounding."""
-    lowest, highest = float(data.min()), float(data.max())
-    if lowest < -1e-6 * max(highest, 1e-30):
-        raise RenderError(f"Mitsuba returned negative radiance ({lowest:g}, max {highest:g})")
-    return np.maximum(data, 0.0, out=data)
+class _RadianceRange:
+    """The lowest and highest radiance over a frame's tiles. Mitsuba's film can return values
+    like −1e-19 where a pixel is black (floating-point cancellation): cleared; anything clearly
+    negative against the frame's brightest value would be a bug, not rounding (judged on the
+    whole frame: a tile can be all black)."""
+
+    def __init__(self):
+        self.lowest, self.highest = np.inf, -np.inf
+
+    def clear_rounding(self, data: np.ndarray) -> np.ndarray:
+        self.lowest = min(self.lowest, float(data.min()))
+        self.highest = max(self.highest, float(data.max()))
+        return np.maximum(data, 0.0, out=data)
+
+    def check(self) -> None:
+        if self.lowest < -1e-6 * max(self.highest, 1e-30):
+            raise RenderError(f"Mitsuba returned negative radiance ({self.lowest:g}, max {self.highest:g})")
 
 
 def _report(progress, done: int, total: int, seconds: float, tile: int, tiles: int) -> None:
@@ -208,7 +217,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
 
     tiled = len(tiles) > 1
     data = np.empty((height, width, n_channels), np.float32) if tiled else None
-    done, seeds = 0, []
+    done, seeds, radiance_range = 0, [], _RadianceRange()
     for tile, rows in enumerate(tiles):
         passes = _auto_passes(sampler, target_spp, lane_cap) if auto_spp else _fixed_passes(sampler, target_spp, lane_cap)
         tile_camera = tile_sensor(mi, sensor, camera, rows) if tiled else sensor
@@ -228,10 +237,11 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
                 break
         del image
         if tiled:
-            data[rows[0]:rows[1]] = _checked_radiance(accumulated.mean())
+            data[rows[0]:rows[1]] = radiance_range.clear_rounding(accumulated.mean())
         else:
-            data = _checked_radiance(accumulated.mean())
+            data = radiance_range.clear_rounding(accumulated.mean())
     release_render_memory()
+    radiance_range.check()
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
         if progress is not None and done < target_spp:

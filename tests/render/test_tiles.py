@@ -109,3 +109,21 @@ def test_auto_spp_on_a_tiled_frame_is_refused_with_the_remedy(make_scene, small_
     config = make_scene(sensor={"width_px": 16, "height_px": 12}, render={"spp": "auto"})
     with pytest.raises(ConfigError, match=r"set render.spp to a number"):
         render(config)
+
+
+def test_rounding_below_zero_is_judged_against_the_whole_frame_not_one_tile():
+    """A tile of black sky carries Mitsuba's −1e-19 cancellation residue: cleared, as on an
+    untiled frame, while clearly negative radiance is still an error."""
+    from spectral_cam.errors import RenderError
+    from spectral_cam.render.trace import _RadianceRange
+
+    frame = _RadianceRange()
+    black = np.full((2, 3, 4), -1e-19, np.float32)
+    bright = np.full((2, 3, 4), 5.0, np.float32)
+    assert frame.clear_rounding(black).min() == 0.0 and frame.clear_rounding(bright).max() == 5.0
+    frame.check()
+    wrong = _RadianceRange()
+    wrong.clear_rounding(np.full((2, 3, 4), -0.1, np.float32))
+    wrong.clear_rounding(bright)
+    with pytest.raises(RenderError, match="negative radiance"):
+        wrong.check()
