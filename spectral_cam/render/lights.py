@@ -26,7 +26,6 @@ from __future__ import annotations
 import hashlib
 import warnings
 from dataclasses import dataclass, replace
-from dataclasses import replace as dataclass_replace
 
 import numpy as np
 
@@ -200,7 +199,7 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[
     lens = ThinLens.from_config(config.lens, config.sensor)
     width = PROBE_SIZE[0]
     height = max(1, round(width * lens.height_px / lens.width_px))
-    probe = dataclass_replace(lens, width_px=width, height_px=height, frame_lens=lens.layout_lens)  # same view
+    probe = replace(lens, width_px=width, height_px=height, frame_lens=lens.layout_lens)  # same view
     film = {"type": "specfilm", "width": width, "height": height, "rfilter": {"type": "box"},
             "visible": {"type": "spectrum", "value": [(400.0, 1.0), (700.0, 1.0)]}}
     camera = camera_dict(mi, probe, "pinhole", film, PROBE_SPP)
