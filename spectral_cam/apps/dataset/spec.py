@@ -1,7 +1,8 @@
 """Dataset specs: fixed scene values, distributions, sweeps, outputs and seed; one plan per item.
 
 A spec is a scene file (any ``[section] key = value`` of docs/design.md, "Scene file") in which any
-value may instead be a distribution (:data:`DISTRIBUTIONS`), plus a ``[dataset]`` table (``scene``,
+value may instead be a distribution (:data:`DISTRIBUTIONS`, or ``{ files = "glob" }``: a choice of
+the files it matches, e.g. a folder of XML scenes), plus a ``[dataset]`` table (``scene``,
 ``seed``, ``n``, ``outputs``, ``sweep``). :meth:`DatasetSpec.plan_item` turns (spec, index) into
 the item's seed, sampled parameters and validated scene, the same on any machine and in any order.
 
@@ -533,6 +534,22 @@ def spec_from_dict(
 
 
 def _resolve_paths_table(table: Mapping[str, Any], base_dir: Path) -> dict:
+    """A distribution table with its paths absolute; ``{ files = "rooms/*.xml" }`` becomes the
+    choice of the files that pattern matches (relative to the spec's folder, sorted, so the
+    drawn file of an item does not depend on the order the file system lists them)."""
+    if "files" in table:
+        pattern = table["files"]
+        if set(table) - {"files", "weights"} or not isinstance(pattern, str) or not pattern.strip():
+            raise ConfigError(f"{{ files = {pattern!r} }}: give one glob pattern, e.g. {{ files = \"rooms/*.xml\" }}")
+        absolute = Path(pattern).expanduser()
+        absolute = absolute if absolute.is_absolute() else base_dir / absolute
+        found = sorted(str(p.resolve()) for p in Path(absolute.anchor).glob(str(absolute.relative_to(absolute.anchor)))
+                       if p.is_file())
+        if not found:
+            raise ConfigError(f"{{ files = {pattern!r} }} matches no file (looked for {absolute})")
+        if "weights" in table:
+            raise ConfigError(f"{{ files = {pattern!r} }}: weights apply to an explicit choice list")
+        return {"choice": found}
     return {k: (_resolve_paths(v, base_dir) if k == "choice" else v) for k, v in table.items()}
 
 
