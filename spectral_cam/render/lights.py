@@ -258,6 +258,9 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
     """
     spd, chosen_name = config.illuminant.spd, config.illuminant.emitter
     if not config.scene.mitsuba_xml:
+        if chosen_name:
+            raise ConfigError(f"illuminant.emitter = {chosen_name!r} names an emitter of an XML scene; the preset "
+                              f"{config.scene.preset!r} is lit by [illuminant] spd and illuminance_lux")
         if spd == "auto":
             return config.replace(**{"illuminant.spd": "D65"}), {"choice": "D65", "reason": "the preset's light "
                                                                  "(illuminant.spd = 'auto')"}

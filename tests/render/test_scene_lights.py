@@ -99,6 +99,12 @@ def test_the_emitter_sending_the_camera_most_light_is_chosen_and_recorded(tmp_pa
         resolve_light(config.replace(**{"illuminant.emitter": "sun"}))
 
 
+def test_an_emitter_named_for_a_preset_is_refused():
+    config = scene_from_dict({"illuminant": {"emitter": "lamp"}})
+    with pytest.raises(ConfigError, match="is lit by \\[illuminant\\]"):
+        resolve_light(config)
+
+
 def test_setting_illuminant_for_an_xml_scene_is_a_warning(tmp_path):
     config = _scene(tmp_path, illuminant={"spd": "D65"})
     with pytest.warns(SceneWarning, match="does not light the XML scene"):
