@@ -107,6 +107,9 @@ class SceneSection:
     ``leaf_*`` shape ``dead_leaves``: disc radii on the sensor (pixels, power law between the
     two), the expected fraction of the view covered, the reflectance set the discs draw from
     and the layout's seed; its discs lie at depths spread over ``depths_m``.
+    ``camera_offset_m`` and ``camera_rotation_deg`` move an XML scene's camera from its pose in
+    the file, in the camera's own frame: an offset (x image-left, y up, z along the view) and
+    yaw (> 0 turns left), pitch (> 0 tilts up), roll (about the view axis, right-handed).
     """
 
     preset: str = "colorchecker"
@@ -123,6 +126,8 @@ class SceneSection:
     leaf_coverage: float = 0.99
     leaf_reflectances: str = "cie2017"
     leaf_seed: int = 0
+    camera_offset_m: tuple[float, ...] = (0.0, 0.0, 0.0)
+    camera_rotation_deg: tuple[float, ...] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not self.mitsuba_xml and self.preset not in PRESETS:
@@ -153,6 +158,14 @@ class SceneSection:
         if not 0 < self.leaf_coverage <= 0.9999:
             _fail("scene.leaf_coverage", self.leaf_coverage, "must lie in (0, 0.9999]: the expected fraction "
                   "of the view the discs cover")
+        for key, bound in (("camera_offset_m", 1e6), ("camera_rotation_deg", 180.0)):
+            values = getattr(self, key)
+            if len(values) != 3 or not all(math.isfinite(v) and abs(v) <= bound for v in values):
+                _fail(f"scene.{key}", list(values), f"give three numbers within ±{bound:g}")
+        moved = any(self.camera_offset_m) or any(self.camera_rotation_deg)
+        if moved and not self.mitsuba_xml:
+            _fail("scene.camera_offset_m/camera_rotation_deg", [list(self.camera_offset_m), list(self.camera_rotation_deg)],
+                  "move an XML scene's camera (scene.mitsuba_xml); a preset is laid out around our camera")
         if not isinstance(self.leaf_seed, int) or isinstance(self.leaf_seed, bool) or self.leaf_seed < 0:
             _fail("scene.leaf_seed", self.leaf_seed, "must be a whole number >= 0")
         if (self.leaf_reflectances not in spectra.REFLECTANCE_SET_NAMES

@@ -131,10 +131,21 @@ def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrato
         loaded = mi.load_file(config.scene.mitsuba_xml)
     except Exception as exc:
         raise RenderError(f"Mitsuba could not load {config.scene.mitsuba_xml}: {exc}") from None
+    pose = mi.ScalarTransform4f()
     if loaded.sensors():
         matrix = np.asarray(loaded.sensors()[0].world_transform().matrix, dtype=np.float64)
-        camera = dict(camera, to_world=mi.ScalarTransform4f(matrix.reshape(4, 4, -1)[..., 0]))
+        pose = mi.ScalarTransform4f(matrix.reshape(4, 4, -1)[..., 0])
+    camera = dict(camera, to_world=pose @ camera_move(mi, config))
     return loaded, load_dict(mi, camera), load_dict(mi, integrator)
+
+
+def camera_move(mi, config: SceneConfig):
+    """``scene.camera_offset_m`` and ``camera_rotation_deg`` as a transform in the camera's own
+    frame (Mitsuba's: +x image-left, +y up, +z the view): translate, then yaw about +y (> 0
+    turns left), pitch about −x (> 0 tilts up), roll about +z."""
+    yaw, pitch, roll = (float(v) for v in config.scene.camera_rotation_deg)
+    return (mi.ScalarTransform4f().translate([float(v) for v in config.scene.camera_offset_m])
+            .rotate([0, 1, 0], yaw).rotate([1, 0, 0], -pitch).rotate([0, 0, 1], roll))
 
 
 def load_dict(mi, scene_dict: dict):

@@ -113,3 +113,39 @@ def test_depth_of_a_user_scene_matches_its_geometry(room):
         measured = float(image.depth_m[row, w // 2 - 4:w // 2 + 4].mean())
         assert abs(measured / expected - 1) < 0.015, (row, measured, expected)
     assert abs(image.depth_m[h // 2 - 1:h // 2 + 1, w // 2 - 4:w // 2 + 4].mean() / (1.5 * math.hypot(0.8, 3.0)) - 1) < 0.02
+
+
+@pytest.mark.parametrize("offset, rotation, expected", [
+    ([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], 4.0),  # a metre closer to the plane 5 m ahead
+    ([0.0, 0.0, 0.0], [20.0, 0.0, 0.0], 5.0 / math.cos(math.radians(20.0))),  # yawed: the axis meets it at 5/cos θ
+    ([0.0, 0.0, 0.0], [0.0, 20.0, 0.0], 5.0 / math.cos(math.radians(20.0))),  # pitched, the same
+])
+def test_the_xml_camera_moves_in_its_own_frame(tmp_path, offset, rotation, expected):
+    """The XML camera at (1, 2, −3) faces a plane at z = 2: moved along its view it sees the
+    plane 1 m nearer; turned by θ its central ray meets the plane at 5/cos θ, which is that
+    point's camera-space depth. Column 0 is image-left (camera +x), row 0 image-up."""
+    from spectral_cam import render
+
+    from .test_radiometry import XML_SCENE
+
+    path = tmp_path / "plane.xml"
+    path.write_text(XML_SCENE)
+    config = scene_from_dict({"scene": {"mitsuba_xml": str(path), "camera_offset_m": offset,
+                                        "camera_rotation_deg": rotation},
+                              "sensor": {"width_px": 16, "height_px": 12}, "render": {"spp": 4}})
+    depth = render(config).depth_m
+    centre = depth[5:7, 7:9].mean()
+    assert centre == pytest.approx(expected, rel=2e-3)
+    # turned left (yaw > 0), image-left rays meet the plane more obliquely, so farther; tilted up
+    # (pitch > 0), the top rows do
+    if rotation[0] > 0:
+        assert depth[:, 0].mean() > depth[:, -1].mean()
+    if rotation[1] > 0:
+        assert depth[0].mean() > depth[-1].mean()
+
+
+def test_moving_a_presets_camera_is_refused():
+    from spectral_cam.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="move an XML scene's camera"):
+        scene_from_dict({"scene": {"camera_offset_m": [0.0, 0.0, 1.0]}})

@@ -1,6 +1,6 @@
 """Issue 15 #3: a dataset over a folder of the user's XML scenes (one drawn per item), its camera
-aperture and focus randomised, on the local cluster, resumable; each item white-balanced for
-its own scene's light."""
+pose (around the file's), aperture and focus randomised, on the local cluster, resumable; each
+item white-balanced for its own scene's light."""
 
 from __future__ import annotations
 
@@ -36,6 +36,8 @@ outputs = ["raw", "image", "depth", "defocus"]
 
 [scene]
 mitsuba_xml = { files = "rooms/*.xml" }
+camera_rotation_deg = { uniform = [[-10.0, -5.0, 0.0], [10.0, 5.0, 0.0]] }
+camera_offset_m = { uniform = [[-0.2, -0.1, -0.5], [0.2, 0.1, 0.5]] }
 
 [sensor]
 width_px = 32
@@ -79,6 +81,9 @@ def test_a_folder_of_xml_scenes_is_a_choice_per_item_lit_by_its_own_emitter(room
         assert meta["model_decisions"]["field_of_view"]["choice"] == "kept"
         assert meta["model_decisions"]["field_of_view"]["xml_fov_x_deg"] == pytest.approx(50 if kelvin == 2856 else 70)
         assert 1.4 <= meta["config"]["lens"]["f_number"] <= 8.0
+        yaw, pitch, roll = row["params"]["scene.camera_rotation_deg"]  # the pose drawn around the file's
+        assert abs(yaw) <= 10 and abs(pitch) <= 5 and roll == 0
+        assert meta["config"]["scene"]["camera_offset_m"] == pytest.approx(row["params"]["scene.camera_offset_m"])
     assert drawn == set(rooms)
     again = generate_dataset(spec, out, n=6, executor=cluster.executor, progress=False)  # resume
     assert (again.rendered, again.resumed) == (0, 6)
