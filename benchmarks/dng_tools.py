@@ -66,18 +66,10 @@ FIELDS = ["tool", "version", "settings", "illuminant", "delta_e_mean", "delta_e_
           "vs_ours_mean", "vs_ours_max"]
 QUIET = {"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, "dsnu_e": 0.0, "prnu": 0.0}
 
-# RawTherapee 5.9: every key not given keeps the built-in neutral value ("Neutral" profile)
-RAWTHERAPEE_PP3 = """[White Balance]
-Enabled=true
-Setting=Camera
-
-[RAW Bayer]
-Method=amaze
-
-[Color Management]
-InputProfile=(camera)
-OutputProfile=RTv4_sRGB
-"""
+#: The RawTherapee 5.9 settings of the table and of tests/raw/test_real_tools.py: camera white
+#: balance, AMaZE, the camera's input profile, RTv4_sRGB out; every key not given keeps the built-in
+#: neutral value ("Neutral" profile).
+RAWTHERAPEE_PROFILE = Path(__file__).resolve().parent / "rawtherapee_neutral.pp3"
 
 
 #: Pixels of the chart's surround outside the DNG's default crop (sensor.crop_margin_px's default).
@@ -194,9 +186,8 @@ def _rawtherapee(path: Path, work: Path) -> np.ndarray:
     import colour
     import tifffile
 
-    profile, out = work / "neutral_camera_srgb.pp3", work / f"{path.stem}_rt.tif"
-    profile.write_text(RAWTHERAPEE_PP3, encoding="utf-8")
-    run = subprocess.run([_which("rawtherapee-cli", "rawtherapee"), "-q", "-Y", "-t", "-b16", "-p", str(profile),
+    out = work / f"{path.stem}_rt.tif"
+    run = subprocess.run([_which("rawtherapee-cli", "rawtherapee"), "-q", "-Y", "-t", "-b16", "-p", str(RAWTHERAPEE_PROFILE),
                           "-o", str(out), "-c", str(path)], capture_output=True, text=True,
                          env=_rawtherapee_env(work), check=False)
     if run.returncode or not out.exists():

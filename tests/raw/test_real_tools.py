@@ -153,17 +153,8 @@ def test_adobe_dng_sdk_reads_our_dng_without_a_warning(tmp_path):
 
 
 # ----------------------------------------------------------------------------- RawTherapee
-RAWTHERAPEE_PP3 = """[White Balance]
-Enabled=true
-Setting=Camera
-
-[RAW Bayer]
-Method=amaze
-
-[Color Management]
-InputProfile=(camera)
-OutputProfile=RTv4_sRGB
-"""
+#: The settings the README's tool table reports (benchmarks/dng_tools.py uses the same file).
+RAWTHERAPEE_PROFILE = Path(__file__).resolve().parents[2] / "benchmarks" / "rawtherapee_neutral.pp3"
 
 
 def _icc_tags(profile: bytes) -> dict[str, bytes]:
@@ -194,10 +185,10 @@ def test_rawtherapee_develops_our_d65_chart_as_we_do(tmp_path, record_property):
     # larger patches: RawTherapee 5.9 refuses raw files under 100 000 bytes (identify() in its dcraw.cc)
     chart, _, path = _chart_dng(tmp_path, "D65", patch_px=40, gap_px=8)
     assert path.stat().st_size >= 100_000
-    profile, out = tmp_path / "neutral_camera_srgb.pp3", tmp_path / "rawtherapee.tif"
-    profile.write_text(RAWTHERAPEE_PP3, encoding="utf-8")
+    out = tmp_path / "rawtherapee.tif"
     env = {**os.environ, "XDG_CONFIG_HOME": str(tmp_path / "config"), "XDG_CACHE_HOME": str(tmp_path / "cache")}
-    run = subprocess.run([rawtherapee, "-q", "-Y", "-t", "-b16", "-p", str(profile), "-o", str(out), "-c", str(path)],
+    run = subprocess.run([rawtherapee, "-q", "-Y", "-t", "-b16", "-p", str(RAWTHERAPEE_PROFILE), "-o", str(out),
+                          "-c", str(path)],
                          capture_output=True, text=True, env=env, timeout=60, check=False)
     assert run.returncode == 0 and out.exists(), run.stdout + run.stderr
 

@@ -9,10 +9,8 @@ import pytest
 
 from spectral_cam import render
 from spectral_cam.job import simulate
-from spectral_cam.presets import colorchecker_patches
-from spectral_cam.spectra import colorchecker_reflectances
 
-from .test_radiometry import LUX, reference_band_radiance
+from .test_radiometry import LUX, patch_band_errors
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -33,11 +31,7 @@ def test_the_frame_inside_a_margin_still_obeys_lamberts_law(make_scene):
     assert captured.data.shape[:2] == (8, 10) and captured.frame_window == (2, 2, 4, 6)
     image = captured.framed()
     assert image.data.shape[:2] == (4, 6) and image.frame_window is None
-    patches = colorchecker_patches(config)
-    for patch, (name, sd) in zip(patches, colorchecker_reflectances().items()):
-        rows, cols = patch.interior(margin=0.0)
-        measured = image.data[rows, cols].reshape(-1, image.data.shape[-1]).mean(axis=0)
-        relative = measured / reference_band_radiance(image.band_edges_nm, sd) - 1
+    for name, relative in patch_band_errors(image, config):
         assert np.all(np.abs(relative) < 0.03), f"{name}: band errors {np.round(relative * 100, 2)} %"
     ring = np.ones(captured.data.shape[:2], bool)
     ring[2:-2, 2:-2] = False

@@ -34,6 +34,15 @@ def reference_band_radiance(bands_edges, reflectance, illuminant="D65"):
     return np.array(out)
 
 
+def patch_band_errors(image, config):
+    """(patch name, relative error of each band) of every ColorChecker patch's mean radiance in
+    ``image`` against Lambert's ρ·E/π (:func:`reference_band_radiance`)."""
+    for patch, (name, sd) in zip(colorchecker_patches(config), colorchecker_reflectances().items()):
+        rows, cols = patch.interior(margin=0.0)
+        measured = image.data[rows, cols].reshape(-1, image.data.shape[-1]).mean(axis=0)
+        yield name, measured / reference_band_radiance(image.band_edges_nm, sd) - 1
+
+
 @pytest.mark.timeout(300)
 def test_colorchecker_patch_radiance_matches_lambert_law(make_scene):
     # one pixel per patch: the chart fills the frame exactly (fill 1, no gaps), seen through
@@ -48,13 +57,8 @@ def test_colorchecker_patch_radiance_matches_lambert_law(make_scene):
         render={"spp": 1 << 22, "max_depth": 2},
     )
     image = render(config, with_depth=False)
-    patches = colorchecker_patches(config)
     worst, errors = 0.0, []
-    for patch, (name, sd) in zip(patches, colorchecker_reflectances().items()):
-        rows, cols = patch.interior(margin=0.0)
-        measured = image.data[rows, cols].reshape(-1, image.data.shape[-1]).mean(axis=0)
-        expected = reference_band_radiance(image.band_edges_nm, sd)
-        relative = measured / expected - 1
+    for name, relative in patch_band_errors(image, config):
         worst = max(worst, float(np.abs(relative).max()))
         errors.append(relative)
         assert np.all(np.abs(relative) < 0.01), f"{name}: band errors {np.round(relative * 100, 2)} %"

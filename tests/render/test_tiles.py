@@ -12,12 +12,10 @@ import pytest
 
 from spectral_cam import render
 from spectral_cam.errors import ConfigError
-from spectral_cam.presets import colorchecker_patches
 from spectral_cam.render import scene_dict
 from spectral_cam.render.scene_dict import frame_tiles
-from spectral_cam.spectra import colorchecker_reflectances
 
-from .test_radiometry import LUX, XML_SCENE, reference_band_radiance
+from .test_radiometry import LUX, XML_SCENE, patch_band_errors
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -59,10 +57,7 @@ def test_every_tile_sees_its_own_rows_of_the_chart_lamberts_law(make_scene, smal
     )
     image = render(config, with_depth=False)
     assert image.meta["tiles"] == [[0, 1], [1, 2], [2, 3], [3, 4]]
-    for patch, (name, sd) in zip(colorchecker_patches(config), colorchecker_reflectances().items()):
-        rows, cols = patch.interior(margin=0.0)
-        measured = image.data[rows, cols].reshape(-1, image.data.shape[-1]).mean(axis=0)
-        relative = measured / reference_band_radiance(image.band_edges_nm, sd) - 1
+    for name, relative in patch_band_errors(image, config):
         assert np.all(np.abs(relative) < 0.03), f"{name}: band errors {np.round(relative * 100, 2)} %"
 
 
