@@ -11,7 +11,7 @@ import numpy as np
 
 from ..optics import ThinLens
 from ..scene import SceneConfig
-from .scene_dict import build_scene, camera_dict, frame_tiles, pass_seed, release_render_memory, tile_sensor
+from .scene_dict import build_scene, camera_dict, frame_tiles, pass_seed, release_render_memory, tile_sensors
 
 
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
@@ -30,10 +30,8 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
     origin, axis = to_world[:3, 3], to_world[:3, 2] / np.linalg.norm(to_world[:3, 2])
     depth = np.empty((height, width), np.float32)
-    tiled = len(tiles) > 1
-    for tile, (first, end) in enumerate(tiles):
-        tile_camera = tile_sensor(mi, sensor, camera, (first, end)) if tiled else sensor
-        seed = pass_seed(config.render.seed, 1 << 20, tile if tiled else None)
+    for _, (first, end), tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
+        seed = pass_seed(config.render.seed, 1 << 20, seed_key)
         image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=1))
         position = image.reshape(end - first, width, -1)[..., :3].astype(np.float64)
         z = (position - origin) @ axis

@@ -89,6 +89,17 @@ def frame_tiles(width: int, height: int) -> list[tuple[int, int]]:
     return [(first, min(first + rows, height)) for first in range(0, height, rows)]
 
 
+def tile_sensors(mi, sensor, camera: dict, tiles: list[tuple[int, int]]):
+    """(tile index, rows, sensor, seed key) for each tile of :func:`frame_tiles`: an untiled
+    frame renders through its own ``sensor`` with the seeds it always had (key None); a tile
+    through :func:`tile_sensor` with its index as the key of its seeds (:func:`pass_seed`)."""
+    if len(tiles) == 1:
+        yield 0, tiles[0], sensor, None
+        return
+    for index, rows in enumerate(tiles):
+        yield index, rows, tile_sensor(mi, sensor, camera, rows), index
+
+
 def tile_sensor(mi, sensor, camera: dict, rows: tuple[int, int]):
     """A copy of the loaded ``sensor`` (built from ``camera``, pose included) whose film
     renders only ``rows`` of the frame: a crop window, so each pixel sees the rays it would

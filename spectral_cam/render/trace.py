@@ -24,7 +24,7 @@ from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction
 from .films import band_film, camera_film
-from .scene_dict import TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, pass_seed, release_render_memory, tile_sensor
+from .scene_dict import TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, pass_seed, release_render_memory, tile_sensors
 
 #: Most wavefront lanes (pixels × spp) of one Mitsuba call in the vectorised variants. Mitsuba's
 #: path tracer runs as a symbolic loop whose memory does not grow with the lanes (measured: see
@@ -133,14 +133,11 @@ def check_tiling(config: SceneConfig, lens: ThinLens) -> None:
     ConfigError
         With what to set instead.
     """
-    if config.render.spp == "auto" and len(frame_tiles(lens.width_px, lens.height_px)) > 1:
-        raise ConfigError(_auto_spp_untiled_message(lens.width_px, lens.height_px))
-
-
-def _auto_spp_untiled_message(width: int, height: int) -> str:
-    return (f"render.spp = \"auto\" judges the whole frame between passes, and {width} × {height} px renders in "
-            f"tiles (more than {TILE_PIXELS} px): set render.spp to a number (auto on a frame of the same "
-            f"scene up to {TILE_PIXELS} px shows how many samples it needs)")
+    width, height = lens.width_px, lens.height_px
+    if config.render.spp == "auto" and len(frame_tiles(width, height)) > 1:
+        raise ConfigError(f"render.spp = \"auto\" judges the whole frame between passes, and {width} × {height} px "
+                          f"renders in tiles (more than {TILE_PIXELS} px): set render.spp to a number (auto on a "
+                          f"frame of the same scene up to {TILE_PIXELS} px shows how many samples it needs)")
 
 
 def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
@@ -198,9 +195,8 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
 
     auto_spp = config.render.spp == "auto"
     target_spp = config.render.max_spp if auto_spp else config.render.spp
+    check_tiling(config, lens)  # again here: the layered model traces a widened frame
     tiles = frame_tiles(width, height)
-    if auto_spp and len(tiles) > 1:
-        raise ConfigError(_auto_spp_untiled_message(width, height))
     lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
     sampler = config.render.sampler
     lane_cap = max(lanes // (width * max(end - first for first, end in tiles)), 1)
@@ -218,13 +214,12 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     tiled = len(tiles) > 1
     data = np.empty((height, width, n_channels), np.float32) if tiled else None
     done, seeds, radiance_range = 0, [], _RadianceRange()
-    for tile, rows in enumerate(tiles):
+    for tile, rows, tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
         passes = _auto_passes(sampler, target_spp, lane_cap) if auto_spp else _fixed_passes(sampler, target_spp, lane_cap)
-        tile_camera = tile_sensor(mi, sensor, camera, rows) if tiled else sensor
         accumulated = _PassMean()
         done, index = 0, 0
         for spp in passes:
-            seed = pass_seed(config.render.seed, index, tile if tiled else None)
+            seed = pass_seed(config.render.seed, index, seed_key)
             image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=spp),
                                dtype=np.float32).reshape(rows[1] - rows[0], width, n_channels)
             accumulated.add(image, spp)
