@@ -12,6 +12,7 @@ References
 from __future__ import annotations
 
 import csv
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -165,6 +166,13 @@ def reflectance_set(name: str, *, base_dir: str | Path = ".") -> ReflectanceSet:
     if key not in REFLECTANCE_SETS:
         raise ConfigError(f"unknown reflectance set {name!r}; valid: {', '.join(REFLECTANCE_SETS)} "
                           "or a CSV path (wavelength_nm, one column per patch)")
+    return _built_in_set(key)
+
+
+@functools.lru_cache(maxsize=None)
+def _built_in_set(key: str) -> ReflectanceSet:
+    """A built-in set, loaded once per process (colour-science parses the CIE 2017 table in
+    0.5 s, and a render builds its scene up to three times: light, depth, radiance)."""
     description, loader = REFLECTANCE_SETS[key]
     names, sds = loader()
     return ReflectanceSet(key, description, tuple(str(n) for n in names), tuple(sds))

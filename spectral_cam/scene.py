@@ -37,6 +37,9 @@ __all__ = [
     "ExposureSection",
     "RenderSection",
     "ISPSection",
+    "SkySection",
+    "SCENE_LIGHTS",
+    "OBJECT_MATERIALS",
     "load_scene",
     "scene_from_dict",
     "parse_override",
@@ -52,6 +55,11 @@ DIFFRACTION_MODES = ("auto", "on", "off")
 #: render.bands besides "start:stop:step"; "auto" resolves to this grid or "camera".
 BAND_MODES = ("auto", "camera")
 SPECTRAL_BANDS_DEFAULT = "400:700:10"
+#: scene.light: "auto" is each preset's own light ("sunsky" for the outdoor presets, else
+#: "illuminant"); "sunsky" is Mitsuba's sun and sky per [sky] (presets that declare "light").
+SCENE_LIGHTS = ("auto", "sunsky", "illuminant")
+#: scene.object_materials of ``tabletop``: Lambert, rough plastic, rough measured metal, glass.
+OBJECT_MATERIALS = ("diffuse", "plastic", "conductor", "glass")
 
 
 def _fail(key: str, value: Any, rule: str) -> None:
@@ -110,6 +118,12 @@ class SceneSection:
     ``camera_offset_m`` and ``camera_rotation_deg`` move an XML scene's camera from its pose in
     the file, in the camera's own frame: an offset (x image-left, y up, z along the view) and
     yaw (> 0 turns left), pitch (> 0 tilts up), roll (about the view axis, right-handed).
+    ``light`` lights the outdoor presets (``tabletop``, ``vegetation``) by Mitsuba's sun and
+    sky at ``[sky]``'s date, time and place (``"sunsky"``, their ``"auto"``) or by
+    ``[illuminant]`` (``"illuminant"``). ``object_*`` shape ``tabletop``: how many objects, the
+    size range (fractions of the view's width at the look point), the materials drawn from and the reflectance set their colours come from;
+    ``layout_seed`` draws the layout of ``tabletop`` and ``vegetation``; ``view_pitch_deg``
+    tilts their camera (< 0 looks down) at the ground point ``distance_m`` away.
     """
 
     preset: str = "colorchecker"
@@ -128,6 +142,13 @@ class SceneSection:
     leaf_seed: int = 0
     camera_offset_m: tuple[float, ...] = (0.0, 0.0, 0.0)
     camera_rotation_deg: tuple[float, ...] = (0.0, 0.0, 0.0)
+    light: str = "auto"
+    object_count: int = 8
+    object_size: tuple[float, ...] = (0.08, 0.2)
+    object_materials: tuple[str, ...] = OBJECT_MATERIALS
+    object_reflectances: str = "cie2017"
+    layout_seed: int = 0
+    view_pitch_deg: float = -25.0
 
     def __post_init__(self) -> None:
         if not self.mitsuba_xml and self.preset not in PRESETS:
@@ -166,13 +187,69 @@ class SceneSection:
         if moved and not self.mitsuba_xml:
             _fail("scene.camera_offset_m/camera_rotation_deg", [list(self.camera_offset_m), list(self.camera_rotation_deg)],
                   "move an XML scene's camera (scene.mitsuba_xml); a preset is laid out around our camera")
-        if not isinstance(self.leaf_seed, int) or isinstance(self.leaf_seed, bool) or self.leaf_seed < 0:
-            _fail("scene.leaf_seed", self.leaf_seed, "must be a whole number >= 0")
-        if (self.leaf_reflectances not in spectra.REFLECTANCE_SET_NAMES
-                and not str(self.leaf_reflectances).lower().endswith(".csv")):
-            _fail("scene.leaf_reflectances", self.leaf_reflectances,
-                  f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV (wavelength_nm, one column per sample)")
+        for key in ("leaf_seed", "layout_seed"):
+            value = getattr(self, key)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+                _fail(f"scene.{key}", value, "must be a whole number >= 0")
+        for key in ("leaf_reflectances", "object_reflectances"):
+            value = getattr(self, key)
+            if value not in spectra.REFLECTANCE_SET_NAMES and not str(value).lower().endswith(".csv"):
+                _fail(f"scene.{key}", value, f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV "
+                      "(wavelength_nm, one column per sample)")
+        self._check_outdoor_keys()
         spectra.validate_reflectance(self.reflectance)
+
+    def _check_outdoor_keys(self) -> None:
+        if self.light not in SCENE_LIGHTS:
+            _fail("scene.light", self.light, f"valid: {', '.join(SCENE_LIGHTS)}")
+        if self.light == "sunsky" and (self.mitsuba_xml or "light" not in PRESETS[self.preset].options):
+            outdoor = [name for name in PRESETS if "light" in PRESETS[name].options]
+            _fail("scene.light", self.light, f"the sun and sky light the outdoor presets ({', '.join(outdoor)}); "
+                  f"{self.mitsuba_xml or self.preset!r} brings its own light")
+        if not isinstance(self.object_count, int) or isinstance(self.object_count, bool) or not 0 <= self.object_count <= 200:
+            _fail("scene.object_count", self.object_count, "must be a whole number in 0..200")
+        if (len(self.object_size) != 2 or not 0.005 <= self.object_size[0] <= self.object_size[1] <= 0.5):
+            _fail("scene.object_size", list(self.object_size), "give [smallest, largest] object size as fractions "
+                  "of the view's width at the look point, within [0.005, 0.5]")
+        if not self.object_materials or any(m not in OBJECT_MATERIALS for m in self.object_materials):
+            _fail("scene.object_materials", list(self.object_materials), f"give one or more of {', '.join(OBJECT_MATERIALS)}")
+        if not (isinstance(self.view_pitch_deg, float) and -89.0 <= self.view_pitch_deg <= -1.0):
+            _fail("scene.view_pitch_deg", self.view_pitch_deg, "must lie in [-89, -1] degrees (the camera looks "
+                  "down at the ground point distance_m away)")
+
+
+@dataclass(frozen=True)
+class SkySection:
+    """Mitsuba's ``sunsky`` (Hosek–Wilkie sky and sun) for the outdoor presets: the sun stands
+    where it stands at local clock ``hour`` on ``date`` at ``latitude_deg``/``longitude_deg``
+    (north/east positive) with the clock ``utc_offset_h`` hours from UTC (NOAA's solar
+    position, :mod:`spectral_cam.solar`); ``turbidity`` (1–10: 2 arctic-clear, 3 clear, 6 warm
+    and moist, 10 hazy) sets the haze; ``heading_deg`` is the compass direction the camera
+    looks in (clockwise from north). Its light is in absolute units (about 100 klx of sun
+    at a high elevation), so ``exposure.time_s = "auto"`` is the natural choice."""
+
+    date: str = "2026-06-21"
+    hour: float = 14.0
+    utc_offset_h: float = 2.0
+    latitude_deg: float = 47.3769
+    longitude_deg: float = 8.5417
+    turbidity: float = 3.0
+    heading_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        from .solar import parse_date
+
+        parse_date(self.date)
+        for key, low, high, what in (("hour", 0.0, 24.0, "a local clock time in hours"),
+                                     ("utc_offset_h", -14.0, 14.0, "the clock's offset from UTC in hours"),
+                                     ("latitude_deg", -90.0, 90.0, "degrees north"),
+                                     ("longitude_deg", -180.0, 180.0, "degrees east"),
+                                     ("turbidity", 1.0, 10.0, "Mitsuba's sunsky turbidity")):
+            value = getattr(self, key)
+            if not (isinstance(value, float) and low <= value <= high):
+                _fail(f"sky.{key}", value, f"must be a number in [{low:g}, {high:g}]: {what}")
+        if not (isinstance(self.heading_deg, float) and math.isfinite(self.heading_deg)):
+            _fail("sky.heading_deg", self.heading_deg, "must be a compass heading in degrees")
 
 
 @dataclass(frozen=True)
@@ -358,6 +435,7 @@ class RenderSection:
 _SECTIONS = {
     "scene": SceneSection,
     "illuminant": IlluminantSection,
+    "sky": SkySection,
     "lens": LensSection,
     "sensor": SensorSection,
     "exposure": ExposureSection,
@@ -372,6 +450,7 @@ class SceneConfig:
 
     scene: SceneSection = field(default_factory=SceneSection)
     illuminant: IlluminantSection = field(default_factory=IlluminantSection)
+    sky: SkySection = field(default_factory=SkySection)
     lens: LensSection = field(default_factory=LensSection)
     sensor: SensorSection = field(default_factory=SensorSection)
     exposure: ExposureSection = field(default_factory=ExposureSection)

@@ -1,13 +1,15 @@
-"""The light of a user's Mitsuba XML scene, read from its own emitters.
+"""The light of a user's Mitsuba XML scene (or of a preset under the sun and sky), read from
+its own emitters.
 
 White balance, the fitted colour matrix and the ground truth need the spectrum that lights the
-scene. A preset is lit by ``[illuminant]``; an XML scene by its emitters, whatever
-``[illuminant]`` says. With ``illuminant.spd = "auto"`` (the default) :func:`resolve_light`
+scene. A preset is lit by ``[illuminant]``, except an outdoor preset under Mitsuba's
+``sunsky`` (``scene.light``); an XML scene by its emitters, whatever ``[illuminant]`` says. With ``illuminant.spd = "auto"`` (the default) :func:`resolve_light`
 reads each emitter's spectrum as Mitsuba renders it (so ``blackbody``, ``d65``,
 regular/irregular/uniform spectra, RGB upsampled under D65, textured area lights, ``constant``,
 ``envmap`` and ``sunsky`` all work): the mean of ``Emitter.sample_direction``'s spectral
-weights, L(λ)/pdf, over directions from the point the camera looks at, which estimates the
-spectral irradiance that emitter sends there up to a constant factor. It picks one emitter
+weights, L(λ)/pdf, times the cosine to the surface's normal, over directions from the point
+the camera looks at that reach the emitter unoccluded: the spectral irradiance that emitter
+sends there (up to a constant factor), what a white diffuser there would see. It picks one emitter
 (``illuminant.emitter``, else the one that sends the camera most light, measured by rendering
 the scene with each emitter alone, the others dimmed 10²⁰-fold) and returns the scene with
 ``illuminant.spd`` set to it: ``"blackbody:<K>"`` for a blackbody, else a CSV of its samples.
@@ -91,32 +93,48 @@ def _emitter_prefixes(mi, scene) -> list[tuple[object, str, str]]:
 
 
 def _look_point(mi, scene, sensor):
-    """Where the camera's central ray meets the scene (else the scene's centre)."""
+    """Where the camera's central ray meets the scene, and the surface's normal there (else
+    the scene's centre and None)."""
     ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(0.5, 0.5), mi.Point2f(0.5, 0.5))
     hit = scene.ray_intersect(ray)
     if bool(np.asarray(hit.is_valid())[0]):
-        point = np.array([np.asarray(c)[0] for c in hit.p]) + 1e-4 * np.array([np.asarray(c)[0] for c in hit.n])
-        return point
+        normal = np.array([np.asarray(c)[0] for c in hit.n], dtype=float)
+        if normal @ np.array([np.asarray(c)[0] for c in ray.d]) > 0:
+            normal = -normal  # the side the camera sees
+        point = np.array([np.asarray(c)[0] for c in hit.p]) + 1e-4 * normal
+        return point, normal
     box = scene.bbox()
-    return np.array([(box.min[i] + box.max[i]) / 2 for i in range(3)])
+    return np.array([(box.min[i] + box.max[i]) / 2 for i in range(3)]), None
 
 
-def _irradiance_spectrum(mi, dr, emitter, point) -> np.ndarray:
-    """Mean of L(λ)/pdf over sampled directions from ``point``, on :data:`LIGHT_GRID_NM`."""
+def _irradiance_spectrum(mi, dr, scene, emitter, point, normal) -> np.ndarray:
+    """Mean of L(λ)/pdf·cos θ over sampled directions from ``point`` that reach the emitter
+    unoccluded, on :data:`LIGHT_GRID_NM`. Without a normal (the camera sees no surface), or
+    where no sampled direction reaches the emitter, the cosine and the occlusion are dropped:
+    the spectrum the emitter sends towards the point."""
     rng = np.random.default_rng(0)
     n = DIRECTION_SAMPLES
     u = mi.Point2f(rng.random(n).astype(np.float32), rng.random(n).astype(np.float32))
-    out = np.zeros(len(LIGHT_GRID_NM))
+    weighted, plain = np.zeros(len(LIGHT_GRID_NM)), np.zeros(len(LIGHT_GRID_NM))
     for start in range(0, len(LIGHT_GRID_NM), 4):
         chunk = np.resize(LIGHT_GRID_NM[start:start + 4], 4)
         it = dr.zeros(mi.Interaction3f, n)
         it.p = mi.Point3f(*[float(c) for c in point])
         it.wavelengths = mi.Spectrum(*[mi.Float(float(w)) for w in chunk])
-        _, weight = emitter.sample_direction(it, u, True)
-        means = [float(np.mean(np.asarray(weight[i]))) for i in range(4)]
+        # test_visibility=True: emitters cannot test it (they hold no scene) and ignore it, except
+        # sunsky, which returns zero weights when it is False (Mitsuba 3.9.1); occlusion is ours
+        ds, weight = emitter.sample_direction(it, u, True)
+        blocked = scene.ray_test(mi.Ray3f(it.p, ds.d, ds.dist * (1 - 1e-4), 0.0, it.wavelengths))
+        dr.eval(weight, ds.d, blocked)  # one kernel; converting each lane alone re-traces it
+        values = np.stack([np.asarray(weight[i], dtype=np.float64) for i in range(4)], axis=1)
+        factor = np.ones(n)
+        if normal is not None:
+            direction = np.stack([np.asarray(c, dtype=np.float64) for c in ds.d], axis=1)
+            factor = np.clip(direction @ normal, 0.0, None) * ~np.asarray(blocked)
         count = min(4, len(LIGHT_GRID_NM) - start)
-        out[start:start + count] = means[:count]
-    return out
+        weighted[start:start + count] = (values * factor[:, None]).mean(axis=0)[:count]
+        plain[start:start + count] = values.mean(axis=0)[:count]
+    return weighted if np.any(weighted > 0) else plain
 
 
 def _temperature(params, prefix: str | None) -> float | None:
@@ -175,13 +193,13 @@ def _shares(mi, scene, sensor, integrator, emitters) -> list[float] | None:
 
 
 def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[SceneEmitter]:
-    """The emitters of ``config``'s XML scene with their spectra (and, when there are several,
-    the share of the camera's light each sends).
+    """The emitters of ``config``'s XML scene (or sky-lit preset) with their spectra (and,
+    when there are several, the share of the camera's light each sends).
 
     Raises
     ------
     ConfigError
-        For a scene that is not an XML scene.
+        For a preset lit by ``[illuminant]``.
     RenderError
         When Mitsuba cannot load it.
     """
@@ -189,12 +207,13 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[
     import mitsuba as mi
 
     from ..optics import ThinLens
+    from ..presets.outdoor import lit_by_sky
     from .scene_dict import build_scene, camera_dict
     from .variants import choose_variant
 
-    if not config.scene.mitsuba_xml:
-        raise ConfigError("scene_emitters reads a Mitsuba XML scene (scene.mitsuba_xml); a preset is lit by "
-                          "[illuminant]")
+    if not (config.scene.mitsuba_xml or lit_by_sky(config)):
+        raise ConfigError("scene_emitters reads a Mitsuba XML scene (scene.mitsuba_xml) or a preset under the sun "
+                          "and sky; other presets are lit by [illuminant]")
     mi.set_variant(choose_variant(config.render.variant))
     lens = ThinLens.from_config(config.lens, config.sensor)
     width = PROBE_SIZE[0]
@@ -208,10 +227,10 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[
     if not found:
         return []
     params = mi.traverse(scene)
-    point = _look_point(mi, scene, sensor)
+    point, normal = _look_point(mi, scene, sensor)
     emitters = []
     for emitter, name, prefix in found:
-        spectrum = _irradiance_spectrum(mi, dr, emitter, point)
+        spectrum = _irradiance_spectrum(mi, dr, scene, emitter, point, normal)
         peak = spectrum.max()
         emitters.append(SceneEmitter(name, str(emitter).split("[")[0].strip(),
                                      spectrum / peak if peak > 0 else spectrum, _temperature(params, prefix)))
@@ -243,7 +262,8 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
     """The scene with ``illuminant.spd`` set to the light that lights it, and a record of the
     choice (for meta.json's ``model_decisions["illuminant"]``).
 
-    A preset keeps ``[illuminant]`` (``"auto"`` is D65). An XML scene with ``spd = "auto"`` takes
+    A preset keeps ``[illuminant]`` (``"auto"`` is D65), except one under the sun and sky,
+    which is read as an XML scene is. An XML scene with ``spd = "auto"`` takes
     its emitter's spectrum (``illuminant.emitter``, else the one sending the camera most
     light) and names that emitter in ``illuminant.emitter``; with ``spd`` set and no
     ``emitter``, it keeps ``spd`` and warns (:class:`~spectral_cam.errors.SceneWarning`) that
@@ -256,8 +276,11 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
         ``illuminant.emitter`` names no emitter of the scene (the message lists them), or an
         XML scene has no emitter and ``spd = "auto"``.
     """
+    from ..presets.outdoor import lit_by_sky
+
     spd, chosen_name = config.illuminant.spd, config.illuminant.emitter
-    if not config.scene.mitsuba_xml:
+    where = config.scene.mitsuba_xml or f"preset {config.scene.preset!r} under the sun and sky"
+    if not config.scene.mitsuba_xml and not lit_by_sky(config):
         if chosen_name:
             raise ConfigError(f"illuminant.emitter = {chosen_name!r} names an emitter of an XML scene; the preset "
                               f"{config.scene.preset!r} is lit by [illuminant] spd and illuminance_lux")
@@ -268,18 +291,18 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
     if spd != "auto" and chosen_name:  # resolved before (a re-render, a resolved scene.toml)
         return config, {"choice": spd, "emitter": chosen_name, "reason": "resolved from the scene's emitter earlier"}
     if spd != "auto":
-        warnings.warn(f"illuminant.spd = {spd!r} does not light the XML scene {config.scene.mitsuba_xml} (its "
+        warnings.warn(f"illuminant.spd = {spd!r} does not light the scene {where} (its "
                       f"emitters do); white balance, the colour matrix and the ground truth use {spd!r} as "
                       "asked. Leave [illuminant] unset to use the scene's own light.", SceneWarning, stacklevel=2)
-        return config, {"choice": spd, "reason": "illuminant.spd set for an XML scene (warned)"}
+        return config, {"choice": spd, "reason": "illuminant.spd set for a scene its emitters light (warned)"}
     emitters = scene_emitters(config)
     if not emitters:
-        raise ConfigError(f"the XML scene {config.scene.mitsuba_xml} has no emitter, so nothing lights it; "
+        raise ConfigError(f"the XML scene {where} has no emitter, so nothing lights it; "
                           "add one, or set illuminant.spd to the light its ground truth should assume")
     names = [e.name for e in emitters]
     if chosen_name:
         if chosen_name not in names:
-            raise ConfigError(f"illuminant.emitter = {chosen_name!r} is not an emitter of {config.scene.mitsuba_xml}; "
+            raise ConfigError(f"illuminant.emitter = {chosen_name!r} is not an emitter of {where}; "
                               f"its emitters: {', '.join(names)}")
         chosen, reason = emitters[names.index(chosen_name)], "illuminant.emitter"
     elif len(emitters) == 1:
@@ -288,7 +311,7 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
         chosen = max(emitters, key=lambda e: e.share)
         reason = f"sends the camera {100 * chosen.share:.0f} % of its light (each emitter rendered alone)"
     else:
-        raise ConfigError(f"the XML scene {config.scene.mitsuba_xml} has {len(emitters)} emitters whose shares of "
+        raise ConfigError(f"the scene {where} has {len(emitters)} emitters whose shares of "
                           f"the light cannot be measured (give each an id); choose one with illuminant.emitter: "
                           f"{', '.join(names)}")
     if chosen.temperature_k is not None:

@@ -72,14 +72,18 @@ if TYPE_CHECKING:  # pragma: no cover
 # ----------------------------------------------------------------------------- expose
 def _with_scene_light(config: "SceneConfig", radiance: "SpectralImage") -> "SceneConfig":
     """``config`` with ``illuminant.spd = "auto"`` replaced by the light the render resolved
-    (an XML scene's emitter, recorded in ``radiance.meta["illuminant_spd"]``); a preset's
-    "auto" is D65. An XML scene whose light is unknown is refused rather than exposed as D65."""
+    (an XML scene's emitter or a preset's sun and sky, recorded in
+    ``radiance.meta["illuminant_spd"]``); a preset's "auto" is otherwise D65. A scene whose
+    emitters light it and whose light is unknown is refused rather than exposed as D65."""
+    from ..presets.outdoor import lit_by_sky
+
     if config.illuminant.spd != "auto":
         return config
     resolved = (radiance.meta or {}).get("illuminant_spd")
     if resolved is None:
-        if config.scene.mitsuba_xml:
-            raise SensorError("illuminant.spd = 'auto' on an XML scene: expose a radiance from "
+        if config.scene.mitsuba_xml or lit_by_sky(config):
+            raise SensorError("illuminant.spd = 'auto' on a scene its own emitters light (an XML scene, or the sun "
+                              "and sky): expose a radiance from "
                               "spectral_cam.render (it reads the scene's emitters), or set illuminant.spd")
         resolved = "D65"
     return config.replace(**{"illuminant.spd": resolved})

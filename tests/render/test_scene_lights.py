@@ -107,7 +107,7 @@ def test_an_emitter_named_for_a_preset_is_refused():
 
 def test_setting_illuminant_for_an_xml_scene_is_a_warning(tmp_path):
     config = _scene(tmp_path, illuminant={"spd": "D65"})
-    with pytest.warns(SceneWarning, match="does not light the XML scene"):
+    with pytest.warns(SceneWarning, match="does not light the scene"):
         resolved, record = resolve_light(config)
     assert resolved.illuminant.spd == "D65"
 

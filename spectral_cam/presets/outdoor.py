@@ -1,0 +1,148 @@
+"""What the outdoor presets (``tabletop``, ``vegetation``) share: a camera looking down at the
+ground, and their light — Mitsuba's ``sunsky`` at ``[sky]``'s date, time and place, or a lamp
+of ``[illuminant]``'s spectrum.
+
+Ground frame: origin at the ground point the camera looks at, x east, y north, z up (metres).
+The camera stands ``scene.distance_m`` from that point along its view, which has the compass
+heading ``sky.heading_deg`` and the pitch ``scene.view_pitch_deg`` (< 0 down); presets place
+objects in the ground frame and :class:`GroundView` maps them into the camera frame every
+preset uses (camera at the origin, view +z, +y up, +x image-left).
+
+Mitsuba's ``sunsky`` takes its ``sun_direction`` in world coordinates and its ``to_world`` as
+the frame whose +z is up (measured on 3.9.1: with ``to_world`` turning +z to +y the sun stands
+along the given world vector). Its radiance is absolute (W m⁻² sr⁻¹ nm⁻¹: a sun 65° high gives
+about 1.5 W m⁻² nm⁻¹ at 550 nm on the ground), and zero outside 320–720 nm, where the
+Hosek–Wilkie tables end.
+
+References
+----------
+.. [1] Hosek, L., & Wilkie, A. (2012). An analytic model for full spectral sky-dome radiance.
+   ACM Transactions on Graphics 31(4), 95; Mitsuba 3, plugin ``sunsky``.
+.. [2] Howell, J. R., A Catalog of Radiation Heat Transfer Configuration Factors, C-11
+   (a rectangle parallel to a point's surface, the lamp's irradiance).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..solar import enu_to_camera, sun_position
+from .common import PRESETS, light_irradiance, spectrum_dict
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..scene import SceneConfig
+
+#: Presets lit by the sun and sky when ``scene.light = "auto"``.
+OUTDOOR_LIGHT_DEFAULT = "sunsky"
+#: Side of the square ground plane around the look point (m): beyond the horizon of any view.
+GROUND_SIZE_M = 400.0
+#: The indoor lamp: a square area light this many metres on a side, this high over the look point.
+LAMP_SIDE_M, LAMP_HEIGHT_M = 0.8, 1.6
+
+
+@dataclass(frozen=True)
+class GroundView:
+    """The camera over the ground: ``rotation`` takes ground (east, north, up) vectors into the
+    camera frame, ``camera_m`` is the camera's position in the ground frame."""
+
+    rotation: np.ndarray
+    camera_m: np.ndarray
+
+    @classmethod
+    def from_config(cls, config: "SceneConfig") -> "GroundView":
+        rotation = enu_to_camera(config.sky.heading_deg, config.scene.view_pitch_deg)
+        view = rotation.T @ np.array([0.0, 0.0, 1.0])  # the view direction in ground coordinates
+        return cls(rotation, -config.scene.distance_m * view)
+
+    @property
+    def height_m(self) -> float:
+        return float(self.camera_m[2])
+
+    def to_camera(self, points_m) -> np.ndarray:
+        """Ground-frame points (…, 3) in camera coordinates."""
+        return (np.asarray(points_m, dtype=float) - self.camera_m) @ self.rotation.T
+
+    def transform(self, mi, local=None):
+        """A Mitsuba transform placing a ground-frame object (``local``: its own transform in
+        the ground frame) in the camera frame."""
+        matrix = np.eye(4)
+        matrix[:3, :3] = self.rotation
+        matrix[:3, 3] = -self.rotation @ self.camera_m
+        placed = mi.ScalarTransform4f(matrix)
+        return placed @ local if local is not None else placed
+
+
+def light_kind(config: "SceneConfig") -> str:
+    """``"sunsky"`` or ``"illuminant"``: how an outdoor preset is lit."""
+    return OUTDOOR_LIGHT_DEFAULT if config.scene.light == "auto" else config.scene.light
+
+
+def lit_by_sky(config: "SceneConfig") -> bool:
+    """Whether ``config`` is a preset lit by Mitsuba's sun and sky (its light is read from the
+    render like an XML scene's emitters, :mod:`spectral_cam.render.lights`)."""
+    return (not config.scene.mitsuba_xml and "light" in PRESETS[config.scene.preset].options
+            and light_kind(config) == "sunsky")
+
+
+def sun_direction_camera(config: "SceneConfig", view: GroundView) -> np.ndarray:
+    """Unit vector towards the sun in the camera frame (NOAA's position for ``[sky]``)."""
+    sky = config.sky
+    sun = sun_position(sky.date, sky.hour, utc_offset_h=sky.utc_offset_h, latitude_deg=sky.latitude_deg,
+                       longitude_deg=sky.longitude_deg)
+    return view.rotation @ sun.direction_enu()
+
+
+def sunsky(config: "SceneConfig", view: GroundView, mi) -> dict:
+    """Mitsuba's sun and sky with the sun where NOAA puts it and the sky's zenith up."""
+    from ..errors import ConfigError
+
+    sky = config.sky
+    sun = sun_position(sky.date, sky.hour, utc_offset_h=sky.utc_offset_h, latitude_deg=sky.latitude_deg,
+                       longitude_deg=sky.longitude_deg)
+    if sun.elevation_deg <= 0.0:
+        raise ConfigError(f"the sun is {-sun.elevation_deg:.1f}° below the horizon at {sky.date} {sky.hour:g} h "
+                          f"(UTC{sky.utc_offset_h:+g}) at {sky.latitude_deg:g}° N, {sky.longitude_deg:g}° E, so the "
+                          "sky model has no light; choose a daytime sky.hour, or scene.light = \"illuminant\"")
+    up = view.rotation @ np.array([0.0, 0.0, 1.0])
+    east = view.rotation @ np.array([1.0, 0.0, 0.0])
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2] = east, np.cross(up, east), up  # local +z is up
+    return {"type": "sunsky", "to_world": mi.ScalarTransform4f(frame), "turbidity": float(sky.turbidity),
+            "sun_direction": [float(v) for v in view.rotation @ sun.direction_enu()]}
+
+
+def lamp_irradiance_factor(half_side_m: float, height_m: float) -> float:
+    """E/L under the centre of a square Lambertian emitter parallel to the ground:
+    4·A/√(1+A²)·atan(A/√(1+A²)) with A = half side / height (sr; → side²/height² when small)."""
+    a = half_side_m / height_m
+    return 4.0 * a / math.sqrt(1 + a * a) * math.atan(a / math.sqrt(1 + a * a))
+
+
+def overhead_lamp(config: "SceneConfig", view: GroundView, mi, bsdf: dict) -> dict:
+    """A square area light of ``[illuminant]``'s spectrum over the look point, its radiance set
+    so the ground under its centre receives ``illuminance_lux``."""
+    wavelengths, irradiance = light_irradiance(config)
+    radiance = irradiance / lamp_irradiance_factor(LAMP_SIDE_M / 2, LAMP_HEIGHT_M)
+    local = (mi.ScalarTransform4f().translate([0.0, 0.0, LAMP_HEIGHT_M]).rotate([1, 0, 0], 180.0)
+             .scale([LAMP_SIDE_M / 2, LAMP_SIDE_M / 2, 1.0]))  # facing down
+    return {"type": "rectangle", "to_world": view.transform(mi, local), "bsdf": bsdf,
+            "emitter": {"type": "area", "radiance": spectrum_dict((wavelengths, radiance))}}
+
+
+def light(config: "SceneConfig", view: GroundView, mi) -> dict:
+    """The preset's light as scene-dict entries."""
+    if light_kind(config) == "sunsky":
+        return {"sky": sunsky(config, view, mi)}
+    black = {"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}}
+    return {"lamp": overhead_lamp(config, view, mi, black)}
+
+
+def ground(view: GroundView, mi, bsdf: dict) -> dict:
+    """The ground plane (z = 0 in the ground frame), :data:`GROUND_SIZE_M` on a side."""
+    half = GROUND_SIZE_M / 2
+    return {"type": "rectangle", "to_world": view.transform(mi, mi.ScalarTransform4f().scale([half, half, 1.0])),
+            "bsdf": bsdf}

@@ -1,0 +1,174 @@
+"""``tabletop``: objects on a ground plane — spheres, boxes, cylinders and procedural meshes
+(a torus, a vase) in Lambertian, rough-plastic, rough-metal and glass materials — under the
+sun and sky of a date, time and place, or under a lamp.
+
+Materials: ``diffuse`` and ``plastic`` (Mitsuba's ``roughplastic``: a GGX coat of index 1.49
+over the diffuse base) take a reflectance from ``scene.object_reflectances``; ``conductor``
+(``roughconductor``) one of gold, copper, aluminium, silver and chromium with Mitsuba's
+measured spectral complex indices (η(λ), k(λ)); ``glass`` is a smooth ``dielectric`` of BK7's
+index. The ground is a two-tone Lambertian checkerboard (10 % and 40 %) whose squares are
+1/12 of the view's width, so depth of field shows at every depth.
+
+Layout (``scene.layout_seed``): sizes uniform over ``scene.object_size`` (fractions of the
+view's width at the look point), positions drawn on the ground until each object's centre
+projects inside the middle 85 % of the frame and no two footprints overlap (centres drawn
+uniformly over the frame and cast onto the ground, no farther than 3·``distance_m``).
+
+References
+----------
+.. [1] Weidlich, A., & Wilkie, A. (2007). Arbitrarily layered micro-facet surfaces; Walter,
+   B., et al. (2007). Microfacet models for refraction through rough surfaces. Mitsuba 3,
+   plugins ``roughplastic``, ``roughconductor``, ``dielectric``.
+.. [2] Palik, E. D. (1985). Handbook of Optical Constants of Solids (the source of Mitsuba's
+   conductor tables).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from . import outdoor
+from .common import PRESETS, diffuse, reflectance_spectrum
+from .meshes import mitsuba_mesh, torus, vase
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..optics import ThinLens
+    from ..scene import SceneConfig
+
+__all__ = ["TabletopObject", "tabletop_layout", "SHAPES", "CONDUCTORS"]
+
+SHAPES = ("sphere", "box", "cylinder", "torus", "vase")
+#: Mitsuba's measured conductors used for ``conductor`` objects.
+CONDUCTORS = ("Au", "Cu", "Al", "Ag", "Cr")
+#: Ground checkerboard: reflectances and squares per view width.
+GROUND_REFLECTANCES, GROUND_SQUARES_PER_VIEW = (0.1, 0.4), 12
+PLASTIC_IOR, GLASS_IOR = 1.49, "bk7"
+#: Fraction of the frame (each way) object centres must project inside.
+FRAME_MARGIN = 0.85
+
+
+@dataclass(frozen=True)
+class TabletopObject:
+    """One object in the ground frame (m): its shape, footprint centre, size, turn about the
+    vertical and material (``reflectance`` is an index into the reflectance set, or -1)."""
+
+    shape: str
+    east_m: float
+    north_m: float
+    size_m: float
+    turn_deg: float
+    material: str
+    reflectance: int
+    conductor: str
+    roughness: float
+
+
+def view_width_m(config: "SceneConfig", lens: "ThinLens") -> float:
+    """Width of the field of view at the look point (m)."""
+    return lens.sensor_width_m * config.scene.distance_m / lens.image_distance_m
+
+
+def _ground_point(view: outdoor.GroundView, lens: "ThinLens", rng, height_m: float):
+    """Where a ray through a uniformly drawn point of the frame's middle :data:`FRAME_MARGIN`
+    meets the plane ``height_m`` above the ground (None above the horizon)."""
+    half_x = FRAME_MARGIN * lens.sensor_width_m / (2 * lens.image_distance_m)
+    half_y = FRAME_MARGIN * lens.sensor_height_m / (2 * lens.image_distance_m)
+    direction = view.rotation.T @ np.array([rng.uniform(-half_x, half_x), rng.uniform(-half_y, half_y), 1.0])
+    if direction[2] >= 0:
+        return None
+    t = (height_m - view.camera_m[2]) / direction[2]
+    return view.camera_m + t * direction if t > 0 else None
+
+
+def tabletop_layout(config: "SceneConfig", lens: "ThinLens", reflectance_count: int) -> list[TabletopObject]:
+    """Draw the objects of ``config``'s tabletop on ``lens``'s view.
+
+    Raises
+    ------
+    ConfigError
+        When ``scene.object_count`` objects of ``scene.object_size`` do not fit in the view.
+    """
+    from ..errors import ConfigError
+
+    s = config.scene
+    view = outdoor.GroundView.from_config(config)
+    width = view_width_m(config, lens)
+    rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x7AB1E]))
+    objects: list[TabletopObject] = []
+    for n in range(s.object_count):
+        size = width * rng.uniform(*s.object_size)
+        for _ in range(1000):
+            centre = _ground_point(view, lens, rng, size / 2)
+            if centre is None or np.hypot(*centre[:2]) > 3 * s.distance_m:
+                continue
+            east, north = centre[:2]
+            if all(math.hypot(east - o.east_m, north - o.north_m) > 0.55 * (size + o.size_m) * 1.2 for o in objects):
+                break
+        else:
+            raise ConfigError(f"scene.object_count = {s.object_count}: only {n} objects of "
+                              f"{s.object_size[0]:g}–{s.object_size[1]:g} of the view's width fit without "
+                              "overlapping; lower scene.object_count or scene.object_size")
+        material = s.object_materials[rng.integers(len(s.object_materials))]
+        objects.append(TabletopObject(
+            shape=SHAPES[rng.integers(len(SHAPES))], east_m=float(east), north_m=float(north), size_m=float(size),
+            turn_deg=float(rng.uniform(0, 360)), material=material,
+            reflectance=int(rng.integers(reflectance_count)) if material in ("diffuse", "plastic") else -1,
+            conductor=CONDUCTORS[rng.integers(len(CONDUCTORS))], roughness=float(rng.uniform(0.05, 0.3))))
+    return objects
+
+
+def _bsdf(item: TabletopObject, samples) -> dict:
+    if item.material == "diffuse":
+        return diffuse(samples.sds[item.reflectance])
+    if item.material == "plastic":
+        return {"type": "roughplastic", "distribution": "ggx", "alpha": item.roughness, "int_ior": PLASTIC_IOR,
+                "diffuse_reflectance": reflectance_spectrum(samples.sds[item.reflectance])}
+    if item.material == "conductor":
+        return {"type": "roughconductor", "distribution": "ggx", "alpha": item.roughness, "material": item.conductor}
+    return {"type": "dielectric", "int_ior": GLASS_IOR, "ext_ior": "air"}
+
+
+def _shape(mi, view: outdoor.GroundView, item: TabletopObject, bsdf: dict, name: str) -> dict:
+    """Scene-dict entries of one object (a cylinder is a tube and a top disc)."""
+    place = mi.ScalarTransform4f().translate([item.east_m, item.north_m, 0.0]).rotate([0, 0, 1], item.turn_deg)
+    s = item.size_m
+    if item.shape == "sphere":
+        local = place @ mi.ScalarTransform4f().translate([0, 0, s / 2]).scale(s / 2)
+        return {name: {"type": "sphere", "to_world": view.transform(mi, local), "bsdf": bsdf}}
+    if item.shape == "box":
+        local = place @ mi.ScalarTransform4f().translate([0, 0, 0.4 * s]).scale(0.4 * s)
+        return {name: {"type": "cube", "to_world": view.transform(mi, local), "bsdf": bsdf}}
+    if item.shape == "cylinder":
+        tube = place @ mi.ScalarTransform4f().scale([0.35 * s, 0.35 * s, s])
+        lid = place @ mi.ScalarTransform4f().translate([0, 0, s]).scale(0.35 * s)
+        return {name: {"type": "cylinder", "to_world": view.transform(mi, tube), "bsdf": bsdf},
+                f"{name}_top": {"type": "disk", "to_world": view.transform(mi, lid), "bsdf": bsdf}}
+    vertices, faces = torus(0.35 * s, 0.15 * s) if item.shape == "torus" else vase(s)
+    return {name: mitsuba_mesh(mi, name, vertices, faces, bsdf, view.transform(mi, place))}
+
+
+@PRESETS.register("tabletop", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
+                                       "object_materials", "object_reflectances", "layout_seed"),
+                  description="objects on a checkered ground (plastic, metal, glass, meshes) under the sun and sky")
+def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
+    """The ground, the objects of :func:`tabletop_layout` and the light
+    (:func:`spectral_cam.presets.outdoor.light`)."""
+    from ..reflectance_sets import reflectance_set
+
+    samples = reflectance_set(config.scene.object_reflectances)
+    view = outdoor.GroundView.from_config(config)
+    square = view_width_m(config, lens) / GROUND_SQUARES_PER_VIEW
+    dark, light = GROUND_REFLECTANCES
+    half = outdoor.GROUND_SIZE_M / 2
+    ground_bsdf = {"type": "diffuse", "reflectance": {
+        "type": "checkerboard", "color0": {"type": "uniform", "value": dark}, "color1": {"type": "uniform", "value": light},
+        "to_uv": mi.ScalarTransform4f().scale([half / square, half / square, 1.0])}}
+    objects = {"ground": outdoor.ground(view, mi, ground_bsdf)}
+    for n, item in enumerate(tabletop_layout(config, lens, len(samples))):
+        objects.update(_shape(mi, view, item, _bsdf(item, samples), f"object_{n}"))
+    objects.update(outdoor.light(config, view, mi))
+    return objects
