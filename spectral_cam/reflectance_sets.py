@@ -1,12 +1,15 @@
 """Reflectance sets: measured surface spectra to put in front of the sensor (charts, dataset
 presets, validation): the ColorChecker, the 190 rawtoaces training spectra, the 99 CIE 2017
-samples, the CIE 13.3 and NIST CQS samples, or a CSV table.
+samples, the CIE 13.3 and NIST CQS samples, leaves and soils of the USGS spectral library
+(``spectral_cam/data/usgs_splib07``), or a CSV table.
 
 References
 ----------
 .. [1] CIE 224:2017 (colour fidelity samples); CIE 13.3-1995 (test colour samples); Davis, W.,
    & Ohno, Y. (2010), Optical Engineering 49(3) (NIST CQS 9.0); AMPAS rawtoaces training
    data; Pascale, D. (2006), BabelColor ColorChecker averages.
+.. [2] Kokaly, R. F., et al. (2017). USGS Spectral Library Version 7. U.S. Geological Survey
+   Data Series 1035, doi:10.3133/ds1035.
 """
 
 from __future__ import annotations
@@ -88,6 +91,22 @@ def _cqs():
     return _named_mapping(colour.quality.SDS_VS, "NIST CQS 9.0")
 
 
+USGS_FOLDER = Path(__file__).parent / "data" / "usgs_splib07"
+
+
+def _usgs(prefixes: tuple[str, ...]):
+    """The USGS splib07 spectra whose files start with one of ``prefixes``, named by file."""
+    import colour
+
+    names, sds = [], []
+    for path in sorted(USGS_FOLDER.glob("*.csv")):
+        if path.name.startswith(prefixes):
+            data = np.loadtxt(path, delimiter=",", skiprows=1)
+            names.append(path.stem)
+            sds.append(colour.SpectralDistribution(dict(zip(data[:, 0], data[:, 1])), name=path.stem))
+    return names, sds
+
+
 #: Built-in reflectance sets: name -> (description, loader).
 REFLECTANCE_SETS: dict[str, tuple[str, Callable]] = {
     "colorchecker": ("24 ColorChecker patches, BabelColor average of 30 charts (Pascale 2006)", _colorchecker),
@@ -95,6 +114,10 @@ REFLECTANCE_SETS: dict[str, tuple[str, Callable]] = {
     "cie2017": ("99 colour samples of the CIE 2017 colour fidelity index (CIE 224:2017)", _cie2017),
     "cri": ("14 test colour samples of CIE 13.3-1995 (colour rendering index)", _cri),
     "cqs": ("15 samples of the NIST colour quality scale 9.0 (Davis & Ohno 2010)", _cqs),
+    "usgs_vegetation": ("4 green and 2 dry leaf/grass spectra, 350-1000 nm, USGS splib07 (Kokaly et al. 2017)",
+                        functools.partial(_usgs, ("green_", "dry_"))),
+    "usgs_soils": ("3 soils (dry sand, wet sand, dry playa mud), 350-1000 nm, USGS splib07 (Kokaly et al. 2017)",
+                   functools.partial(_usgs, ("soil_",))),
 }
 
 

@@ -124,6 +124,9 @@ class SceneSection:
     size range (fractions of the view's width at the look point), the materials drawn from and the reflectance set their colours come from;
     ``layout_seed`` draws the layout of ``tabletop`` and ``vegetation``; ``view_pitch_deg``
     tilts their camera (< 0 looks down) at the ground point ``distance_m`` away.
+    ``vegetation`` reads ``object_count`` and ``object_size`` for its plants, whose leaves take
+    ``plant_reflectances`` (its ``dry_*`` samples for ``dry_fraction`` of the plants) on a soil
+    of ``soil_reflectances``.
     """
 
     preset: str = "colorchecker"
@@ -149,6 +152,9 @@ class SceneSection:
     object_reflectances: str = "cie2017"
     layout_seed: int = 0
     view_pitch_deg: float = -25.0
+    plant_reflectances: str = "usgs_vegetation"
+    soil_reflectances: str = "usgs_soils"
+    dry_fraction: float = 0.1
 
     def __post_init__(self) -> None:
         if not self.mitsuba_xml and self.preset not in PRESETS:
@@ -191,7 +197,7 @@ class SceneSection:
             value = getattr(self, key)
             if not isinstance(value, int) or isinstance(value, bool) or value < 0:
                 _fail(f"scene.{key}", value, "must be a whole number >= 0")
-        for key in ("leaf_reflectances", "object_reflectances"):
+        for key in ("leaf_reflectances", "object_reflectances", "plant_reflectances", "soil_reflectances"):
             value = getattr(self, key)
             if value not in spectra.REFLECTANCE_SET_NAMES and not str(value).lower().endswith(".csv"):
                 _fail(f"scene.{key}", value, f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV "
@@ -213,6 +219,8 @@ class SceneSection:
                   "of the view's width at the look point, within [0.005, 0.5]")
         if not self.object_materials or any(m not in OBJECT_MATERIALS for m in self.object_materials):
             _fail("scene.object_materials", list(self.object_materials), f"give one or more of {', '.join(OBJECT_MATERIALS)}")
+        if not (isinstance(self.dry_fraction, float) and 0.0 <= self.dry_fraction <= 1.0):
+            _fail("scene.dry_fraction", self.dry_fraction, "must lie in [0, 1]: the fraction of plants with dry leaves")
         if not (isinstance(self.view_pitch_deg, float) and -89.0 <= self.view_pitch_deg <= -1.0):
             _fail("scene.view_pitch_deg", self.view_pitch_deg, "must lie in [-89, -1] degrees (the camera looks "
                   "down at the ground point distance_m away)")

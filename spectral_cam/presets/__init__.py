@@ -7,8 +7,8 @@ package (and imported below); scene validation, ``spectral-cam`` help and errors
 registry. ``common`` holds what presets share, ``charts`` the chart targets,
 ``depth_targets`` the depth-of-field and bokeh targets, ``dead_leaves`` the occluding-disc
 texture target, ``cornell_box`` the Cornell box; ``outdoor`` the ground view and sun/sky
-or lamp the outdoor presets share, ``tabletop`` objects on the ground, ``meshes`` the
-procedural meshes.
+or lamp the outdoor presets share, ``tabletop`` objects on the ground, ``vegetation`` plants
+on soil, ``meshes`` the procedural meshes.
 
 References
 ----------
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from . import charts, cornell_box, dead_leaves, depth_targets, tabletop  # noqa: F401  (each registers its presets)
+from . import charts, cornell_box, dead_leaves, depth_targets, tabletop, vegetation  # noqa: F401  (each registers its presets)
 from .charts import colorchecker_patches, white_reference_mask
 from .common import EDGE_REFLECTANCES, PRESETS, Patch
 

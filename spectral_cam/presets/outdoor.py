@@ -34,6 +34,7 @@ from ..solar import enu_to_camera, sun_position
 from .common import PRESETS, light_irradiance, spectrum_dict
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..optics import ThinLens
     from ..scene import SceneConfig
 
 #: Presets lit by the sun and sky when ``scene.light = "auto"``.
@@ -74,6 +75,24 @@ class GroundView:
         matrix[:3, 3] = -self.rotation @ self.camera_m
         placed = mi.ScalarTransform4f(matrix)
         return placed @ local if local is not None else placed
+
+
+def view_width_m(config: "SceneConfig", lens: "ThinLens") -> float:
+    """Width of the field of view at the look point (m)."""
+    return lens.sensor_width_m * config.scene.distance_m / lens.image_distance_m
+
+
+def ground_point_in_frame(view: GroundView, lens: "ThinLens", rng, height_m: float, margin: float):
+    """Where a ray through a uniformly drawn point of the frame's middle ``margin`` (a
+    fraction of its width and height) meets the plane ``height_m`` above the ground (None
+    above the horizon)."""
+    half_x = margin * lens.sensor_width_m / (2 * lens.image_distance_m)
+    half_y = margin * lens.sensor_height_m / (2 * lens.image_distance_m)
+    direction = view.rotation.T @ np.array([rng.uniform(-half_x, half_x), rng.uniform(-half_y, half_y), 1.0])
+    if direction[2] >= 0:
+        return None
+    t = (height_m - view.camera_m[2]) / direction[2]
+    return view.camera_m + t * direction if t > 0 else None
 
 
 def light_kind(config: "SceneConfig") -> str:

@@ -67,23 +67,6 @@ class TabletopObject:
     roughness: float
 
 
-def view_width_m(config: "SceneConfig", lens: "ThinLens") -> float:
-    """Width of the field of view at the look point (m)."""
-    return lens.sensor_width_m * config.scene.distance_m / lens.image_distance_m
-
-
-def _ground_point(view: outdoor.GroundView, lens: "ThinLens", rng, height_m: float):
-    """Where a ray through a uniformly drawn point of the frame's middle :data:`FRAME_MARGIN`
-    meets the plane ``height_m`` above the ground (None above the horizon)."""
-    half_x = FRAME_MARGIN * lens.sensor_width_m / (2 * lens.image_distance_m)
-    half_y = FRAME_MARGIN * lens.sensor_height_m / (2 * lens.image_distance_m)
-    direction = view.rotation.T @ np.array([rng.uniform(-half_x, half_x), rng.uniform(-half_y, half_y), 1.0])
-    if direction[2] >= 0:
-        return None
-    t = (height_m - view.camera_m[2]) / direction[2]
-    return view.camera_m + t * direction if t > 0 else None
-
-
 def tabletop_layout(config: "SceneConfig", lens: "ThinLens", reflectance_count: int) -> list[TabletopObject]:
     """Draw the objects of ``config``'s tabletop on ``lens``'s view.
 
@@ -96,13 +79,13 @@ def tabletop_layout(config: "SceneConfig", lens: "ThinLens", reflectance_count: 
 
     s = config.scene
     view = outdoor.GroundView.from_config(config)
-    width = view_width_m(config, lens)
+    width = outdoor.view_width_m(config, lens)
     rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x7AB1E]))
     objects: list[TabletopObject] = []
     for n in range(s.object_count):
         size = width * rng.uniform(*s.object_size)
         for _ in range(1000):
-            centre = _ground_point(view, lens, rng, size / 2)
+            centre = outdoor.ground_point_in_frame(view, lens, rng, size / 2, FRAME_MARGIN)
             if centre is None or np.hypot(*centre[:2]) > 3 * s.distance_m:
                 continue
             east, north = centre[:2]
@@ -161,7 +144,7 @@ def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
 
     samples = reflectance_set(config.scene.object_reflectances)
     view = outdoor.GroundView.from_config(config)
-    square = view_width_m(config, lens) / GROUND_SQUARES_PER_VIEW
+    square = outdoor.view_width_m(config, lens) / GROUND_SQUARES_PER_VIEW
     dark, light = GROUND_REFLECTANCES
     half = outdoor.GROUND_SIZE_M / 2
     ground_bsdf = {"type": "diffuse", "reflectance": {

@@ -1,0 +1,140 @@
+"""``vegetation``: plants of measured leaf spectra on measured soil, under the sun and sky —
+the scene of outdoor and agricultural imaging (crop monitoring, plant health).
+
+Each plant is one triangle mesh of 6–11 leaves set round its stem by the golden angle
+(137.5°, the phyllotaxis of most broad-leaved plants), each leaf a lanceolate blade whose width
+follows sin(πs)^0.7 along its length, rising at 25–65° and drooping under its own weight, with
+a slight V-fold along the midrib. A plant's leaves share one reflectance drawn from
+``scene.plant_reflectances``: from its ``dry_*`` samples for a fraction ``scene.dry_fraction`` of
+the plants, else from the others (the USGS set's green leaves and grass). Leaves are two-sided
+Lambertian reflectors: the library gives reflectance only, so the light leaves transmit (about
+as much as they reflect in the near infrared) is not modelled. The soil is one sample of
+``scene.soil_reflectances`` drawn by ``scene.layout_seed``.
+
+Plants stand where rays through the middle 90 % of the frame meet the ground, no nearer to
+each other than 0.4 of their sizes (``scene.object_size``: fractions of the view's width at
+the look point), ``scene.object_count`` of them.
+
+References
+----------
+.. [1] Kokaly, R. F., et al. (2017). USGS Spectral Library Version 7, USGS Data Series 1035
+   (the bundled leaf and soil spectra, ``spectral_cam/data/usgs_splib07``).
+.. [2] Douady, S., & Couder, Y. (1992). Phyllotaxis as a physical self-organized growth process.
+   Physical Review Letters 68(13), 2098 (the golden-angle leaf arrangement).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from . import outdoor
+from .common import PRESETS, diffuse
+from .meshes import mitsuba_mesh
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..optics import ThinLens
+    from ..scene import SceneConfig
+
+__all__ = ["plant_mesh", "vegetation_layout", "GOLDEN_ANGLE_DEG"]
+
+GOLDEN_ANGLE_DEG = 137.50776
+#: Samples along and across each leaf blade.
+LEAF_STEPS, LEAF_SIDES = 10, 2
+
+
+def _leaf(base, azimuth: float, length: float, rise: float, droop: float, fold: float):
+    """Vertices of one blade, (LEAF_STEPS + 1) × (2·LEAF_SIDES + 1), rows along its length."""
+    s = np.linspace(0.0, 1.0, LEAF_STEPS + 1)[:, None]
+    t = np.linspace(-1.0, 1.0, 2 * LEAF_SIDES + 1)[None, :]
+    width = 0.18 * length * np.sin(np.pi * s) ** 0.7
+    along = np.array([math.cos(azimuth), math.sin(azimuth), 0.0])
+    across = np.array([-math.sin(azimuth), math.cos(azimuth), 0.0])
+    reach = s * length * math.cos(rise)
+    height = s * length * math.sin(rise) - droop * length * s ** 2 + fold * width * np.abs(t)
+    points = (base + reach[..., None] * along + (width * t)[..., None] * across
+              + height[..., None] * np.array([0.0, 0.0, 1.0]))
+    return points.reshape(-1, 3)
+
+
+def _grid_faces(rows: int, columns: int, offset: int) -> np.ndarray:
+    faces = []
+    for i in range(rows - 1):
+        for j in range(columns - 1):
+            a = offset + i * columns + j
+            faces += [(a, a + columns, a + columns + 1), (a, a + columns + 1, a + 1)]
+    return np.asarray(faces, dtype=np.uint32)
+
+
+def plant_mesh(rng, height_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and triangles of one plant about +z, standing on z = 0, about ``height_m``
+    tall (its leaves reach about 0.6·height out from the stem)."""
+    count = int(rng.integers(6, 12))
+    start = rng.uniform(0, 360)
+    vertices, faces = [], []
+    for k in range(count):
+        level = k / count
+        base = np.array([0.0, 0.0, height_m * (0.05 + 0.45 * level)])
+        azimuth = math.radians(start + k * GOLDEN_ANGLE_DEG + rng.normal(0, 8))
+        length = height_m * rng.uniform(0.45, 0.7) * (1.0 - 0.3 * level)
+        blade = _leaf(base, azimuth, length, math.radians(rng.uniform(25, 65)), rng.uniform(0.3, 0.7),
+                      rng.uniform(0.05, 0.2))
+        faces.append(_grid_faces(LEAF_STEPS + 1, 2 * LEAF_SIDES + 1, sum(len(v) for v in vertices)))
+        vertices.append(blade)
+    return np.concatenate(vertices), np.concatenate(faces)
+
+
+def vegetation_layout(config: "SceneConfig", lens: "ThinLens"):
+    """(east, north, size) of each plant in the ground frame (m), drawn by ``layout_seed``."""
+    from ..errors import ConfigError
+
+    s = config.scene
+    view = outdoor.GroundView.from_config(config)
+    width = outdoor.view_width_m(config, lens)
+    rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x1EAF5]))
+    plants: list[tuple[float, float, float]] = []
+    for n in range(s.object_count):
+        size = width * rng.uniform(*s.object_size)
+        for _ in range(1000):
+            point = outdoor.ground_point_in_frame(view, lens, rng, 0.0, 0.9)
+            if point is None or np.hypot(*point[:2]) > 3 * s.distance_m:
+                continue
+            if all(math.hypot(point[0] - e, point[1] - nn) > 0.4 * (size + z) for e, nn, z in plants):
+                plants.append((float(point[0]), float(point[1]), float(size)))
+                break
+        else:
+            raise ConfigError(f"scene.object_count = {s.object_count}: only {n} plants of "
+                              f"{s.object_size[0]:g}–{s.object_size[1]:g} of the view's width fit; lower "
+                              "scene.object_count or scene.object_size")
+    return plants
+
+
+def _split_dry(samples) -> tuple[list, list]:
+    dry = [sd for name, sd in zip(samples.names, samples.sds) if name.startswith("dry")]
+    green = [sd for name, sd in zip(samples.names, samples.sds) if not name.startswith("dry")]
+    return green or dry, dry or green
+
+
+@PRESETS.register("vegetation", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
+                                         "plant_reflectances", "soil_reflectances", "dry_fraction", "layout_seed"),
+                  description="plants of measured leaf spectra on measured soil under the sun and sky")
+def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
+    """The soil, the plants of :func:`vegetation_layout` and the light."""
+    from ..reflectance_sets import reflectance_set
+
+    s = config.scene
+    rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x5011]))
+    green, dry = _split_dry(reflectance_set(s.plant_reflectances))
+    soils = reflectance_set(s.soil_reflectances)
+    view = outdoor.GroundView.from_config(config)
+    objects = {"ground": outdoor.ground(view, mi, diffuse(soils.sds[rng.integers(len(soils))]))}
+    for n, (east, north, size) in enumerate(vegetation_layout(config, lens)):
+        pool = dry if rng.random() < s.dry_fraction else green
+        leaf = {"type": "twosided", "bsdf": diffuse(pool[rng.integers(len(pool))])}
+        vertices, faces = plant_mesh(rng, size)
+        place = mi.ScalarTransform4f().translate([east, north, 0.0])
+        objects[f"plant_{n}"] = mitsuba_mesh(mi, f"plant_{n}", vertices, faces, leaf, view.transform(mi, place))
+    objects.update(outdoor.light(config, view, mi))
+    return objects
