@@ -91,8 +91,10 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     from .isp import develop
     from .optics import ThinLens
     from .render import render
+    from .render.focus import resolve_focus
     from .sensor import expose
 
+    config, _ = resolve_focus(config)  # lens.focus_object sets the focus the job's lens is built with
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens.layout_lens
     timings: dict[str, float] = {}
     # the sensor has a ring of real pixels around the frame (sensor.crop_margin_px): the RAW

@@ -283,13 +283,17 @@ class LensSection:
     through a pinhole when defocus costs ≤ 0.03 of MTF at Nyquist over the scene's depths,
     and with the depth-layered model (``"layered"``: a pinhole render defocused per depth
     layer, :mod:`spectral_cam.render.defocus`) where that is exact and thin-lens path tracing
-    would be noisy (docs/design.md, "Model decisions")."""
+    would be noisy (docs/design.md, "Model decisions"). ``focus_object`` names a shape of the
+    scene (an XML ``id``, a preset's ``object_3`` or ``plant_2``) to focus on: it replaces
+    ``focus_distance_m`` with that object's depth when the render starts
+    (:mod:`spectral_cam.render.focus`)."""
 
     focal_length_mm: float = 8.0
     f_number: float = 2.8
     focus_distance_m: float = 2.0
     model: str = "auto"
     transmission: float | str = 1.0
+    focus_object: str = ""
 
     def __post_init__(self) -> None:
         _within("lens.focal_length_mm", self.focal_length_mm)

@@ -27,6 +27,7 @@ from ..presets import white_reference_mask
 from .decisions import decide_lens_model
 from .defocus import render_layered
 from .depth import render_depth
+from .focus import resolve_focus
 from .lights import resolve_light
 from .memory import check_render_memory
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, check_tiling, trace
@@ -91,6 +92,7 @@ def render(
     """
     import mitsuba as mi
 
+    config, focus_record = resolve_focus(config)  # before the lens: it sets the focus distance
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     if with_margin:
         lens = lens.layout_lens.widened(config.sensor.crop_margin_px)
@@ -101,6 +103,8 @@ def render(
     mi.set_variant(variant)
     decisions: dict[str, dict] = {"variant": variant_record}
     config, decisions["illuminant"] = resolve_light(config)  # an XML scene's own light
+    if focus_record is not None:
+        decisions["focus"] = focus_record
     if config.scene.mitsuba_xml:
         decisions["field_of_view"] = _xml_field_of_view_record(config, lens)
 
