@@ -50,7 +50,10 @@ __all__ = ["LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "d
 #: is the order of ``outputs`` in dataset.json and meta.json.
 LABELS = Registry("dataset output")
 #: Presets whose blur the item measures (per depth) when it renders the all-in-focus image.
-BLUR_PRESETS = ("dof_targets", "point_sources")
+BLUR_PRESETS = ("dof_targets", "point_sources", "tabletop", "vegetation")
+#: Bands of predicted blur the outdoor presets' blur is measured in: |CoC| from 1 px up, each
+#: band this factor wide; a band is measured where it keeps this many pixels.
+COC_BAND_FACTOR, COC_BAND_MIN_PIXELS = 1.25, 150
 
 
 @dataclass
@@ -372,6 +375,8 @@ def measure_scene_blur(config: SceneConfig, depth_m: np.ndarray, sharp: np.ndarr
             results.append(_blur_row(z, predicted[z], sharp, blurred, inner,
                                      None if inner.any() else f"no pixels {margin:.1f} px inside the plane"))
         return results
+    if config.scene.preset in ("tabletop", "vegetation"):
+        return _blur_in_coc_bands(lens, depth, sharp, blurred)
     if config.scene.preset != "point_sources":
         raise ConfigError(f"blur is measured on {', '.join(BLUR_PRESETS)} scenes; got "
                           f"scene.preset = {config.scene.preset!r}")
@@ -403,6 +408,34 @@ def measure_scene_blur(config: SceneConfig, depth_m: np.ndarray, sharp: np.ndarr
             note = "blur spot overlaps another source's"
         region = ((yy - row) ** 2 + (xx - col) ** 2 <= reach * reach) if note is None else np.zeros_like(finite)
         results.append(_blur_row(source["z"], source["c"], sharp, blurred, region, note))
+    return sorted(results, key=lambda r: r["depth_m"])
+
+
+def _blur_in_coc_bands(lens, depth: np.ndarray, sharp, blurred) -> list[dict]:
+    """Blur per band of predicted |CoC| (bands :data:`COC_BAND_FACTOR` wide from 1 px) of a
+    scene whose depth varies smoothly (a ground plane): each band's pixels farther than half the
+    frame's largest blur + 2 px from any pixel outside the band, measured where that leaves
+    :data:`COC_BAND_MIN_PIXELS` pixels and the sharp image has texture there (an edge-free
+    region has no blur to measure). Rows report the band's median depth and predicted CoC."""
+    from scipy import ndimage
+
+    finite = np.isfinite(depth)
+    coc = np.where(finite, np.abs(lens.coc_diameter_px(np.where(finite, depth, 1.0))), np.inf)
+    margin = 0.5 * float(coc[finite].max()) + 2.0 if finite.any() else 0.0
+    gradient = np.hypot(*np.gradient(np.asarray(sharp, dtype=np.float64)))
+    texture_floor = 0.05 * float(np.percentile(gradient, 99)) if gradient.size else 0.0
+    results = []
+    low = 1.0
+    while finite.any() and low < float(coc[finite].max()):
+        high = low * COC_BAND_FACTOR
+        band = (coc >= low) & (coc < high)
+        inner = ndimage.distance_transform_edt(np.pad(band, 1))[1:-1, 1:-1] > margin
+        if inner.sum() >= COC_BAND_MIN_PIXELS:
+            note = None if np.mean(gradient[inner] > texture_floor) > 0.05 else "no texture in the band"
+            region = inner if note is None else np.zeros_like(inner)
+            results.append(_blur_row(float(np.median(depth[inner])), float(np.median(coc[inner])), sharp, blurred,
+                                     region, note))
+        low = high
     return sorted(results, key=lambda r: r["depth_m"])
 
 
