@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 #: Bayer tiles, read row by row from the top-left pixel; "none" = monochrome.
-LENS_MODELS = ("auto", "thin", "pinhole", "layered")
+LENS_MODELS = ("auto", "thin", "pinhole", "layered", "spectral_thin")
 #: render.diffraction: "auto" applies the Airy PSF only where it costs > 0.03 MTF at Nyquist.
 DIFFRACTION_MODES = ("auto", "on", "off")
 #: render.bands besides "start:stop:step"; "auto" resolves to this grid or "camera".
@@ -286,7 +286,10 @@ class LensSection:
     would be noisy (docs/design.md, "Model decisions"). ``focus_object`` names a shape of the
     scene (an XML ``id``, a preset's ``object_3`` or ``plant_2``) to focus on: it replaces
     ``focus_distance_m`` with that object's depth when the render starts
-    (:mod:`spectral_cam.render.focus`)."""
+    (:mod:`spectral_cam.render.focus`). ``model = "spectral_thin"`` is a thin lens of ``glass``
+    (a catalogue glass: a singlet, or ``"crown+flint"``: a cemented achromat) whose focal
+    length follows the glass's dispersion, ``focal_length_mm`` at the d line
+    (:mod:`spectral_cam.lenses`)."""
 
     focal_length_mm: float = 8.0
     f_number: float = 2.8
@@ -294,6 +297,7 @@ class LensSection:
     model: str = "auto"
     transmission: float | str = 1.0
     focus_object: str = ""
+    glass: str = "N-BK7"
 
     def __post_init__(self) -> None:
         _within("lens.focal_length_mm", self.focal_length_mm)
@@ -305,6 +309,12 @@ class LensSection:
                   f"({self.focal_length_mm / 1000:g} m); give a larger focus distance")
         if self.model not in LENS_MODELS:
             _fail("lens.model", self.model, f"valid: {', '.join(LENS_MODELS)}")
+        from .lenses.glass import GLASS_NAMES
+
+        glasses = [part.strip() for part in str(self.glass).split("+")]
+        if len(glasses) > 2 or any(g not in GLASS_NAMES for g in glasses):
+            _fail("lens.glass", self.glass, f"give a glass (a singlet) or crown+flint (an achromat) from: "
+                  f"{', '.join(GLASS_NAMES)}")
         spectra.validate_transmission(self.transmission)
 
 

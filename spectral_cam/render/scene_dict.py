@@ -111,12 +111,23 @@ def tile_sensor(mi, sensor, camera: dict, rows: tuple[int, int]):
     return load_dict(mi, dict(camera, film=film, to_world=mi.ScalarTransform4f(matrix)))
 
 
-def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent") -> dict:
+def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent",
+                glass: str = "N-BK7") -> dict:
+    """Our camera as a Mitsuba sensor dict: ``model`` ``"thin"`` (Mitsuba's ``thinlens``),
+    ``"spectral_thin"`` (a thin lens of ``glass``, dispersive: :mod:`spectral_cam.render.spectral_lens`)
+    or a pinhole (``perspective``) with the lens's field of view."""
+    pose = mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0])
+    if model == "spectral_thin":
+        from .spectral_lens import plugin_dict, register
+
+        register(mi)
+        return dict(plugin_dict(lens, glass), to_world=pose, film=film,
+                    sampler={"type": sampler, "sample_count": spp})
     camera = {
         "type": "thinlens" if model == "thin" else "perspective",
         "fov": lens.fov_x_deg,
         "fov_axis": "x",
-        "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0]),
+        "to_world": pose,
         "film": film,
         "sampler": {"type": sampler, "sample_count": spp},
         "near_clip": min(1e-3, lens.focus_distance_m / 10),
