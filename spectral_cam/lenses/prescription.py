@@ -1,0 +1,265 @@
+"""Lens prescriptions: sequential spherical surfaces with a glass after each and an aperture
+stop; their paraxial properties from ray-transfer (ABCD) matrices and real rays traced through
+them with Snell's law.
+
+Conventions: the optical axis is +z, light travels from the object (z < 0) towards the image;
+the first surface's vertex is at z = 0; a radius is positive when the centre of curvature lies
+on the image side; lengths are metres in code (millimetres in the table files).
+
+Paraxial optics in reduced form: a ray is (y, n·u); refraction at a surface of power
+φ = (n′ − n)/R is [[1, 0], [−φ, 1]], a gap t in a medium n is [[1, t/n], [0, 1]]. The system
+matrix from the first vertex to the last, [[A, B], [C, D]], gives the effective focal length
+f = −1/C and the back focal distance (last vertex to the rear focal point) −A/C.
+
+Real rays: each surface is intersected as a sphere (a plane for R = 0), a ray outside the clear
+semi-diameter or totally internally reflected is vignetted, and refraction follows the vector
+form of Snell's law, d′ = μd + (μ cos θᵢ − cos θₜ)·n̂ with μ = n/n′.
+
+References
+----------
+.. [1] Hecht, E. (2017). Optics, 5th ed., §6.2 (matrix methods) and §6.3 (aberrations).
+.. [2] Kolb, C., Mitchell, D., & Hanrahan, P. (1995). A realistic camera model for computer
+   graphics. SIGGRAPH '95, 317–324.
+.. [3] Pharr, M., Jakob, W., & Humphreys, G. (2023). Physically Based Rendering, 4th ed., §5.3
+   (the realistic camera: tracing rays through lens elements).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from .glass import LINES_NM, glass as catalogue_glass
+
+__all__ = ["Surface", "Prescription", "load_prescription", "PRESCRIPTION_NAMES", "ModelGlass"]
+
+FOLDER = Path(__file__).resolve().parent.parent / "data" / "lenses"
+#: The bundled prescriptions (``lens.prescription``).
+PRESCRIPTION_NAMES = tuple(sorted(p.stem for p in FOLDER.glob("*.csv")))
+
+
+@dataclass(frozen=True)
+class ModelGlass:
+    """A glass known by nd and νd only: a two-term Cauchy law n(λ) = a + b/λ² through n_d with
+    n_F − n_C = (n_d − 1)/ν_d (νd None: no dispersion)."""
+
+    nd: float
+    vd: float | None = None
+
+    def index(self, wavelength_nm) -> np.ndarray:
+        wl = np.asarray(wavelength_nm, dtype=np.float64)
+        if self.vd is None or self.nd == 1.0:
+            return np.full(wl.shape, self.nd)
+        b = (self.nd - 1.0) / self.vd / (LINES_NM["F"] ** -2 - LINES_NM["C"] ** -2)
+        return self.nd + b * (wl ** -2 - LINES_NM["d"] ** -2)
+
+
+@dataclass(frozen=True)
+class Surface:
+    """One surface: signed radius (m; 0 = flat), gap to the next surface (m), the medium after
+    it (a catalogue :class:`~spectral_cam.lenses.glass.Glass` or a :class:`ModelGlass`), clear
+    semi-diameter (m), and whether it is the aperture stop."""
+
+    radius_m: float
+    thickness_m: float
+    medium: object
+    semi_diameter_m: float
+    stop: bool = False
+
+
+@dataclass(frozen=True)
+class Prescription:
+    """A sequential lens, object side first.
+
+    Attributes
+    ----------
+    name, title, source : str
+    surfaces : tuple of Surface
+    stated_focal_length_m, stated_f_number : float or None
+        What the source states (for checking).
+    """
+
+    name: str
+    title: str
+    source: str
+    surfaces: tuple[Surface, ...]
+    stated_focal_length_m: float | None = None
+    stated_f_number: float | None = None
+
+    # ---------------------------------------------------------------- paraxial
+    def indices(self, wavelength_nm: float) -> np.ndarray:
+        """Refractive index before the first surface (air) and after each surface."""
+        return np.array([1.0] + [float(s.medium.index(wavelength_nm)) for s in self.surfaces])
+
+    def vertices_m(self) -> np.ndarray:
+        """z of each surface's vertex (the first at 0)."""
+        return np.concatenate([[0.0], np.cumsum([s.thickness_m for s in self.surfaces[:-1]])])
+
+    def system_matrix(self, wavelength_nm: float = LINES_NM["d"]) -> np.ndarray:
+        """The reduced ABCD matrix from the first vertex to the last."""
+        n = self.indices(wavelength_nm)
+        matrix = np.eye(2)
+        for i, surface in enumerate(self.surfaces):
+            power = 0.0 if surface.radius_m == 0 else (n[i + 1] - n[i]) / surface.radius_m
+            matrix = np.array([[1.0, 0.0], [-power, 1.0]]) @ matrix
+            if i < len(self.surfaces) - 1:
+                matrix = np.array([[1.0, surface.thickness_m / n[i + 1]], [0.0, 1.0]]) @ matrix
+        return matrix
+
+    def focal_length_m(self, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Effective focal length (paraxial)."""
+        return -1.0 / self.system_matrix(wavelength_nm)[1, 0]
+
+    def back_focal_distance_m(self, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Last vertex to the rear focal point (paraxial)."""
+        m = self.system_matrix(wavelength_nm)
+        return -m[0, 0] / m[1, 0]
+
+    def entrance_pupil(self, wavelength_nm: float = LINES_NM["d"]) -> tuple[float, float]:
+        """(z of the entrance pupil behind the first vertex, its semi-diameter): the stop as
+        seen from object space through the surfaces in front of it (paraxial). With [[A, B],
+        [C, D]] the matrix from the first vertex to the stop, the chief ray (through the stop's
+        centre) crosses the axis at z = B/A, and a ray parallel to the axis at height r/A
+        grazes the stop's edge r."""
+        index = self.stop_index()
+        n = self.indices(wavelength_nm)
+        matrix = np.eye(2)
+        for i in range(index):
+            surface = self.surfaces[i]
+            power = 0.0 if surface.radius_m == 0 else (n[i + 1] - n[i]) / surface.radius_m
+            matrix = np.array([[1.0, surface.thickness_m / n[i + 1]], [0.0, 1.0]]) @ (
+                np.array([[1.0, 0.0], [-power, 1.0]]) @ matrix)
+        a, b = matrix[0]
+        return b / a, abs(self.surfaces[index].semi_diameter_m / a)
+
+    def f_number(self, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Paraxial f-number f / (entrance pupil diameter)."""
+        return self.focal_length_m(wavelength_nm) / (2.0 * self.entrance_pupil(wavelength_nm)[1])
+
+    def stop_index(self) -> int:
+        stops = [i for i, s in enumerate(self.surfaces) if s.stop]
+        return stops[0] if stops else int(np.argmin([s.semi_diameter_m for s in self.surfaces]))
+
+    def scaled(self, factor: float) -> "Prescription":
+        """The same design with every length multiplied by ``factor``."""
+        surfaces = tuple(Surface(s.radius_m * factor, s.thickness_m * factor, s.medium, s.semi_diameter_m * factor,
+                                 s.stop) for s in self.surfaces)
+        stated = self.stated_focal_length_m * factor if self.stated_focal_length_m else None
+        return Prescription(self.name, self.title, self.source, surfaces, stated, self.stated_f_number)
+
+    # ---------------------------------------------------------------- real rays
+    def trace(self, origins, directions, wavelength_nm: float = LINES_NM["d"]):
+        """Trace rays (N, 3) from object space through every surface.
+
+        Returns
+        -------
+        origins, directions : numpy.ndarray
+            (N, 3) each ray after the last surface (on it, unit direction).
+        passed : numpy.ndarray
+            (N,) bool: False where a ray missed a surface, left its clear aperture or was
+            totally internally reflected.
+        """
+        o = np.array(origins, dtype=np.float64, copy=True)
+        d = np.array(directions, dtype=np.float64, copy=True)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        n = self.indices(wavelength_nm)
+        passed = np.ones(len(o), bool)
+        for i, (surface, z0) in enumerate(zip(self.surfaces, self.vertices_m())):
+            o, normal, hit = _intersect(o, d, surface.radius_m, z0)
+            passed &= hit & (np.hypot(o[:, 0], o[:, 1]) <= surface.semi_diameter_m)
+            if surface.stop or n[i + 1] == n[i]:
+                continue
+            d, ok = _refract(d, normal, n[i] / n[i + 1])
+            passed &= ok
+        return o, d, passed
+
+
+def _intersect(o, d, radius, z0):
+    """Where rays meet a surface (vertex at z0): points, unit normals facing the incoming side
+    (−z), and whether they hit."""
+    if radius == 0:
+        t = (z0 - o[:, 2]) / d[:, 2]
+        points = o + t[:, None] * d
+        normal = np.tile([0.0, 0.0, -1.0], (len(o), 1))
+        return points, normal, t >= 0
+    centre = np.array([0.0, 0.0, z0 + radius])
+    oc = o - centre
+    b = np.einsum("ij,ij->i", oc, d)
+    c = np.einsum("ij,ij->i", oc, oc) - radius * radius
+    disc = b * b - c
+    root = np.sqrt(np.clip(disc, 0.0, None))
+    # the intersection nearer the vertex: for R > 0 the first crossing, for R < 0 the second
+    t = -b - root if radius > 0 else -b + root
+    points = o + t[:, None] * d
+    normal = (points - centre) / radius  # points towards −z at the vertex for either sign
+    normal = -normal if radius < 0 else normal
+    normal = np.where((normal[:, 2] > 0)[:, None], -normal, normal)
+    return points, normal, (disc >= 0) & (t >= 0)
+
+
+def _refract(d, normal, mu):
+    """Snell's law in vector form; ``normal`` faces the incoming ray."""
+    cos_i = -np.einsum("ij,ij->i", d, normal)
+    sin2_t = mu * mu * (1.0 - cos_i * cos_i)
+    ok = sin2_t <= 1.0
+    cos_t = np.sqrt(np.clip(1.0 - sin2_t, 0.0, None))
+    out = mu * d + (mu * cos_i - cos_t)[:, None] * normal
+    return out / np.linalg.norm(out, axis=1, keepdims=True), ok
+
+
+# ----------------------------------------------------------------------------- files
+def _header(lines: list[str]) -> dict:
+    info = {"title": lines[0].lstrip("# ").strip() if lines else ""}
+    for line in lines:
+        text = line.lstrip("# ").strip()
+        for key in ("source", "stated_focal_length_mm", "stated_f_number"):
+            if text.startswith(key + ":"):
+                info[key] = text.split(":", 1)[1].strip()
+    return info
+
+
+def load_prescription(name: str) -> Prescription:
+    """A bundled prescription (:data:`PRESCRIPTION_NAMES`) or a CSV file in the same format
+    (``spectral_cam/data/lenses/README.md``).
+
+    Raises
+    ------
+    ConfigError
+        For an unknown name, an unreadable table, or a table without a stop or with a
+        non-positive semi-diameter.
+    """
+    path = Path(name) if str(name).lower().endswith(".csv") else FOLDER / f"{name}.csv"
+    if not path.is_file():
+        raise ConfigError(f"lens.prescription = {name!r}: no such prescription; bundled: "
+                          f"{', '.join(PRESCRIPTION_NAMES)}, or a CSV path (spectral_cam/data/lenses/README.md)")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    comments = [line for line in lines if line.startswith("#")]
+    body = [line for line in lines if line.strip() and not line.startswith("#")]
+    surfaces = []
+    try:
+        for row in csv.DictReader(body):
+            mm = 1e-3
+            name_cell = (row.get("glass") or "").strip()
+            stop = name_cell.upper() == "STOP"
+            if name_cell and not stop:
+                medium = catalogue_glass(name_cell)
+            else:
+                vd = (row.get("vd") or "").strip()
+                medium = ModelGlass(float(row["nd"]), float(vd) if vd else None)
+            surfaces.append(Surface(float(row["radius_mm"]) * mm, float(row["thickness_mm"]) * mm, medium,
+                                    float(row["semi_diameter_mm"]) * mm, stop))
+    except (KeyError, ValueError, TypeError) as exc:
+        raise ConfigError(f"lens prescription {path}: cannot read its rows ({exc}); columns: radius_mm, "
+                          "thickness_mm, nd, vd, glass, semi_diameter_mm") from None
+    if not surfaces or sum(s.stop for s in surfaces) != 1 or any(s.semi_diameter_m <= 0 for s in surfaces):
+        raise ConfigError(f"lens prescription {path}: needs surfaces with positive semi-diameters and exactly one "
+                          "STOP row")
+    info = _header(comments)
+    focal = float(info["stated_focal_length_mm"]) * 1e-3 if "stated_focal_length_mm" in info else None
+    f_number = float(info["stated_f_number"]) if "stated_f_number" in info else None
+    return Prescription(path.stem, info["title"], info.get("source", str(path)), tuple(surfaces), focal, f_number)
+
