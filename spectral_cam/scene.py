@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 #: Bayer tiles, read row by row from the top-left pixel; "none" = monochrome.
-LENS_MODELS = ("auto", "thin", "pinhole", "layered", "spectral_thin")
+LENS_MODELS = ("auto", "thin", "pinhole", "layered", "spectral_thin", "prescription")
 #: render.diffraction: "auto" applies the Airy PSF only where it costs > 0.03 MTF at Nyquist.
 DIFFRACTION_MODES = ("auto", "on", "off")
 #: render.bands besides "start:stop:step"; "auto" resolves to this grid or "camera".
@@ -289,7 +289,10 @@ class LensSection:
     (:mod:`spectral_cam.render.focus`). ``model = "spectral_thin"`` is a thin lens of ``glass``
     (a catalogue glass: a singlet, or ``"crown+flint"``: a cemented achromat) whose focal
     length follows the glass's dispersion, ``focal_length_mm`` at the d line
-    (:mod:`spectral_cam.lenses`)."""
+    (:mod:`spectral_cam.lenses`). ``model = "prescription"`` traces the real surfaces of
+    ``prescription`` (a bundled lens or a CSV, :mod:`spectral_cam.lenses.prescription`); its
+    focal length and f-number are then the prescription's (paraxial), set when the scene is
+    read."""
 
     focal_length_mm: float = 8.0
     f_number: float = 2.8
@@ -298,6 +301,7 @@ class LensSection:
     transmission: float | str = 1.0
     focus_object: str = ""
     glass: str = "N-BK7"
+    prescription: str = "dgauss_50mm"
 
     def __post_init__(self) -> None:
         _within("lens.focal_length_mm", self.focal_length_mm)
@@ -605,9 +609,22 @@ def scene_from_dict(
             )
         merged.setdefault(section, {})[key] = value
     sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS if name != "lens"}
-    lens_table = _lens_for_xml_camera(dict(merged.get("lens", {})), sections["scene"], sections["sensor"])
+    lens_table = _lens_for_prescription(_lens_for_xml_camera(dict(merged.get("lens", {})), sections["scene"],
+                                                             sections["sensor"]))
     sections["lens"] = section_from_table("lens", lens_table, base_dir)
     return SceneConfig(**sections)
+
+
+def _lens_for_prescription(lens: dict[str, Any]) -> dict[str, Any]:
+    """For ``model = "prescription"``: the focal length and f-number are the prescription's
+    (paraxial EFL; the traced f-number: the focal length over the widest axial bundle that
+    passes every aperture)."""
+    if lens.get("model") != "prescription":
+        return lens
+    from .lenses.prescription import load_prescription
+
+    design = load_prescription(str(lens.get("prescription", "dgauss_50mm")))
+    return dict(lens, focal_length_mm=design.focal_length_m() * 1e3, f_number=design.traced_f_number())
 
 
 def _lens_for_xml_camera(lens: dict[str, Any], scene: SceneSection, sensor: SensorSection) -> dict[str, Any]:

@@ -58,6 +58,10 @@ class ModelGlass:
         return self.nd + b * (wl ** -2 - LINES_NM["d"] ** -2)
 
 
+#: Air (n = 1, no dispersion).
+AIR = ModelGlass(1.0)
+
+
 @dataclass(frozen=True)
 class Surface:
     """One surface: signed radius (m; 0 = flat), gap to the next surface (m), the medium after
@@ -140,6 +144,26 @@ class Prescription:
         """Paraxial f-number f / (entrance pupil diameter)."""
         return self.focal_length_m(wavelength_nm) / (2.0 * self.entrance_pupil(wavelength_nm)[1])
 
+    def marginal_height_m(self, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Height of the highest ray parallel to the axis that passes every clear aperture
+        (bisection, 1e-7 of the front semi-diameter): the real entrance pupil's radius for an
+        object at infinity, whichever surface limits the axial bundle."""
+        low, high = 0.0, self.surfaces[0].semi_diameter_m
+        if self.trace([[0.0, high, -1.0]], [[0.0, 0.0, 1.0]], wavelength_nm)[2][0]:
+            return high
+        while high - low > 1e-7 * self.surfaces[0].semi_diameter_m:
+            middle = 0.5 * (low + high)
+            if self.trace([[0.0, middle, -1.0]], [[0.0, 0.0, 1.0]], wavelength_nm)[2][0]:
+                low = middle
+            else:
+                high = middle
+        return low
+
+    def traced_f_number(self, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """f-number from the trace: the focal length over the diameter of the widest axial
+        bundle that passes (:meth:`marginal_height_m`)."""
+        return self.focal_length_m(wavelength_nm) / (2.0 * self.marginal_height_m(wavelength_nm))
+
     def stop_index(self) -> int:
         stops = [i for i, s in enumerate(self.surfaces) if s.stop]
         return stops[0] if stops else int(np.argmin([s.semi_diameter_m for s in self.surfaces]))
@@ -150,6 +174,21 @@ class Prescription:
                                  s.stop) for s in self.surfaces)
         stated = self.stated_focal_length_m * factor if self.stated_focal_length_m else None
         return Prescription(self.name, self.title, self.source, surfaces, stated, self.stated_f_number)
+
+    def reversed(self) -> "Prescription":
+        """The same lens seen from the image side: surfaces in reverse order with their radii's
+        signs flipped, each followed by the medium that was before it (air before the first)."""
+        before = [AIR] + [s.medium for s in self.surfaces[:-1]]
+        gaps = [s.thickness_m for s in self.surfaces[:-1]][::-1] + [0.0]
+        surfaces = tuple(Surface(-s.radius_m, gap, medium, s.semi_diameter_m, s.stop)
+                         for s, medium, gap in zip(self.surfaces[::-1], before[::-1], gaps))
+        return Prescription(self.name + " (reversed)", self.title, self.source, surfaces)
+
+    def image_distance_m(self, object_distance_m: float, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Last vertex to the paraxial image of an axial point ``object_distance_m`` in front of
+        the first vertex: with M = S·T(s), the image is where B of T(q)·M vanishes, q = −B/D."""
+        matrix = self.system_matrix(wavelength_nm) @ np.array([[1.0, object_distance_m], [0.0, 1.0]])
+        return -matrix[0, 1] / matrix[1, 1]
 
     # ---------------------------------------------------------------- real rays
     def trace(self, origins, directions, wavelength_nm: float = LINES_NM["d"]):

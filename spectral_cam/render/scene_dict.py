@@ -112,11 +112,19 @@ def tile_sensor(mi, sensor, camera: dict, rows: tuple[int, int]):
 
 
 def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent",
-                glass: str = "N-BK7") -> dict:
+                glass: str = "N-BK7", prescription: str = "dgauss_50mm") -> dict:
     """Our camera as a Mitsuba sensor dict: ``model`` ``"thin"`` (Mitsuba's ``thinlens``),
     ``"spectral_thin"`` (a thin lens of ``glass``, dispersive: :mod:`spectral_cam.render.spectral_lens`)
-    or a pinhole (``perspective``) with the lens's field of view."""
+    or ``"prescription"`` (real surfaces: :mod:`spectral_cam.render.prescription_lens`), or a
+    pinhole (``perspective``) with the lens's field of view."""
     pose = mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0])
+    if model == "prescription":
+        from ..lenses.prescription import load_prescription
+        from .prescription_lens import plugin_dict as prescription_dict, register as register_prescription
+
+        register_prescription(mi)
+        return dict(prescription_dict(load_prescription(prescription), lens, lens.focus_distance_m), to_world=pose,
+                    film=film, sampler={"type": sampler, "sample_count": spp})
     if model == "spectral_thin":
         from .spectral_lens import plugin_dict, register
 

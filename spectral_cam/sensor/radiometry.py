@@ -500,7 +500,8 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
     n_w = lens.working_f_number
     area = (sensor.pixel_pitch_um * 1e-6) ** 2
     trans_specs = (lens_cfg.transmission, sensor.ir_cut)
-    cos4 = _cos4(lens) if sensor.vignetting else None
+    # a prescription's render already holds its vignetting (natural and mechanical): traced
+    cos4 = _cos4(lens) if sensor.vignetting and lens_cfg.model != "prescription" else None
     channels = getattr(radiance, "channels", None)
     if channels:
         if tuple(channels) != CAMERA_CHANNELS:
