@@ -4,7 +4,6 @@ spherical aberration against third-order (Seidel) theory computed independently 
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from spectral_cam.errors import ConfigError
@@ -71,7 +70,6 @@ def test_a_plano_convex_singlets_spherical_aberration_is_third_order_seidels(tmp
     backward = singlet(0, -51.68, tmp_path / "backward.csv")
     measured = {}
     for lens, key in ((forward, "forward"), (backward, "backward")):
-        n = float(lens.surfaces[1].medium.index(587.5618))
         paraxial_focus = lens.vertices_m()[-1] + lens.back_focal_distance_m()
         for h in (2e-3, 5e-3):
             o, d, passed = lens.trace([[0.0, h, -1.0]], [[0.0, 0.0, 1.0]])
