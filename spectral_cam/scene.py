@@ -289,7 +289,9 @@ class LensSection:
     (:mod:`spectral_cam.render.focus`). ``model = "spectral_thin"`` is a thin lens of ``glass``
     (a catalogue glass: a singlet, or ``"crown+flint"``: a cemented achromat) whose focal
     length follows the glass's dispersion, ``focal_length_mm`` at the d line
-    (:mod:`spectral_cam.lenses`). ``model = "prescription"`` traces the real surfaces of
+    (:mod:`spectral_cam.lenses`; ``glass = "ideal"``: none), with ``blades`` straight aperture
+    blades (0: round; a vertex ``blade_rotation_deg`` from up towards image-left) and
+    Brown–Conrady ``distortion`` [k1, k2, p1, p2, k3] (OpenCV's convention). ``model = "prescription"`` traces the real surfaces of
     ``prescription`` (a bundled lens or a CSV, :mod:`spectral_cam.lenses.prescription`); its
     focal length and f-number are then the prescription's (paraxial), set when the scene is
     read."""
@@ -302,6 +304,9 @@ class LensSection:
     focus_object: str = ""
     glass: str = "N-BK7"
     prescription: str = "dgauss_50mm"
+    blades: int = 0
+    blade_rotation_deg: float = 0.0
+    distortion: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         _within("lens.focal_length_mm", self.focal_length_mm)
@@ -316,9 +321,21 @@ class LensSection:
         from .lenses.glass import GLASS_NAMES
 
         glasses = [part.strip() for part in str(self.glass).split("+")]
-        if len(glasses) > 2 or any(g not in GLASS_NAMES for g in glasses):
-            _fail("lens.glass", self.glass, f"give a glass (a singlet) or crown+flint (an achromat) from: "
-                  f"{', '.join(GLASS_NAMES)}")
+        if self.glass != "ideal" and (len(glasses) > 2 or any(g not in GLASS_NAMES for g in glasses)):
+            _fail("lens.glass", self.glass, f"give \"ideal\" (no dispersion), a glass (a singlet) or crown+flint (an "
+                  f"achromat) from: {', '.join(GLASS_NAMES)}")
+        if not (isinstance(self.blades, int) and not isinstance(self.blades, bool)
+                and (self.blades == 0 or 3 <= self.blades <= 32)):
+            _fail("lens.blades", self.blades, "give 0 (a circular opening) or 3..32 straight blades")
+        if not (isinstance(self.blade_rotation_deg, float) and math.isfinite(self.blade_rotation_deg)):
+            _fail("lens.blade_rotation_deg", self.blade_rotation_deg, "must be an angle in degrees")
+        if len(self.distortion) != 5 or not all(math.isfinite(v) and abs(v) <= 1.0 for v in self.distortion):
+            _fail("lens.distortion", list(self.distortion), "give Brown–Conrady [k1, k2, p1, p2, k3] (OpenCV's "
+                  "order), each within ±1")
+        shaped = self.blades or any(self.distortion)
+        if shaped and self.model not in ("spectral_thin",):
+            _fail("lens.model", self.model, "aperture blades and distortion are rendered by the \"spectral_thin\" lens "
+                  "(with lens.glass = \"ideal\" for no dispersion); set lens.model = \"spectral_thin\"")
         spectra.validate_transmission(self.transmission)
 
 

@@ -112,7 +112,8 @@ def tile_sensor(mi, sensor, camera: dict, rows: tuple[int, int]):
 
 
 def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent",
-                glass: str = "N-BK7", prescription: str = "dgauss_50mm") -> dict:
+                glass: str = "N-BK7", prescription: str = "dgauss_50mm", blades: int = 0,
+                blade_rotation_deg: float = 0.0, distortion=(0.0, 0.0, 0.0, 0.0, 0.0)) -> dict:
     """Our camera as a Mitsuba sensor dict: ``model`` ``"thin"`` (Mitsuba's ``thinlens``),
     ``"spectral_thin"`` (a thin lens of ``glass``, dispersive: :mod:`spectral_cam.render.spectral_lens`)
     or ``"prescription"`` (real surfaces: :mod:`spectral_cam.render.prescription_lens`), or a
@@ -129,7 +130,8 @@ def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: s
         from .spectral_lens import plugin_dict, register
 
         register(mi)
-        return dict(plugin_dict(lens, glass), to_world=pose, film=film,
+        return dict(plugin_dict(lens, glass, blades=blades, blade_rotation_deg=blade_rotation_deg,
+                                distortion=distortion), to_world=pose, film=film,
                     sampler={"type": sampler, "sample_count": spp})
     camera = {
         "type": "thinlens" if model == "thin" else "perspective",
