@@ -115,3 +115,50 @@ def test_rendered_grid_points_land_where_brown_conrady_puts_them():
             expected = np.array([size / 2 + yd * scale, size / 2 + xd * scale])
             nearest = centroids[np.argmin(np.linalg.norm(centroids - expected, axis=1))]
             assert np.linalg.norm(nearest - expected) < 0.1, (xu, yu, nearest, expected)
+    # the dataset's undistortion map takes the image back to the ideal pinhole's: cv2.remap puts
+    # each source where x_u = X/Z says, within 0.15 px (bilinear resampling of 3-px dots)
+    import cv2
+
+    from spectral_cam.lenses.distortion import undistortion_map
+
+    map_x, map_y = undistortion_map(lens, coefficients)
+    straight = cv2.remap(image.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR)
+    labels, count = ndimage.label(straight > 0.05 * straight.max())
+    centroids = np.array(ndimage.center_of_mass(straight, labels, range(1, count + 1))) + 0.5
+    assert count == 25
+    for yu in grid:
+        for xu in grid:
+            expected = np.array([size / 2 + yu * scale, size / 2 + xu * scale])
+            assert np.min(np.linalg.norm(centroids - expected, axis=1)) < 0.15
+
+
+def test_a_dataset_item_carries_its_undistortion_map(tmp_path):
+    """The ``undistortion`` label: undistortion.exr whose maps are the Brown–Conrady forward
+    model of each undistorted pixel (checked at a corner against the formula), and its record."""
+    import json
+
+    import OpenEXR
+
+    from spectral_cam.apps.dataset import generate_dataset, load_spec
+    from spectral_cam.lenses.distortion import distort
+
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[dataset]\noutputs = ["raw", "undistortion"]\n[scene]\npreset = "dof_targets"\n'
+                    '[lens]\nmodel = "spectral_thin"\nglass = "ideal"\nfocal_length_mm = 2.0\n'
+                    'distortion = [-0.2, 0.0, 0.0, 0.0, 0.0]\nblades = 6\n'
+                    '[sensor]\nwidth_px = 32\nheight_px = 24\n[render]\nspp = 4\n')
+    summary = generate_dataset(load_spec(spec), tmp_path / "out", n=1, scheduler="inline", progress=False)
+    assert summary.rendered == 1
+    item = next((tmp_path / "out").glob("items/*/undistortion.exr")).parent
+    meta = json.loads((item / "meta.json").read_text())
+    assert meta["undistortion"]["coefficients"] == [-0.2, 0.0, 0.0, 0.0, 0.0]
+    with OpenEXR.File(str(item / "undistortion.exr")) as exr:
+        map_x = np.asarray(exr.channels()["map_x"].pixels)
+    lens_table = meta["config"]["lens"]
+    lens = ThinLens(focal_length_m=lens_table["focal_length_mm"] * 1e-3, f_number=lens_table["f_number"],
+                    focus_distance_m=lens_table["focus_distance_m"], sensor_width_m=32 * 6e-6,
+                    sensor_height_m=24 * 6e-6, width_px=32, height_px=24)
+    scale = 6e-6 / lens.image_distance_m
+    x0 = (0.5 - 16) * scale
+    y0 = (0.5 - 12) * scale
+    assert map_x[0, 0] == pytest.approx(distort(x0, y0, (-0.2, 0, 0, 0, 0))[0] / scale + 16 - 0.5, abs=1e-3)

@@ -156,6 +156,23 @@ def _clean_rgb(item: Item, folder: Path) -> list[Path]:
     return [path]
 
 
+@LABELS.register("undistortion", options=("undistortion",),
+                 description="undistortion.exr: for each undistorted pixel, its column and row in the image "
+                             "(cv2.remap's map_x, map_y; identity without lens.distortion)")
+def _undistortion(item: Item, folder: Path) -> list[Path]:
+    from ...lenses.distortion import undistortion_map
+
+    coefficients = item.config.lens.distortion
+    map_x, map_y = undistortion_map(item.sim.lens, coefficients)
+    path = write_exr_channels({"map_x": map_x, "map_y": map_y}, folder / "undistortion.exr",
+                              {"spectral_cam_units": "pixel coordinates of the rendered image, centres at integers"})
+    item.records["undistortion"] = {"file": "undistortion.exr", "channels": ["map_x", "map_y"],
+                                    "model": "Brown-Conrady, OpenCV order [k1, k2, p1, p2, k3]",
+                                    "coefficients": list(coefficients),
+                                    "use": "cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR)"}
+    return [path]
+
+
 #: Outputs of an item unless the spec's ``[dataset] outputs`` says otherwise (the spectral
 #: cube, 31 float32 channels, is opt-in).
 DEFAULT_OUTPUTS = ("raw", "image", "depth", "defocus", "all_in_focus", "clean_rgb")
