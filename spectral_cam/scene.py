@@ -287,7 +287,8 @@ class LensSection:
     scene (an XML ``id``, a preset's ``object_3`` or ``plant_2``) to focus on: it replaces
     ``focus_distance_m`` with that object's depth when the render starts
     (:mod:`spectral_cam.render.focus`). ``model = "spectral_thin"`` is a thin lens of ``glass``
-    (a catalogue glass: a singlet, or ``"crown+flint"``: a cemented achromat) whose focal
+    (``"ideal"``, the default: no dispersion; a catalogue glass: a singlet, or
+    ``"crown+flint"``: a cemented achromat) whose focal
     length follows the glass's dispersion, ``focal_length_mm`` at the d line
     (:mod:`spectral_cam.lenses`; ``glass = "ideal"``: none), with ``blades`` straight aperture
     blades (0: round; a vertex ``blade_rotation_deg`` from up towards image-left) and
@@ -302,7 +303,7 @@ class LensSection:
     model: str = "auto"
     transmission: float | str = 1.0
     focus_object: str = ""
-    glass: str = "N-BK7"
+    glass: str = "ideal"
     prescription: str = "dgauss_50mm"
     blades: int = 0
     blade_rotation_deg: float = 0.0
@@ -333,9 +334,9 @@ class LensSection:
             _fail("lens.distortion", list(self.distortion), "give Brown–Conrady [k1, k2, p1, p2, k3] (OpenCV's "
                   "order), each within ±1")
         shaped = self.blades or any(self.distortion)
-        if shaped and self.model not in ("spectral_thin",):
+        if shaped and self.model not in ("spectral_thin", "auto"):
             _fail("lens.model", self.model, "aperture blades and distortion are rendered by the \"spectral_thin\" lens "
-                  "(with lens.glass = \"ideal\" for no dispersion); set lens.model = \"spectral_thin\"")
+                  "(lens.model = \"auto\" picks it when they are set); set lens.model = \"spectral_thin\" or \"auto\"")
         spectra.validate_transmission(self.transmission)
 
 

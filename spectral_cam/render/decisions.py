@@ -23,7 +23,7 @@ import numpy as np
 from .. import spectra
 from ..errors import ConfigError
 from ..image import SpectralImage
-from ..optics import MTF_TOLERANCE, ThinLens
+from ..optics import MTF_TOLERANCE, ThinLens, defocus_mtf
 from ..scene import SPECTRAL_BANDS_DEFAULT, SceneConfig
 
 #: spp = "auto": samples per pass, passes before judging, and the stopping rule.
@@ -207,8 +207,26 @@ def thin_lens_noise(lens: ThinLens, depth_m: np.ndarray, spp: int) -> float:
     return math.sqrt((1.0 - p) / (p * max(spp, 1)))
 
 
+def chromatic_blur_px(lens: ThinLens, glass_spec: str) -> float:
+    """Diameter (px) of the blur longitudinal colour leaves in the focus plane, for the F and C
+    lines, whichever is larger: A·|v(λ) − v_d|/v(λ), with v(λ) the image distance of the focus
+    distance for f(λ) of ``glass_spec`` (``lens.glass``; 0 for ``"ideal"``)."""
+    if glass_spec == "ideal":
+        return 0.0
+    from ..lenses.glass import LINES_NM, thin_lens_focal_length
+
+    z, v_d = lens.focus_distance_m, lens.image_distance_m
+    focal = thin_lens_focal_length(glass_spec, lens.focal_length_m, [LINES_NM["F"], LINES_NM["C"]])
+    v = focal * z / (z - focal)
+    return float(np.max(2.0 * lens.aperture_radius_m * np.abs(v - v_d) / v) / lens.pixel_pitch_m)
+
+
 def decide_lens_model(lens: ThinLens, depth_m: np.ndarray, config: SceneConfig | None = None) -> tuple[str, dict]:
     """The cheapest lens model within the accuracy budget, from the depths in view.
+
+    - ``spectral_thin`` when the configuration asks for what only it renders (``lens.blades``,
+      ``lens.distortion``) or the glass's longitudinal colour (:func:`chromatic_blur_px`) costs
+      more than 0.03 of MTF at Nyquist in the focus plane;
 
     - ``pinhole`` when defocus costs ≤ 0.03 of MTF at Nyquist over the depths in view;
     - ``layered`` (:func:`spectral_cam.render.defocus.render_layered`) when every surface in
@@ -220,6 +238,20 @@ def decide_lens_model(lens: ThinLens, depth_m: np.ndarray, config: SceneConfig |
 
     Returns the chosen model and the decision record for ``meta.json``.
     """
+    if config is not None:
+        shaped = [k for k, on in (("lens.blades", config.lens.blades), ("lens.distortion", any(config.lens.distortion)))
+                  if on]
+        if shaped:
+            return "spectral_thin", {"choice": "spectral_thin", "reason": f"{' and '.join(shaped)} set: only the "
+                                     "spectral thin lens renders them"}
+        colour_px = chromatic_blur_px(lens, config.lens.glass)
+        colour_cost = float(1.0 - defocus_mtf(lens.nyquist_cyc_per_m, colour_px * lens.pixel_pitch_m))
+        if colour_cost > MTF_TOLERANCE:
+            return "spectral_thin", {"choice": "spectral_thin", "chromatic_blur_px": colour_px,
+                                     "mtf_cost_at_nyquist": colour_cost,
+                                     "reason": f"{config.lens.glass}'s longitudinal colour blurs the focus plane by "
+                                               f"{colour_px:.2f} px (F/C), costing {colour_cost:.3f} of MTF at "
+                                               f"Nyquist (> {MTF_TOLERANCE})"}
     finite = depth_m[np.isfinite(depth_m)]
     if finite.size == 0:
         return "thin", {"choice": "thin", "reason": "nothing in view to measure depth on"}

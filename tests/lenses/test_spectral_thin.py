@@ -107,3 +107,34 @@ def test_spectral_thin_runs_the_whole_chain_from_scene_keys(make_scene):
 
     with pytest.raises(ConfigError, match="lens.glass.*N-BK7"):
         make_scene(lens={"glass": "BK7"})
+
+
+def test_auto_picks_the_spectral_thin_lens_only_where_colour_or_shape_matters(make_scene):
+    """``lens.model = "auto"``: an N-BK7 singlet at f/1.4 (50 mm, 6 µm pixels) blurs its focus
+    plane by A·|v(λ) − v_d|/v ≈ 66 px at F and C, far beyond the 0.03 MTF budget, so the
+    dispersive lens is chosen; an N-BK7 + F2 achromat's F and C foci coincide but lie f/2000
+    from the d line's (its secondary spectrum): 3 px at f/1.4 (chosen too), 0.27 px at f/16
+    (0.02 of MTF: the ideal logic decides, a pinhole), where the singlet still blurs 5.8 px;
+    blades are honoured whatever the depths."""
+    from spectral_cam.render.decisions import chromatic_blur_px, decide_lens_model
+
+    depth = np.full((8, 8), 2.0)  # everything in the focus plane: defocus alone would pick a pinhole
+
+    def decide(**lens):
+        config = make_scene(lens={"model": "auto", "focal_length_mm": 50.0, "f_number": 1.4, "focus_distance_m": 2.0,
+                                  **lens}, sensor={"pixel_pitch_um": 6.0})
+        optics = ThinLens.from_config(config.lens, config.sensor)
+        return decide_lens_model(optics, depth, config), optics
+
+    (model, record), optics = decide(glass="N-BK7")
+    assert model == "spectral_thin" and record["chromatic_blur_px"] == pytest.approx(
+        chromatic_blur_px(optics, "N-BK7")) and record["chromatic_blur_px"] > 10
+    v = optics.image_distance_m
+    f_c = float(singlet_focal_length(0.05, glass("N-BK7"), LINES_NM["C"]))
+    v_c = f_c * 2.0 / (2.0 - f_c)
+    assert chromatic_blur_px(optics, "N-BK7") >= 2 * optics.aperture_radius_m * abs(v_c - v) / v_c / 6e-6 - 1e-9
+    assert decide(glass="N-BK7+F2")[0][0] == "spectral_thin"
+    assert decide(glass="N-BK7+F2", f_number=16.0)[0][0] == "pinhole"
+    assert decide(glass="N-BK7", f_number=16.0)[0][0] == "spectral_thin"
+    assert decide(glass="ideal")[0][0] == "pinhole"
+    assert decide(glass="ideal", blades=7)[0][0] == "spectral_thin"
