@@ -38,6 +38,7 @@ __all__ = [
     "RenderSection",
     "ISPSection",
     "SkySection",
+    "MotionSection",
     "SCENE_LIGHTS",
     "OBJECT_MATERIALS",
     "load_scene",
@@ -476,6 +477,35 @@ class RenderSection:
             _fail("render.max_depth", self.max_depth, "must be a whole number >= 1")
 
 
+@dataclass(frozen=True)
+class MotionSection:
+    """Motion during the exposure: the camera's velocity (m/s) and angular velocity (°/s) in its
+    own frame (x image-left, y up, z the view; yaw > 0 turns left, pitch > 0 tilts up, roll
+    about the view), and ``object_velocity_mps``, the scene in front of the camera moving
+    rigidly (the same as the camera moving the other way). Rendered as ``subframes``
+    time-stratified sub-frames (``"auto"``: one per half pixel of the largest motion), each
+    with an equal share of the samples, averaged before the sensor; the exposure's middle is
+    the pose of the depth label. Needs a fixed ``exposure.time_s`` and ``render.spp``."""
+
+    camera_velocity_mps: tuple[float, ...] = (0.0, 0.0, 0.0)
+    camera_angular_velocity_dps: tuple[float, ...] = (0.0, 0.0, 0.0)
+    object_velocity_mps: tuple[float, ...] = (0.0, 0.0, 0.0)
+    subframes: int | str = "auto"
+
+    def __post_init__(self) -> None:
+        for key in ("camera_velocity_mps", "camera_angular_velocity_dps", "object_velocity_mps"):
+            values = getattr(self, key)
+            if len(values) != 3 or not all(math.isfinite(v) and abs(v) <= 1e5 for v in values):
+                _fail(f"motion.{key}", list(values), "give three numbers within ±1e5")
+        if self.subframes != "auto" and not (isinstance(self.subframes, int) and not isinstance(self.subframes, bool)
+                                            and 1 <= self.subframes <= 4096):
+            _fail("motion.subframes", self.subframes, "give 'auto' or a whole number in 1..4096")
+
+    @property
+    def moving(self) -> bool:
+        return any(self.camera_velocity_mps) or any(self.camera_angular_velocity_dps) or any(self.object_velocity_mps)
+
+
 _SECTIONS = {
     "scene": SceneSection,
     "illuminant": IlluminantSection,
@@ -483,6 +513,7 @@ _SECTIONS = {
     "lens": LensSection,
     "sensor": SensorSection,
     "exposure": ExposureSection,
+    "motion": MotionSection,
     "render": RenderSection,
     "isp": ISPSection,
 }
@@ -498,6 +529,7 @@ class SceneConfig:
     lens: LensSection = field(default_factory=LensSection)
     sensor: SensorSection = field(default_factory=SensorSection)
     exposure: ExposureSection = field(default_factory=ExposureSection)
+    motion: MotionSection = field(default_factory=MotionSection)
     render: RenderSection = field(default_factory=RenderSection)
     isp: ISPSection = field(default_factory=ISPSection)
 
@@ -630,6 +662,12 @@ def scene_from_dict(
     lens_table = _lens_for_prescription(_lens_for_xml_camera(dict(merged.get("lens", {})), sections["scene"],
                                                              sections["sensor"]))
     sections["lens"] = section_from_table("lens", lens_table, base_dir)
+    if sections["motion"].moving:
+        if sections["exposure"].time_s == "auto":
+            _fail("exposure.time_s", "auto", "motion blur needs a fixed exposure time (the blur is velocity × time); "
+                  "give exposure.time_s in seconds")
+        if sections["render"].spp == "auto":
+            _fail("render.spp", "auto", "motion blur splits the samples between sub-frames; give render.spp")
     return SceneConfig(**sections)
 
 

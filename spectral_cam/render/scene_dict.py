@@ -111,6 +111,18 @@ def tile_sensor(mi, sensor, camera: dict, rows: tuple[int, int]):
     return load_dict(mi, dict(camera, film=film, to_world=mi.ScalarTransform4f(matrix)))
 
 
+def moved_sensor(mi, sensor, camera: dict, move):
+    """A copy of the loaded ``sensor`` (its film crop and pose kept) moved by ``move`` in its
+    own frame: a motion-blur sub-frame's camera."""
+    matrix = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
+    film = dict(camera["film"])
+    crop = sensor.film().crop_offset(), sensor.film().crop_size()
+    if tuple(crop[1]) != tuple(sensor.film().size()):
+        film.update(crop_offset_x=int(crop[0][0]), crop_offset_y=int(crop[0][1]), crop_width=int(crop[1][0]),
+                    crop_height=int(crop[1][1]))
+    return load_dict(mi, dict(camera, film=film, to_world=mi.ScalarTransform4f(matrix) @ move))
+
+
 def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent",
                 glass: str = "N-BK7", prescription: str = "dgauss_50mm", blades: int = 0,
                 blade_rotation_deg: float = 0.0, distortion=(0.0, 0.0, 0.0, 0.0, 0.0)) -> dict:

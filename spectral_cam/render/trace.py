@@ -24,7 +24,9 @@ from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction
 from .films import band_film, camera_film
-from .scene_dict import TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, pass_seed, release_render_memory, tile_sensors
+from .motion import plan_subframes, subframe_transform
+from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, moved_sensor, pass_seed,
+                         release_render_memory, tile_sensors)
 
 #: Most wavefront lanes (pixels × spp) of one Mitsuba call in the vectorised variants. Mitsuba's
 #: path tracer runs as a symbolic loop whose memory does not grow with the lanes (measured: see
@@ -216,22 +218,30 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     tiled = len(tiles) > 1
     data = np.empty((height, width, n_channels), np.float32) if tiled else None
     done, seeds, radiance_range = 0, [], _RadianceRange()
+    subframes = 1
+    if config.motion.moving:
+        subframes, decisions["motion"] = plan_subframes(config, lens, depth, target_spp)
     for tile, rows, tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
-        passes = _auto_passes(sampler, target_spp, lane_cap) if auto_spp else _fixed_passes(sampler, target_spp, lane_cap)
         accumulated = _PassMean()
         done, index = 0, 0
-        for spp in passes:
-            seed = pass_seed(config.render.seed, index, seed_key)
-            image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=spp),
-                               dtype=np.float32).reshape(rows[1] - rows[0], width, n_channels)
-            accumulated.add(image, spp)
-            done += spp
-            index += 1
-            seeds.append(seed)
-            if progress is not None:
-                _report(progress, done, target_spp, time.perf_counter() - started, tile, len(tiles))
-            if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
-                break
+        for subframe in range(subframes):
+            frame_camera = tile_camera if subframes == 1 else moved_sensor(
+                mi, tile_camera, camera, subframe_transform(mi, config, subframe, subframes))
+            share = target_spp // subframes
+            passes = (_auto_passes(sampler, target_spp, lane_cap) if auto_spp
+                      else _fixed_passes(sampler, share, lane_cap))
+            for spp in passes:
+                seed = pass_seed(config.render.seed, index, seed_key)
+                image = np.asarray(mi.render(scene, sensor=frame_camera, integrator=integrator, seed=seed, spp=spp),
+                                   dtype=np.float32).reshape(rows[1] - rows[0], width, n_channels)
+                accumulated.add(image, spp)  # equal samples per sub-frame: equal time shares
+                done += spp
+                index += 1
+                seeds.append(seed)
+                if progress is not None:
+                    _report(progress, done, target_spp, time.perf_counter() - started, tile, len(tiles))
+                if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
+                    break
         del image
         if tiled:
             data[rows[0]:rows[1]] = radiance_range.clear_rounding(accumulated.mean())
