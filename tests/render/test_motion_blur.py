@@ -12,7 +12,6 @@ import pytest
 
 from spectral_cam import render
 from spectral_cam.errors import ConfigError
-from spectral_cam.optics import ThinLens
 
 pytestmark = pytest.mark.timeout(300)
 
