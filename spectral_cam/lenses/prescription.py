@@ -140,6 +140,11 @@ class Prescription:
         a, b = matrix[0]
         return b / a, abs(self.surfaces[index].semi_diameter_m / a)
 
+    def exit_pupil(self, wavelength_nm: float = LINES_NM["d"]) -> tuple[float, float]:
+        """(distance of the exit pupil in front of the last vertex, its semi-diameter): the stop
+        seen from image space, the entrance pupil of the lens turned round."""
+        return self.reversed().entrance_pupil(wavelength_nm)
+
     def f_number(self, wavelength_nm: float = LINES_NM["d"]) -> float:
         """Paraxial f-number f / (entrance pupil diameter)."""
         return self.focal_length_m(wavelength_nm) / (2.0 * self.entrance_pupil(wavelength_nm)[1])
@@ -167,6 +172,90 @@ class Prescription:
     def stop_index(self) -> int:
         stops = [i for i, s in enumerate(self.surfaces) if s.stop]
         return stops[0] if stops else int(np.argmin([s.semi_diameter_m for s in self.surfaces]))
+
+    def stopped_down(self, f_number: float) -> "Prescription":
+        """The same lens with its stop closed to ``f_number`` (traced), never opened beyond its
+        own: the stop's semi-diameter scaled until the widest passing axial bundle gives it.
+
+        Raises
+        ------
+        ConfigError
+            For an f-number faster than the lens.
+        """
+        own = self.traced_f_number()
+        if f_number < own * (1 - 1e-9):
+            raise ConfigError(f"{self.name} opens to f/{own:.3g} at most; f/{f_number:g} asks for more")
+        index = self.stop_index()
+        low, high = 0.0, 1.0  # fraction of the stop's semi-diameter
+        for _ in range(40):
+            middle = 0.5 * (low + high)
+            surfaces = list(self.surfaces)
+            stop = surfaces[index]
+            surfaces[index] = Surface(stop.radius_m, stop.thickness_m, stop.medium, stop.semi_diameter_m * middle, True)
+            trial = Prescription(self.name, self.title, self.source, tuple(surfaces), self.stated_focal_length_m)
+            if trial.traced_f_number() > f_number:
+                low = middle
+            else:
+                high = middle
+        return trial
+
+    def _bundle(self, field_deg: float, object_distance_m: float, wavelength_nm: float, grid: int):
+        """Rays from a point at ``field_deg`` off axis and ``object_distance_m`` in front of the
+        first vertex (inf: a parallel bundle) over a ``grid`` × ``grid`` square on the entrance
+        pupil's plane (1.3 × its radius, so off-axis bundles that pass elsewhere are kept),
+        traced: (origins, directions, passed) after the last surface."""
+        pupil_z, radius = self.entrance_pupil(wavelength_nm)
+        extent = 1.3 * radius
+        axis = np.linspace(-extent, extent, grid)
+        gx, gy = (a.ravel() for a in np.meshgrid(axis, axis))
+        keep = gx * gx + gy * gy <= extent * extent
+        targets = np.stack([gx[keep], gy[keep], np.full(keep.sum(), pupil_z)], axis=1)
+        tilt = np.radians(field_deg)
+        if np.isinf(object_distance_m):
+            direction = np.tile([0.0, np.sin(tilt), np.cos(tilt)], (len(targets), 1))
+            origins = targets - direction * (pupil_z + 1.0)  # start in front of the first vertex
+        else:
+            source = np.array([0.0, -np.tan(tilt) * object_distance_m, -object_distance_m])
+            origins = np.tile(source, (len(targets), 1))
+            direction = targets - source
+        return self.trace(origins, direction, wavelength_nm)
+
+    @staticmethod
+    def _rms_on_planes(o, d, planes):
+        """RMS radius about the centroid of rays (o, d) on each plane z in ``planes``."""
+        t = (np.asarray(planes)[:, None] - o[None, :, 2]) / d[None, :, 2]
+        x, y = o[None, :, 0] + t * d[None, :, 0], o[None, :, 1] + t * d[None, :, 1]
+        return np.sqrt(x.var(axis=1) + y.var(axis=1))
+
+    def focus_image_distance_m(self, object_distance_m: float = float("inf"),
+                               wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Last vertex to the plane of smallest RMS spot of an axial point (best focus), the
+        paraxial image refined over ±5 % of the focal length: where a photographer's focusing
+        puts the sensor. Aberrations move it (the telephoto: 0.8 mm in front of paraxial)."""
+        paraxial = (self.back_focal_distance_m(wavelength_nm) if np.isinf(object_distance_m)
+                    else self.image_distance_m(object_distance_m, wavelength_nm))
+        o, d, passed = self._bundle(0.0, object_distance_m, wavelength_nm, 61)
+        if passed.sum() < 3:
+            return paraxial
+        o, d = o[passed], d[passed]
+        z_last = self.vertices_m()[-1]
+        span = 0.05 * abs(self.focal_length_m(wavelength_nm))
+        centre = paraxial
+        for width in (span, span / 20, span / 400):
+            planes = z_last + centre + np.linspace(-width, width, 41)
+            centre = planes[np.argmin(self._rms_on_planes(o, d, planes))] - z_last
+        return float(centre)
+
+    def spot_rms_m(self, field_deg: float = 0.0, object_distance_m: float = float("inf"),
+                   wavelength_nm: float = LINES_NM["d"], grid: int = 101) -> tuple[float, float]:
+        """(RMS spot radius about its centroid on the axial best-focus plane — a flat sensor,
+        so field curvature counts — and the fraction of the entrance-pupil bundle that passes)
+        for a point ``field_deg`` off axis, ``object_distance_m`` in front of the first vertex."""
+        o, d, passed = self._bundle(field_deg, object_distance_m, wavelength_nm, grid)
+        if not passed.any():
+            return float("nan"), 0.0
+        plane = self.vertices_m()[-1] + self.focus_image_distance_m(object_distance_m, wavelength_nm)
+        return float(self._rms_on_planes(o[passed], d[passed], [plane])[0]), float(passed.mean())
 
     def scaled(self, factor: float) -> "Prescription":
         """The same design with every length multiplied by ``factor``."""

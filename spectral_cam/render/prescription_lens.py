@@ -7,7 +7,8 @@ Frames. The lens is traced from the image side (:meth:`Prescription.reversed`, i
 vertex at z = 0, +z towards the object), which is already oriented as Mitsuba's camera space
 (+z the view); the camera's origin is put at the entrance pupil, the projection centre of the
 chief rays, so the pinhole depth render sees the scene from where the lens sees it. The sensor
-stands where the lens images ``focus_distance_m`` (paraxially): focus by moving the sensor.
+stands where the lens focuses ``focus_distance_m`` best (smallest RMS spot of an axial point,
+:meth:`Prescription.focus_image_distance_m`): focus by moving the sensor.
 
 Sampling. For a sensor point at radius r, the rays that pass lie within bounds on the rear
 element's vertex plane, precomputed (per radial bin, for a point on +x, rotated to the point's
@@ -76,7 +77,7 @@ def plugin_dict(lens: Prescription, frame_lens, focus_distance_m: float) -> dict
     pupil_z, _ = lens.entrance_pupil()
     length = float(lens.vertices_m()[-1])  # first to last vertex
     object_to_vertex = focus_distance_m - pupil_z  # object plane to the first vertex
-    sensor_z = -lens.image_distance_m(object_to_vertex)  # sensor behind the rear vertex (z < 0)
+    sensor_z = -lens.focus_image_distance_m(object_to_vertex)  # best focus, behind the rear vertex (z < 0)
     half_w, half_h = frame_lens.sensor_width_m / 2, frame_lens.sensor_height_m / 2
     bounds = pupil_bounds(rear, sensor_z, float(np.hypot(half_w, half_h)))
     entry = {"type": PLUGIN, "sensor_z": sensor_z, "half_width": half_w, "half_height": half_h,

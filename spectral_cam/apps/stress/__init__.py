@@ -1,6 +1,6 @@
 """``spectral-cam stress``: where each method of the chain stops being trustworthy.
 
-Five studies, one module each; a study function returns its numbers (``rows`` for the
+Six studies, one module each; a study function returns its numbers (``rows`` for the
 summary table, ``data`` for ``results.json``) and a plot function draws them (matplotlib
 Figure objects through :mod:`spectral_cam.viz`). :func:`run_studies` runs the studies of
 the :data:`STUDIES` registry into one output folder:
@@ -16,6 +16,8 @@ the :data:`STUDIES` registry into one output folder:
     (``lens.model = "layered"``, :func:`spectral_cam.render.render_layered`).
 (e) :mod:`.illuminants` — ΔE2000 of the colour pipeline on a synthetic ColorChecker under
     illuminants far from the D65 calibration, per colour matrix and white balance.
+(f) :mod:`.lenses` — where the thin lens stops describing the bundled prescriptions: the
+    in-focus spot against f-number and field angle, and cat's-eye vignetting.
 
 :mod:`.settings` holds the sizes (:class:`StressSettings`), :mod:`.summary` the summary
 table and ``results.json``, :mod:`.run` the registry; the command line is
@@ -33,6 +35,7 @@ from .demosaic import LOSSLESS_TOLERANCE, checkerboard, demosaic_errors, demosai
 from .exposure import EXPOSURE_SENSORS, exposure_study, mono_config, neutral_chroma, plot_exposure
 from .illuminants import (NARROW_LED_FWHM_NM, NARROW_LED_PEAKS_NM, STUDY_COLOUR_MATRICES, STUDY_ILLUMINANTS,
                           STUDY_WHITE_BALANCE, illuminant_study, plot_illuminants, write_narrow_band_led)
+from .lenses import LENS_F_NUMBERS, LENS_FIELDS_DEG, lens_study, plot_lenses
 from .optics import (OPTICS_RENDERS, band_sum, bokeh_scene, chart_lens, diffraction_limit_f_number, optics_study,
                      plot_optics)
 from .run import STUDIES, Study, run_studies
@@ -49,4 +52,5 @@ __all__ = [
     "BOKEH_CASE", "disc_mask", "bokeh_study", "plot_bokeh",
     "STUDY_ILLUMINANTS", "NARROW_LED_PEAKS_NM", "NARROW_LED_FWHM_NM", "STUDY_WHITE_BALANCE",
     "STUDY_COLOUR_MATRICES", "write_narrow_band_led", "illuminant_study", "plot_illuminants",
+    "LENS_F_NUMBERS", "LENS_FIELDS_DEG", "lens_study", "plot_lenses",
 ]

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Callable
 
 from ...registry import Registry
-from . import bokeh, demosaic, exposure, illuminants, optics
+from . import bokeh, demosaic, exposure, illuminants, lenses, optics
 from .settings import StressSettings
 from .summary import write_results, write_summary
 
@@ -69,6 +69,8 @@ STUDIES.add("bokeh", Study(bokeh.bokeh_study, bokeh.plot_bokeh),
 STUDIES.add("illuminants", Study(illuminants.illuminant_study, illuminants.plot_illuminants, writes_inputs=True),
             options=("patch_px", "seed"),
             description="ΔE2000 under A, FL11 and LEDs vs white balance")
+STUDIES.add("lenses", Study(lenses.lens_study, lenses.plot_lenses), options=("lens_pixel_um",),
+            description="thin lens vs real prescriptions: in-focus spot and cat's-eye vignetting")
 
 
 def run_studies(directory: Path, settings: StressSettings, *, only=None, log=None) -> dict:

@@ -53,6 +53,8 @@ class StressSettings:
         Samples per pixel of each of the two independent halves of the thin-lens reference.
     patch_px
         Side of a ColorChecker patch in the illuminant study, pixels.
+    lens_pixel_um
+        Pixel pitch the lens study measures spots in, µm.
     seed
         Seed of every render and frame (each gets its own derived seed, :meth:`seed_for`).
     """
@@ -72,6 +74,7 @@ class StressSettings:
     bokeh_remedy_spp: tuple[int, ...] = (4, 16, 64, 256, 1024)
     bokeh_reference_spp: int = 65536
     patch_px: int = 20
+    lens_pixel_um: float = 6.0
     seed: int = 7
 
     @classmethod
