@@ -39,7 +39,7 @@ def lens_study(settings) -> dict:
         lens = load_prescription(name)
         own = lens.traced_f_number()
         half_field = np.degrees(np.arctan(0.5 * 0.0432 / lens.focal_length_m()))  # a 36 × 24 mm frame's diagonal
-        fields = [f for f in LENS_FIELDS_DEG if f <= half_field + 1e-9] or [0.0]
+        fields = [f for f in LENS_FIELDS_DEG if f < half_field - 0.5] + [round(float(half_field), 1)]
         table = {"f_numbers": [], "fields_deg": fields, "spot_px": [], "pupil": []}
         for f_number in [own] + [n for n in LENS_F_NUMBERS if n > own * 1.02]:
             stopped = lens.stopped_down(f_number) if f_number > own else lens
@@ -58,9 +58,10 @@ def lens_study(settings) -> dict:
         rows.append(summary_row("lenses", name, "in-focus spot at full aperture, axis", spots[0, 0], "px",
                                 f"f/{own:.2f}, RMS diameter at best focus, {settings.lens_pixel_um:g} µm pixels"))
         rows.append(summary_row("lenses", name, "in-focus spot at full aperture, edge", spots[0, -1], "px",
-                                f"{fields[-1]:g}° field"))
-        rows.append(summary_row("lenses", name, "slowest f-number where the thin lens holds (spot < 1 px)",
-                                min(sharp) if sharp else None, "", "over the fields studied"))
+                                f"{fields[-1]:g}° field (a 36 × 24 mm frame's corner)"))
+        note = "stopped down from full aperture" if sharp else f"none up to f/{max(table['f_numbers']):g}"
+        rows.append(summary_row("lenses", name, "fastest f-number at which the thin lens holds (spot < 1 px at every "
+                                "field)", min(sharp) if sharp else None, "", note))
         rows.append(summary_row("lenses", name, "pupil area at the edge, full aperture", table["pupil"][0][-1], "",
                                 f"relative to the axis (cat's-eye vignetting, beyond cos⁴), {fields[-1]:g}°"))
     return {"rows": rows, "data": data}
