@@ -2,7 +2,8 @@
 (1) an N-BK7 singlet's longitudinal colour against an N-BK7 + F2 achromat on a slanted edge,
 (2) round against six-bladed bokeh of defocused point sources, (3) a ColorChecker through a wide
 lens with barrel distortion (k1 = -0.5), (4) the 50 mm double Gauss prescription against a
-thin lens of its focal length and traced f-number on the depth-of-field targets.
+thin lens of its focal length and traced f-number on the depth-of-field targets, (5) a slanted
+edge still and with the camera panning (motion blur).
 
     .venv/bin/python docs/make_lens_figure.py
 """
@@ -41,6 +42,11 @@ PANELS = [
                            "lens": {"model": "spectral_thin", "glass": "ideal", "focal_length_mm": 2.0,
                                     "f_number": 8.0, "focus_distance_m": 1.0,
                                     "distortion": [-0.5, 0.0, 0.0, 0.0, 0.0]}}),
+    ("still, 1/250 s", {"scene": {"preset": "slanted_edge", "distance_m": 2.0},
+                       "lens": {"model": "pinhole", "focal_length_mm": 25.0}, "exposure": {"time_s": 1 / 250}}),
+    ("panning 3.3 m/s, 1/250 s", {"scene": {"preset": "slanted_edge", "distance_m": 2.0},
+                                 "lens": {"model": "pinhole", "focal_length_mm": 25.0}, "exposure": {"time_s": 1 / 250},
+                                 "motion": {"camera_velocity_mps": [3.3, 0.0, 0.0]}}),
     ("thin lens 50.4 mm f/2.02", {"scene": {"preset": "dof_targets", "depths_m": [1.5, 2.0, 3.0]},
                                   "lens": {"model": "thin", "focal_length_mm": 50.358, "f_number": 2.018,
                                            "focus_distance_m": 2.0}}),
@@ -59,8 +65,9 @@ def main() -> None:
             out = Path(folder) / f"panel{index}"
             run_render_job(config, out, spectral_output=False)
             image = cv2.imread(str(out / "image.png"))
-            cv2.putText(image, title, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 3)
-            cv2.putText(image, title, (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1)
+            (text_w, text_h), _ = cv2.getTextSize(title, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+            cv2.rectangle(image, (2, 2), (10 + text_w, 10 + text_h), (255, 255, 255), -1)
+            cv2.putText(image, title, (6, 6 + text_h), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
             tiles.append(image)
     gap_v = np.full((tiles[0].shape[0], 6, 3), 255, np.uint8)
     rows = [np.hstack([tiles[i], gap_v, tiles[i + 1]]) for i in range(0, len(tiles), 2)]
