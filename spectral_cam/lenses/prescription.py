@@ -257,6 +257,51 @@ class Prescription:
         plane = self.vertices_m()[-1] + self.focus_image_distance_m(object_distance_m, wavelength_nm)
         return float(self._rms_on_planes(o[passed], d[passed], [plane])[0]), float(passed.mean())
 
+    def image_height_m(self, field_deg: float, sensor_distance_m: float, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Where the chief ray (through the entrance pupil's centre) of a distant point
+        ``field_deg`` off axis meets a sensor ``sensor_distance_m`` behind the last vertex (nan
+        when it does not pass)."""
+        pupil_z, _ = self.entrance_pupil(wavelength_nm)
+        tilt = np.radians(field_deg)
+        direction = np.array([[0.0, np.sin(tilt), np.cos(tilt)]])
+        origin = np.array([[0.0, 0.0, pupil_z]]) - direction * (pupil_z + 1.0)
+        o, d, passed = self.trace(origin, direction, wavelength_nm)
+        if not passed[0]:
+            return float("nan")
+        plane = self.vertices_m()[-1] + sensor_distance_m
+        return float(abs(o[0, 1] + (plane - o[0, 2]) / d[0, 2] * d[0, 1]))
+
+    def field_of_view_deg(self, half_width_m: float, sensor_distance_m: float,
+                          wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Full field of view across a sensor ``2·half_width_m`` wide, from the trace: twice the
+        field angle whose chief ray lands at the sensor's edge (bisection; distortion included)."""
+        low, high = 0.0, 89.0
+        for _ in range(60):
+            middle = 0.5 * (low + high)
+            height = self.image_height_m(middle, sensor_distance_m, wavelength_nm)
+            if np.isfinite(height) and height < half_width_m:
+                low = middle
+            else:
+                high = middle
+        return 2.0 * low
+
+    def describe(self, focus_distance_m: float, sensor_width_m: float) -> dict:
+        """What a render through this lens records (meta.json): focal length, f-numbers, the
+        sensor's place and the field of view from the trace, next to the thin lens's."""
+        object_to_vertex = focus_distance_m - self.entrance_pupil()[0]
+        sensor = self.focus_image_distance_m(object_to_vertex)
+        focal = self.focal_length_m()
+        thin_v = focal * focus_distance_m / (focus_distance_m - focal)
+        return {"name": self.name, "title": self.title, "source": self.source,
+                "focal_length_mm": focal * 1e3, "traced_f_number": self.traced_f_number(),
+                "paraxial_f_number": self.f_number(), "stated_focal_length_mm":
+                    None if self.stated_focal_length_m is None else self.stated_focal_length_m * 1e3,
+                "stated_f_number": self.stated_f_number, "back_focal_distance_mm": self.back_focal_distance_m() * 1e3,
+                "sensor_behind_last_vertex_mm": sensor * 1e3,
+                "paraxial_image_behind_last_vertex_mm": self.image_distance_m(object_to_vertex) * 1e3,
+                "fov_x_deg_traced": self.field_of_view_deg(sensor_width_m / 2, sensor),
+                "fov_x_deg_thin_lens": float(np.degrees(2 * np.arctan(sensor_width_m / 2 / thin_v)))}
+
     def scaled(self, factor: float) -> "Prescription":
         """The same design with every length multiplied by ``factor``."""
         surfaces = tuple(Surface(s.radius_m * factor, s.thickness_m * factor, s.medium, s.semi_diameter_m * factor,

@@ -127,6 +127,11 @@ def render(
     else:
         image = trace(config, lens, lens_model, variant=variant, depth=depth, depth_s=depth_s,
                       decisions=decisions, progress=progress)
+    if lens_model == "prescription":  # what the trace says the lens is (focal length, f-number, field)
+        from ..lenses.prescription import load_prescription
+
+        image.meta["prescription"] = load_prescription(config.lens.prescription).describe(
+            lens.focus_distance_m, lens.layout_lens.sensor_width_m)
     image.white_reference = white_reference_mask(config, lens)
     image.meta["illuminant_spd"] = config.illuminant.spd  # what white balance and the truth assume
     image.meta["illuminant_emitter"] = config.illuminant.emitter
