@@ -134,7 +134,9 @@ def test_rendered_grid_points_land_where_brown_conrady_puts_them():
 
 def test_a_dataset_item_carries_its_undistortion_map(tmp_path):
     """The ``undistortion`` label: undistortion.exr whose maps are the Brown–Conrady forward
-    model of each undistorted pixel (checked at a corner against the formula), and its record."""
+    model of each undistorted pixel (checked at a corner against the formula), and its record;
+    an item with blades, distortion and motion also writes its all-in-focus image (the ideal
+    pinhole: none of the three)."""
     import json
 
     import OpenEXR
@@ -143,15 +145,17 @@ def test_a_dataset_item_carries_its_undistortion_map(tmp_path):
     from spectral_cam.lenses.distortion import distort
 
     spec = tmp_path / "spec.toml"
-    spec.write_text('[dataset]\noutputs = ["raw", "undistortion"]\n[scene]\npreset = "dof_targets"\n'
+    spec.write_text('[dataset]\noutputs = ["raw", "undistortion", "all_in_focus"]\n[scene]\npreset = "dof_targets"\n'
                     '[lens]\nmodel = "spectral_thin"\nglass = "ideal"\nfocal_length_mm = 2.0\n'
                     'distortion = [-0.2, 0.0, 0.0, 0.0, 0.0]\nblades = 6\n'
+                    '[exposure]\ntime_s = 0.01\n[motion]\ncamera_velocity_mps = [0.1, 0.0, 0.0]\n'
                     '[sensor]\nwidth_px = 32\nheight_px = 24\n[render]\nspp = 4\n')
     summary = generate_dataset(load_spec(spec), tmp_path / "out", n=1, scheduler="inline", progress=False)
     assert summary.rendered == 1
     item = next((tmp_path / "out").glob("items/*/undistortion.exr")).parent
     meta = json.loads((item / "meta.json").read_text())
     assert meta["undistortion"]["coefficients"] == [-0.2, 0.0, 0.0, 0.0, 0.0]
+    assert (item / "all_in_focus.png").is_file() and meta["all_in_focus"]["lens_model"] == "pinhole"
     with OpenEXR.File(str(item / "undistortion.exr")) as exr:
         map_x = np.asarray(exr.channels()["map_x"].pixels)
     lens_table = meta["config"]["lens"]

@@ -120,11 +120,17 @@ def _defocus(item: Item, folder: Path) -> list[Path]:
 
 
 @LABELS.register("all_in_focus", options=("all_in_focus", "blur"),
-                 description="all_in_focus.<isp.outputs>: the same pose through a pinhole at the same exposure")
+                 description="all_in_focus.<isp.outputs>: the same pose through an ideal pinhole (no blur, "
+                             "distortion or motion) at the same exposure")
 def _all_in_focus(item: Item, folder: Path) -> list[Path]:
     t0 = time.perf_counter()
     config, exposure_s = item.config, item.exposure_s
-    sharp_config = config.replace(**{"lens.model": "pinhole", "exposure.time_s": exposure_s})
+    # the ideal pinhole: no blur, no aperture shape, no distortion (the undistortion label maps the
+    # item's image onto it), no motion
+    sharp_config = config.replace(**{"lens.model": "pinhole", "exposure.time_s": exposure_s, "lens.blades": 0,
+                                     "lens.distortion": [0.0] * 5, "motion.camera_velocity_mps": [0.0] * 3,
+                                     "motion.camera_angular_velocity_dps": [0.0] * 3,
+                                     "motion.object_velocity_mps": [0.0] * 3})
     sharp = simulate(sharp_config, lens=item.sim.lens, with_depth=False)
     files = write_files(sharp, folder, ["image"], image_stem="all_in_focus")
     item.timings["all_in_focus"] = time.perf_counter() - t0
