@@ -42,6 +42,7 @@ _command("validate", "validate colour pipelines against spectral ground truth")
 _command("dataset", "generate a randomised or swept synthetic dataset")
 _command("stress", "chart where methods break (stress scenes)")
 _command("bench", "speed-against-accuracy benchmarks (CSV + PNG charts)")
+_command("sequence", "frames over time through auto-exposure/white-balance control loops")
 
 
 def build_parser() -> argparse.ArgumentParser:

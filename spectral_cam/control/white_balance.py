@@ -165,10 +165,16 @@ class AutoWhiteBalance:
             raise ConfigError(f"AWB mode {self.mode!r}: valid: auto, locked, manual")
 
     def step(self, state: WhiteState | None, rgb: np.ndarray) -> WhiteState:
-        """The white after this frame (``state`` None: the first frame)."""
+        """The white after this frame (``state`` None: the first frame). A frame with nothing to
+        estimate from (all clipped or black) keeps the previous white, as a camera does."""
         if self.mode == "manual":
             return WhiteState(tuple(float(v) for v in self.manual_white))
-        estimate = estimate_white(rgb, self.method, camera=self.camera)
+        try:
+            estimate = estimate_white(rgb, self.method, camera=self.camera)
+        except ConfigError:
+            if state is None:
+                raise
+            return replace(state, estimate=None)  # a blown or black frame: keep the last white
         if state is None:
             return WhiteState(tuple(estimate), tuple(estimate))
         if self.mode == "locked":

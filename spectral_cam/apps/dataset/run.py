@@ -43,7 +43,7 @@ from .sheets import write_blur_chart, write_contact_sheet
 from .spec import DatasetSpec, ItemPlan
 
 __all__ = ["DatasetSummary", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers",
-           "ProgressBar", "MANIFEST_EVERY_S"]
+           "ProgressBar", "MANIFEST_EVERY_S", "open_executor"]
 
 #: Seconds between manifest rewrites during a run (it is always written at the end).
 MANIFEST_EVERY_S = 30.0
@@ -263,6 +263,14 @@ def _executor(executor, scheduler, workers, dashboard: bool = False) -> Iterator
     with local_cluster(workers, dashboard=dashboard) as client:
         threads = max(1, _usable_cores() // workers)
         yield client.get_executor(pure=False), 2 * workers, threads
+
+
+def open_executor(executor=None, scheduler: str | None = None, workers: int | None = None):
+    """The executor a run submits to (the one given, ``"inline"``, a Dask scheduler's address,
+    or a local cluster of ``workers``), as a context manager yielding (executor, tasks kept in
+    flight, Mitsuba threads per task or None): what :func:`generate_dataset` and
+    ``spectral-cam sequence`` share."""
+    return _executor(executor, scheduler, workers)
 
 
 def _require_dask() -> None:

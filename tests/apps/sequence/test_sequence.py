@@ -1,0 +1,71 @@
+"""Issue 17 #1–3: sequences through the camera's control loops — resumable renders, the auto
+exposure following a brightness step frame by frame, and locked modes whose RAW scales exactly
+with illuminance and changes colour only as the illuminant's spectrum through the camera's
+curves (colour-science's SPDs) predicts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from spectral_cam.apps.sequence import bayer_stats, run_sequence, sequence_from_dict
+from spectral_cam.errors import ConfigError
+
+pytestmark = pytest.mark.timeout(300)
+
+
+def _spec(vary, frames, camera=None, **scene):
+    return sequence_from_dict({
+        "scene": {"preset": "flat_field", "reflectance": 0.18, **scene},
+        "sensor": {"width_px": 32, "height_px": 24, "read_noise_e": 0.0, "prnu": 0.0, "dsnu_e": 0.0},
+        "render": {"spp": 4},
+        "sequence": {"frames": frames, "vary": vary},
+        "camera": camera or {}})
+
+
+def _raw_means(output, mode, frames):
+    from spectral_cam.raw import read_raw
+
+    return np.array([bayer_stats(read_raw(output / mode / f"{k:04d}" / "raw.dng")).reshape(-1, 3).mean(axis=0)
+                     for k in range(frames)])
+
+
+def test_auto_exposure_follows_a_brightness_step_and_the_renders_resume(tmp_path):
+    """Illuminance 1000 lx, then 4000 lx (2 EV brighter, still below clipping): frame 1 is taken
+    at frame 0's exposure, then each frame removes half the remaining error (damping ½): 1, 0.5,
+    0.25 EV, as the hand-computed loop says; re-running renders nothing."""
+    spec = _spec({"illuminant.illuminance_lux": [1000.0, 4000.0, 4000.0, 4000.0, 4000.0]}, 5,
+                 {"damping": 0.5, "dead_band_ev": 0.05, "max_shutter_s": 1.0})
+    result = run_sequence(spec, tmp_path, modes=("auto",), scheduler="inline")
+    times = np.array([row["exposure_s"] for row in result["cameras"]["auto"]])
+    assert times[1] == pytest.approx(times[0], rel=1e-9)  # frame 1 still holds frame 0's decision
+    steps = np.log2(times[1:-1] / times[2:])  # EV removed per frame after the step
+    assert steps == pytest.approx([1.0, 0.5, 0.25], abs=0.03)
+    again = run_sequence(spec, tmp_path, modes=("auto",), scheduler="inline")
+    assert again["renders"] == {"rendered": 0, "resumed": 5}
+
+
+def test_locked_raw_scales_with_illuminance_and_turns_with_the_illuminants_spectrum(tmp_path):
+    """Locked camera, a grey (18 %) flat field under D65 at 500, 1000, 2000 lx, then illuminant A
+    at 1000 lx: the RAW's channel means double with each doubling of illuminance (within 1 %),
+    and under A their ratios are the camera's responses to an 18 % grey under A computed from
+    colour-science's SPDs through the camera's curves (within 1 %)."""
+    from spectral_cam.sensor.calibration import camera_responses
+
+    spec = _spec({"illuminant.illuminance_lux": [500.0, 1000.0, 2000.0, 1000.0],
+                  "illuminant.spd": ["D65", "D65", "D65", "A"]}, 4, {"max_shutter_s": 1.0})
+    run_sequence(spec, tmp_path, modes=("locked",), scheduler="inline", lock_frame=1)
+    means = _raw_means(tmp_path, "locked", 4)
+    assert means[1] / means[0] == pytest.approx([2.0] * 3, rel=0.01)
+    assert means[2] / means[1] == pytest.approx([2.0] * 3, rel=0.01)
+    predicted = camera_responses("nikon_d850", "A", [0.18])[0]
+    assert (means[3] / means[3][1]) == pytest.approx(predicted / predicted[1], rel=0.01)
+
+
+def test_a_bad_spec_is_refused_with_what_would_be_valid():
+    with pytest.raises(ConfigError, match="one per frame"):
+        _spec({"sky.hour": [9.0, 10.0]}, 3)
+    with pytest.raises(ConfigError, match="unknown key.*shutter"):
+        _spec({}, 2, {"shutter": 0.01})
+    with pytest.raises(ConfigError, match="frames"):
+        sequence_from_dict({"sequence": {"frames": 0}})
