@@ -34,6 +34,7 @@ import numpy as np
 
 from ..lenses.glass import LINES_NM
 from ..lenses.prescription import Prescription
+from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
 
 __all__ = ["PLUGIN", "register", "plugin_dict", "pupil_bounds"]
 
@@ -41,7 +42,6 @@ PLUGIN = "prescription_lens"
 TABLE_NM = np.arange(360.0, 831.0, 5.0)
 #: Radial bins of the exit-pupil bounds, and the rear-plane grid traced per bin.
 BINS, GRID = 64, 96
-_REGISTERED: set[str] = set()
 
 
 def _disperses(lens: Prescription) -> bool:
@@ -101,9 +101,10 @@ def _text(values) -> str:
 
 def register(mi) -> None:
     """Register the plugin with Mitsuba's current variant (once per variant and process)."""
-    variant = mi.variant()
-    if variant in _REGISTERED:
-        return
+    register_once(mi, PLUGIN, _sensor_class)
+
+
+def _sensor_class(mi):
     import drjit as dr
 
     def floats(props, key):
@@ -128,10 +129,7 @@ def register(mi) -> None:
             self.rear_distance = -self.sensor_z
 
         def _film_point(self, position_sample):
-            film = self.film()
-            offset, crop, size = film.crop_offset(), film.crop_size(), film.size()
-            u = (offset[0] + position_sample.x * crop[0]) / size[0]
-            v = (offset[1] + position_sample.y * crop[1]) / size[1]
+            u, v = film_uv(self, position_sample)
             return (2.0 * u - 1.0) * self.half_width, (2.0 * v - 1.0) * self.half_height
 
         def _trace(self, o, d, wavelengths, active):
@@ -191,17 +189,10 @@ def register(mi) -> None:
             ray = mi.Ray3f(to_world @ o, dr.normalize(to_world @ d), time, wavelengths)
             scale = dr.select(passed, geometry, 0.0)
             if self.disperses:
-                out = dr.zeros(mi.Spectrum)
-                out[0] = weight[0] * scale * 4.0
-                return ray, out
+                return ray, one_wavelength(mi, dr, weight, scale)
             return ray, weight * scale
-
-        def sample_ray_differential(self, time, wavelength_sample, position_sample, aperture_sample, active=True):
-            ray, weight = self.sample_ray(time, wavelength_sample, position_sample, aperture_sample, active)
-            return mi.RayDifferential3f(ray), weight
 
         def to_string(self):
             return f"PrescriptionLens[surfaces={len(self.radii)}, sensor_z={self.sensor_z}]"
 
-    mi.register_sensor(PLUGIN, lambda props: PrescriptionLens(props))
-    _REGISTERED.add(variant)
+    return with_ray_differential(mi, PrescriptionLens)

@@ -41,20 +41,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
+
 __all__ = ["PLUGIN", "register", "plugin_dict"]
 
 #: The plugin name registered with Mitsuba.
 PLUGIN = "spectral_thinlens"
 #: Wavelengths (nm) of the focal-length table handed to the plugin.
 TABLE_NM = np.arange(360.0, 831.0, 5.0)
-_REGISTERED: set[str] = set()
 
 
 def register(mi) -> None:
     """Register the plugin with Mitsuba's current variant (once per variant and process)."""
-    variant = mi.variant()
-    if variant in _REGISTERED:
-        return
+    register_once(mi, PLUGIN, _sensor_class)
+
+
+def _sensor_class(mi):
     import drjit as dr
 
     class SpectralThinLens(mi.Sensor):
@@ -107,13 +109,6 @@ def register(mi) -> None:
                 xu, yu = (xd - dx) / radial, (yd - dy) / radial
             return -xu, -yu
 
-        def _film_uv(self, position_sample):
-            film = self.film()
-            offset, crop, size = film.crop_offset(), film.crop_size(), film.size()
-            u = (offset[0] + position_sample.x * crop[0]) / size[0]
-            v = (offset[1] + position_sample.y * crop[1]) / size[1]
-            return u, v
-
         def sample_ray(self, time, wavelength_sample, position_sample, aperture_sample, active=True):
             wavelengths, weight = self.sample_wavelengths(dr.zeros(mi.SurfaceInteraction3f), wavelength_sample,
                                                           active)
@@ -121,7 +116,7 @@ def register(mi) -> None:
             si.wavelengths = wavelengths
             focal = self.focal.eval(si)[0]  # f at the ray's (first) wavelength
             focus = focal * self.image_distance / (self.image_distance - focal)
-            u, v = self._film_uv(position_sample)
+            u, v = film_uv(self, position_sample)
             # camera space: +x is the image's left, +y up, +z the view; (x, y, 1) along the chief ray
             x, y = self._undistort((1.0 - 2.0 * u) * self.half_width, (1.0 - 2.0 * v) * self.half_width * self.aspect)
             disc = self._aperture_point(aperture_sample)
@@ -131,19 +126,12 @@ def register(mi) -> None:
             ray = mi.Ray3f(to_world @ origin, dr.normalize(to_world @ (target - origin)), time, wavelengths)
             if not self.disperses:
                 return ray, weight * self.area_ratio
-            first = dr.zeros(mi.Spectrum)
-            first[0] = weight[0] * 4.0 * self.area_ratio  # secondary wavelengths terminated (module docstring)
-            return ray, first
-
-        def sample_ray_differential(self, time, wavelength_sample, position_sample, aperture_sample, active=True):
-            ray, weight = self.sample_ray(time, wavelength_sample, position_sample, aperture_sample, active)
-            return mi.RayDifferential3f(ray), weight
+            return ray, one_wavelength(mi, dr, weight, self.area_ratio)
 
         def to_string(self):
             return f"SpectralThinLens[aperture_radius={self.aperture_radius}, image_distance={self.image_distance}]"
 
-    mi.register_sensor(PLUGIN, lambda props: SpectralThinLens(props))
-    _REGISTERED.add(variant)
+    return with_ray_differential(mi, SpectralThinLens)
 
 
 def plugin_dict(lens, glass_spec: str, *, blades: int = 0, blade_rotation_deg: float = 0.0,

@@ -142,17 +142,12 @@ def test_a_neutral_ground_under_the_sun_and_sky_develops_neutral(make_scene):
     is the ground's light there: its grey checkerboard develops neutral under as-shot white
     balance — CIELAB chroma (colour-science) of the developed middle below 1 — while the
     same frame balanced for a tungsten light is visibly not (chroma > 5)."""
-    import colour
-
     from spectral_cam.job import simulate
+    from tests.support.chroma import region_chroma
 
     def chroma(config):
         sim = simulate(config)
-        h, w = sim.developed.image.shape[:2]
-        middle = sim.developed.image[int(0.4 * h):int(0.6 * h), int(0.3 * w):int(0.7 * w)]
-        srgb = np.clip(middle.reshape(-1, 3).astype(float).mean(axis=0), 0.0, 1.0)  # display sRGB in [0, 1]
-        lab = colour.XYZ_to_Lab(colour.sRGB_to_XYZ(srgb))
-        return math.hypot(lab[1], lab[2]), sim
+        return region_chroma(sim.developed.image, (0.4, 0.6), (0.3, 0.7)), sim
 
     # the camera film: 31 bands at 16 spp leave ~2 units of chroma noise on this small patch
     config = _ground_only(make_scene, light="sunsky").replace(**{

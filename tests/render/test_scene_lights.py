@@ -116,17 +116,12 @@ def test_a_white_floor_under_tungsten_develops_neutral_without_touching_illumina
     """Acceptance: as-shot white balance and the matrix from the scene's own 2856 K light make
     the white floor neutral (chroma C*ab < 1 in CIELAB, colour-science); assuming D65, as
     before, leaves it orange (C*ab > 10)."""
-    import colour
-
     from spectral_cam.job import simulate
+    from tests.support.chroma import region_chroma
 
     def floor_chroma(config):
         sim = simulate(config)
-        h, w = sim.developed.image.shape[:2]
-        patch = sim.developed.image[int(0.75 * h):int(0.95 * h), int(0.1 * w):int(0.4 * w)]
-        srgb = np.clip(patch.reshape(-1, 3).astype(float).mean(axis=0), 0.0, 1.0)  # display sRGB in [0, 1]
-        lab = colour.XYZ_to_Lab(colour.sRGB_to_XYZ(srgb))
-        return math.hypot(lab[1], lab[2]), sim
+        return region_chroma(sim.developed.image, (0.75, 0.95), (0.1, 0.4)), sim
 
     isp = {"tone": "srgb"}
     chroma, sim = floor_chroma(_scene(tmp_path, sensor={"width_px": 96, "height_px": 72}, isp=isp))
