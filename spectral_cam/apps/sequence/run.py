@@ -12,7 +12,7 @@ mode holds the settings the auto controllers find on ``lock_frame`` (by default 
 Layout of ``OUT``::
 
     render/NNNN/   radiance.npz, meta.json, scene.toml   (the renders; reused on resume)
-    <mode>/NNNN/   raw.dng, image.png, meta.json          (the camera's frames)
+    <mode>/NNNN/   raw.dng, image.png, depth.exr, defocus.exr, meta.json   (the camera's frames)
     <mode>/frames.csv                                      (per frame: hour, exposure, ISO, white, errors)
     sequence.json                                          (the spec and the modes)
 
@@ -166,6 +166,18 @@ def _develop(image, config: SceneConfig, state: ExposureState, white, index: int
     return raw, develop(raw, isp)
 
 
+def _write_labels(image, folder: Path) -> None:
+    """The frame's depth (m) and signed thin-lens defocus (px) labels, as a dataset item has."""
+    from ...exr import write_exr_channels
+    from ...spectral_exr import write_depth_exr
+    from ..dataset.labels import defocus_map_px
+
+    if image.depth_m is not None:
+        write_depth_exr(image.depth_m, folder / "depth.exr")
+        write_exr_channels({"CoC": defocus_map_px(image.lens, image.depth_m)}, folder / "defocus.exr",
+                           {"spectral_cam_units": "signed CoC diameter, pixels (+ behind focus)"})
+
+
 def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int | None = None) -> list[dict]:
     """Run the camera in ``mode`` over the rendered frames; write ``output/<mode>``; the rows of
     its frames.csv."""
@@ -201,6 +213,7 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
             folder.mkdir()
             write_dng(raw, folder / "raw.dng")
             write_image(developed, folder / "image.png")
+            _write_labels(image, folder)
             next_state = ae.step(state, _luminance(stats))
             next_white = awb.step(white_state, stats)
             row = {"frame": index, "hour": spec.hours[index], "exposure_s": state.time_s, "iso": state.iso,

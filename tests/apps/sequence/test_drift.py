@@ -46,7 +46,7 @@ def test_the_drift_command_measures_auto_and_locked_frames(tmp_path):
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     for name in ("drift.csv", "drift.png", "drift_strip.png", "drift_summary.json", "auto/frames.csv",
-                 "locked/0002/raw.dng", "auto/0001/image.png"):
+                 "locked/0002/raw.dng", "auto/0001/image.png", "auto/0001/depth.exr", "locked/0000/defocus.exr"):
         assert (out / name).is_file(), name
     from spectral_cam.apps.sequence.drift import drift_metrics
 
