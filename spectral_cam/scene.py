@@ -292,7 +292,8 @@ class LensSection:
     ``"crown+flint"``: a cemented achromat) whose focal
     length follows the glass's dispersion, ``focal_length_mm`` at the d line
     (:mod:`spectral_cam.lenses`; ``glass = "ideal"``: none), with ``blades`` straight aperture
-    blades (0: round; a vertex ``blade_rotation_deg`` from up towards image-left) and
+    blades (0: round; a vertex ``blade_rotation_deg`` from up towards image-left; rounded by
+    ``blade_rounding`` from 0, straight, to 1, a circle) and
     Brown–Conrady ``distortion`` [k1, k2, p1, p2, k3] (OpenCV's convention). ``model = "prescription"`` traces the real surfaces of
     ``prescription`` (a bundled lens or a CSV, :mod:`spectral_cam.lenses.prescription`); its
     focal length and f-number are then the prescription's (paraxial), set when the scene is
@@ -308,6 +309,7 @@ class LensSection:
     prescription: str = "dgauss_50mm"
     blades: int = 0
     blade_rotation_deg: float = 0.0
+    blade_rounding: float = 0.0
     distortion: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
@@ -329,6 +331,8 @@ class LensSection:
         if not (isinstance(self.blades, int) and not isinstance(self.blades, bool)
                 and (self.blades == 0 or 3 <= self.blades <= 32)):
             _fail("lens.blades", self.blades, "give 0 (a circular opening) or 3..32 straight blades")
+        if not (isinstance(self.blade_rounding, float) and 0.0 <= self.blade_rounding <= 1.0):
+            _fail("lens.blade_rounding", self.blade_rounding, "must lie in [0, 1]: 0 straight blades, 1 a circle")
         if not (isinstance(self.blade_rotation_deg, float) and math.isfinite(self.blade_rotation_deg)):
             _fail("lens.blade_rotation_deg", self.blade_rotation_deg, "must be an angle in degrees")
         if len(self.distortion) != 5 or not all(math.isfinite(v) and abs(v) <= 1.0 for v in self.distortion):

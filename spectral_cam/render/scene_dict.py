@@ -125,7 +125,8 @@ def moved_sensor(mi, sensor, camera: dict, move):
 
 def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent",
                 glass: str = "N-BK7", prescription: str = "dgauss_50mm", blades: int = 0,
-                blade_rotation_deg: float = 0.0, distortion=(0.0, 0.0, 0.0, 0.0, 0.0)) -> dict:
+                blade_rotation_deg: float = 0.0, blade_rounding: float = 0.0,
+                distortion=(0.0, 0.0, 0.0, 0.0, 0.0)) -> dict:
     """Our camera as a Mitsuba sensor dict: ``model`` ``"thin"`` (Mitsuba's ``thinlens``),
     ``"spectral_thin"`` (a thin lens of ``glass``, dispersive: :mod:`spectral_cam.render.spectral_lens`)
     or ``"prescription"`` (real surfaces: :mod:`spectral_cam.render.prescription_lens`), or a
@@ -143,7 +144,7 @@ def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: s
 
         register(mi)
         return dict(plugin_dict(lens, glass, blades=blades, blade_rotation_deg=blade_rotation_deg,
-                                distortion=distortion), to_world=pose, film=film,
+                                blade_rounding=blade_rounding, distortion=distortion), to_world=pose, film=film,
                     sampler={"type": sampler, "sample_count": spp})
     camera = {
         "type": "thinlens" if model == "thin" else "perspective",

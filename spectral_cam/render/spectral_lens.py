@@ -18,7 +18,9 @@ Aperture blades: a regular n-gon inscribed in the circle of radius f/(2N), one v
 ``blade_rotation`` from camera +y (up) towards +x (image-left); rays are drawn uniformly over
 it (a triangle of the fan, then uniformly inside it) and weighted by its area over the circle's,
 so the image is as bright as the opening's area, not its outer radius, while the sensor's
-camera equation keeps the nominal f-number.
+camera equation keeps the nominal f-number. Rounded blades (``blade_rounding`` ρ) blend the
+polygon's boundary with the circle, r(φ) = (1 − ρ)·r_gon(φ) + ρ; rays take an angle with
+density ∝ r(φ)² (2048 tabulated bins) and a radius r(φ)·√u, uniform over the opening.
 
 Distortion (Brown–Conrady, OpenCV's convention: normalised coordinates x = X/Z to the image's
 right, y = Y/Z down): a film point is the distorted image of the chief ray through the
@@ -76,12 +78,23 @@ def _sensor_class(mi):
             size = self.film().size()
             self.aspect = float(size[1]) / float(size[0])
             n = self.blades
+            self.rounding = props.get("blade_rounding", 0.0)
             self.area_ratio = n / (2 * np.pi) * np.sin(2 * np.pi / n) if n >= 3 else 1.0
-
+            if n >= 3 and self.rounding > 0:  # the rounded opening: its boundary tabulated by angle
+                phi = (np.arange(ROUNDED_BINS) + 0.5) * 2 * np.pi / ROUNDED_BINS
+                boundary = rounded_boundary(phi, n, self.blade_rotation, self.rounding)
+                self.boundary = mi.Float(boundary.astype(np.float32))
+                self.angles = mi.DiscreteDistribution(mi.Float((boundary ** 2).astype(np.float32)))
+                self.area_ratio = float(np.mean(boundary ** 2))  # ½∫r²dφ / π
         def _aperture_point(self, sample):
             """A point on the opening (camera x, y), uniform over its area."""
             if self.blades < 3:
                 return mi.warp.square_to_uniform_disk_concentric(sample) * self.aperture_radius
+            if self.rounding > 0:  # angle with density ∝ r(φ)², radius r(φ)·√u: uniform over the area
+                index, reused = self.angles.sample_reuse(sample.x)
+                phi = (mi.Float(index) + reused) * (2 * np.pi / ROUNDED_BINS)
+                radius = dr.gather(mi.Float, self.boundary, index) * dr.sqrt(sample.y) * self.aperture_radius
+                return mi.Point2f(radius * dr.sin(phi), radius * dr.cos(phi))
             n = self.blades
             scaled = sample.x * n
             k = dr.floor(scaled)
@@ -134,8 +147,21 @@ def _sensor_class(mi):
     return with_ray_differential(mi, SpectralThinLens)
 
 
+#: Angular bins of a rounded opening's tabulated boundary.
+ROUNDED_BINS = 2048
+
+
+def rounded_boundary(phi, blades: int, rotation: float, rounding: float) -> np.ndarray:
+    """Radius (fraction of the circle's) of the opening at angle ``phi`` (from +y towards +x):
+    the regular ``blades``-gon inscribed in the circle, a vertex at ``rotation``, blended with the
+    circle by ``rounding`` (0: straight blades, 1: the circle), r = (1 − ρ)·r_gon + ρ."""
+    sector = 2 * np.pi / blades
+    local = np.mod(np.asarray(phi, dtype=float) - rotation, sector) - sector / 2
+    return (1.0 - rounding) * np.cos(np.pi / blades) / np.cos(local) + rounding
+
+
 def plugin_dict(lens, glass_spec: str, *, blades: int = 0, blade_rotation_deg: float = 0.0,
-                distortion=(0.0, 0.0, 0.0, 0.0, 0.0)) -> dict:
+                blade_rounding: float = 0.0, distortion=(0.0, 0.0, 0.0, 0.0, 0.0)) -> dict:
     """The plugin's scene-dict entries (without film, sampler and pose) for ``lens`` (the frame's
     ThinLens: f and v at the d line) made of ``glass_spec`` (``lens.glass``; ``"ideal"``: no
     dispersion), with ``blades`` (0: a circular opening) and Brown–Conrady ``distortion``
@@ -148,6 +174,7 @@ def plugin_dict(lens, glass_spec: str, *, blades: int = 0, blade_rotation_deg: f
     k1, k2, p1, p2, k3 = (float(v) for v in distortion)
     return {"type": PLUGIN, "aperture_radius": lens.aperture_radius_m, "image_distance": lens.image_distance_m,
             "disperses": not ideal, "blades": int(blades), "blade_rotation": float(np.radians(blade_rotation_deg)),
+            "blade_rounding": float(blade_rounding),
             "k1": k1, "k2": k2, "p1": p1, "p2": p2, "k3": k3,
             "half_width": lens.sensor_width_m / (2.0 * lens.image_distance_m),
             "focal_length": {"type": "irregular", "wavelengths": ", ".join(f"{w:g}" for w in TABLE_NM),

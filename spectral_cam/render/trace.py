@@ -210,7 +210,8 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     started = time.perf_counter()
     camera = camera_dict(mi, lens, lens_model, film, spp_per_pass, sampler, glass=config.lens.glass,
                          prescription=config.lens.prescription, blades=config.lens.blades,
-                         blade_rotation_deg=config.lens.blade_rotation_deg, distortion=config.lens.distortion)
+                         blade_rotation_deg=config.lens.blade_rotation_deg, blade_rounding=config.lens.blade_rounding,
+                         distortion=config.lens.distortion)
     integrator = {"type": "path", "max_depth": config.render.max_depth}
     scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started

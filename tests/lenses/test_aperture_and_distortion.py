@@ -166,3 +166,47 @@ def test_a_dataset_item_carries_its_undistortion_map(tmp_path):
     x0 = (0.5 - 16) * scale
     y0 = (0.5 - 12) * scale
     assert map_x[0, 0] == pytest.approx(distort(x0, y0, (-0.2, 0, 0, 0, 0))[0] / scale + 16 - 0.5, abs=1e-3)
+
+
+@pytest.mark.parametrize("rounding", [0.0, 0.5, 1.0])
+def test_rounded_blades_pass_their_openings_area(rounding):
+    """Five blades rounded by ρ: the opening's area ½∫r(φ)²dφ with r = (1 − ρ)·r_gon + ρ (computed
+    here by quadrature of the polygon's own boundary, cos(π/n)/cos(φ − sector middle)) sets the
+    brightness of a uniform wall within 1 %: the pentagon's 0.757 at ρ = 0, the circle at ρ = 1."""
+    def wall(mi):
+        return {"wall": {"type": "rectangle", "emitter": {"type": "area", "radiance": {"type": "uniform", "value": 1.0}},
+                         "to_world": mi.ScalarTransform4f().translate([0, 0, 2.0]).rotate([0, 1, 0], 180.0).scale(10.0)}}
+
+    phi = np.linspace(0.0, 2 * math.pi, 200001)[:-1]
+    sector = 2 * math.pi / 5
+    polygon = math.cos(math.pi / 5) / np.cos(np.mod(phi, sector) - sector / 2)
+    area_ratio = float(np.mean(((1 - rounding) * polygon + rounding) ** 2))
+    lens = _lens(size=32)
+    ratio = (_render(lens, wall, spp=64, blades=5, blade_rounding=rounding).mean()
+             / _render(lens, wall, spp=64).mean())
+    assert ratio == pytest.approx(area_ratio, rel=0.01)
+    if rounding == 0.0:
+        assert area_ratio == pytest.approx(5 / (2 * math.pi) * math.sin(2 * math.pi / 5), rel=1e-6)
+    if rounding == 1.0:
+        assert area_ratio == pytest.approx(1.0)
+
+
+def test_rounded_blades_soften_the_polygon():
+    """A defocused point through six blades: the 6-fold harmonic of the spot's boundary drops as
+    the blades round (ρ = 0.7 keeps less than half of the straight blades' one)."""
+    from scipy import ndimage
+
+    def harmonic(rounding):
+        image = ndimage.gaussian_filter(_render(_lens(), _dots([(0.0, 0.0, 3.0)], 0.0015), blades=6,
+                                                blade_rounding=rounding), 1.0)
+        spot = image > 0.5 * np.percentile(image[image > 0.05 * image.max()], 75)
+        rows, cols = np.nonzero(spot)
+        cy, cx = rows.mean() + 0.5, cols.mean() + 0.5
+        theta = np.radians(np.arange(360))[:, None]
+        steps = np.arange(0.0, 60.0, 0.25)[None, :]
+        inside = spot[np.clip((cy + steps * np.sin(theta)).astype(int), 0, spot.shape[0] - 1),
+                      np.clip((cx + steps * np.cos(theta)).astype(int), 0, spot.shape[1] - 1)]
+        profile = steps[0, np.argmin(np.cumprod(inside, axis=1), axis=1) - 1]
+        return np.abs(np.fft.rfft(profile - profile.mean()))[6]
+
+    assert harmonic(0.7) < 0.5 * harmonic(0.0)
