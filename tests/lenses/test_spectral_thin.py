@@ -154,3 +154,30 @@ def test_with_ideal_glass_the_plugin_renders_what_mitsubas_thinlens_renders(make
 
     ours, mitsuba = frame(model="spectral_thin", glass="ideal"), frame(model="thin")
     assert np.allclose(ours, mitsuba, rtol=1e-4, atol=1e-6 * mitsuba.max())
+
+
+def test_a_thin_lens_with_its_stop_at_the_lens_has_no_lateral_colour():
+    """The issue asks for lateral colour "from magnification vs λ"; a thin lens whose stop is the
+    lens has none: every wavelength's chief ray passes the centre undeviated, so an off-axis
+    point's F and C images share one centroid (within 0.1 px here) while their blur sizes differ
+    (longitudinal colour). Lateral colour needs the stop away from the glass — a prescription."""
+    f, distance = 0.05, 2.0
+    lens = _lens_with_sensor_at(f, f * distance / (distance - f), 4.0)
+
+    def source(mi):
+        return {"source": {"type": "disk", "emitter": {"type": "area", "radiance": {"type": "uniform", "value": 1.0}},
+                           "to_world": mi.ScalarTransform4f().translate([0.006, 0.003, distance])
+                           .rotate([0, 1, 0], 180.0).scale(0.001)}}
+
+    image = _render(lens, "N-BK7", source, spp=512)
+    yy, xx = np.mgrid[0:SIZE, 0:SIZE] + 0.5
+    centroids, spreads = [], []
+    for index in range(2):
+        spot = image[..., index]
+        total = spot.sum()
+        cy, cx = (spot * yy).sum() / total, (spot * xx).sum() / total
+        centroids.append(np.array([cy, cx]))
+        spreads.append((spot * ((yy - cy) ** 2 + (xx - cx) ** 2)).sum() / total)
+    assert np.linalg.norm(centroids[0] - centroids[1]) < 0.1
+    assert abs(centroids[0][1] - SIZE / 2) > 10  # well off axis
+    assert spreads[0] > 2 * spreads[1]  # F about twice as far out of focus as C (the d line between)
