@@ -27,7 +27,7 @@ References
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -66,13 +66,21 @@ AIR = ModelGlass(1.0)
 class Surface:
     """One surface: signed radius (m; 0 = flat), gap to the next surface (m), the medium after
     it (a catalogue :class:`~spectral_cam.lenses.glass.Glass` or a :class:`ModelGlass`), clear
-    semi-diameter (m), and whether it is the aperture stop."""
+    semi-diameter (m), whether it is the aperture stop, and for an even asphere its conic
+    constant k and coefficients (A₄, A₆, A₈, A₁₀ in m⁻³, m⁻⁵, …): the sag
+    z(ρ) = cρ/(1 + √(1 − (1 + k)c²ρ)) + A₄ρ² + A₆ρ³ + …, ρ = x² + y², c = 1/R."""
 
     radius_m: float
     thickness_m: float
     medium: object
     semi_diameter_m: float
     stop: bool = False
+    conic: float = 0.0
+    aspheric: tuple[float, ...] = ()
+
+    @property
+    def is_asphere(self) -> bool:
+        return self.conic != 0.0 or any(self.aspheric)
 
 
 @dataclass(frozen=True)
@@ -191,7 +199,7 @@ class Prescription:
             middle = 0.5 * (low + high)
             surfaces = list(self.surfaces)
             stop = surfaces[index]
-            surfaces[index] = Surface(stop.radius_m, stop.thickness_m, stop.medium, stop.semi_diameter_m * middle, True)
+            surfaces[index] = replace(stop, semi_diameter_m=stop.semi_diameter_m * middle)
             trial = Prescription(self.name, self.title, self.source, tuple(surfaces), self.stated_focal_length_m)
             if trial.traced_f_number() > f_number:
                 low = middle
@@ -305,7 +313,8 @@ class Prescription:
     def scaled(self, factor: float) -> "Prescription":
         """The same design with every length multiplied by ``factor``."""
         surfaces = tuple(Surface(s.radius_m * factor, s.thickness_m * factor, s.medium, s.semi_diameter_m * factor,
-                                 s.stop) for s in self.surfaces)
+                                 s.stop, s.conic, tuple(a * factor ** (1 - 2 * (i + 2)) for i, a in enumerate(s.aspheric)))
+                         for s in self.surfaces)
         stated = self.stated_focal_length_m * factor if self.stated_focal_length_m else None
         return Prescription(self.name, self.title, self.source, surfaces, stated, self.stated_f_number)
 
@@ -314,7 +323,8 @@ class Prescription:
         signs flipped, each followed by the medium that was before it (air before the first)."""
         before = [AIR] + [s.medium for s in self.surfaces[:-1]]
         gaps = [s.thickness_m for s in self.surfaces[:-1]][::-1] + [0.0]
-        surfaces = tuple(Surface(-s.radius_m, gap, medium, s.semi_diameter_m, s.stop)
+        surfaces = tuple(Surface(-s.radius_m, gap, medium, s.semi_diameter_m, s.stop, s.conic,
+                                 tuple(-a for a in s.aspheric))  # mirrored in z: the sag changes sign
                          for s, medium, gap in zip(self.surfaces[::-1], before[::-1], gaps))
         return Prescription(self.name + " (reversed)", self.title, self.source, surfaces)
 
@@ -342,7 +352,8 @@ class Prescription:
         n = self.indices(wavelength_nm)
         passed = np.ones(len(o), bool)
         for i, (surface, z0) in enumerate(zip(self.surfaces, self.vertices_m())):
-            o, normal, hit = _intersect(o, d, surface.radius_m, z0)
+            o, normal, hit = (_intersect_asphere(o, d, surface, z0) if surface.is_asphere
+                              else _intersect(o, d, surface.radius_m, z0))
             passed &= hit & (np.hypot(o[:, 0], o[:, 1]) <= surface.semi_diameter_m)
             if surface.stop or n[i + 1] == n[i]:
                 continue
@@ -372,6 +383,42 @@ def _intersect(o, d, radius, z0):
     normal = -normal if radius < 0 else normal
     normal = np.where((normal[:, 2] > 0)[:, None], -normal, normal)
     return points, normal, (disc >= 0) & (t >= 0)
+
+
+def asphere_sag(surface: Surface, rho):
+    """Sag z(ρ) of an even asphere and dz/dρ, ρ = x² + y² (m², arrays)."""
+    c = 0.0 if surface.radius_m == 0 else 1.0 / surface.radius_m
+    root = np.sqrt(np.clip(1.0 - (1.0 + surface.conic) * c * c * rho, 0.0, None))
+    sag = c * rho / (1.0 + root)
+    slope = np.where(root > 0, c / (2.0 * np.maximum(root, 1e-300)), np.inf) if c else np.zeros_like(rho)
+    for i, a in enumerate(surface.aspheric):
+        power = i + 2
+        sag = sag + a * rho ** power
+        slope = slope + power * a * rho ** (power - 1)
+    return sag, slope
+
+
+def _intersect_asphere(o, d, surface: Surface, z0):
+    """Rays against an even asphere: Newton's method on F = sag(x² + y²) − (z − z0) along each
+    ray from its meeting with the vertex plane; normals ∇F facing the incoming side."""
+    t = (z0 - o[:, 2]) / d[:, 2]
+    for _ in range(12):
+        p = o + t[:, None] * d
+        rho = p[:, 0] ** 2 + p[:, 1] ** 2
+        sag, slope = asphere_sag(surface, rho)
+        f = sag - (p[:, 2] - z0)
+        gradient = np.stack([2 * p[:, 0] * slope, 2 * p[:, 1] * slope, -np.ones_like(rho)], axis=1)
+        t = t - f / np.einsum("ij,ij->i", gradient, d)
+    p = o + t[:, None] * d
+    rho = p[:, 0] ** 2 + p[:, 1] ** 2
+    sag, slope = asphere_sag(surface, rho)
+    c = 0.0 if surface.radius_m == 0 else 1.0 / surface.radius_m
+    inside = 1.0 - (1.0 + surface.conic) * c * c * rho >= 0
+    hit = inside & (np.abs(sag - (p[:, 2] - z0)) < 1e-12) & (t >= 0) & np.isfinite(t)
+    normal = np.stack([2 * p[:, 0] * slope, 2 * p[:, 1] * slope, -np.ones_like(rho)], axis=1)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.where((np.einsum("ij,ij->i", normal, d) > 0)[:, None], -normal, normal)
+    return p, normal, hit
 
 
 def _refract(d, normal, mu):
@@ -423,8 +470,11 @@ def load_prescription(name: str) -> Prescription:
             else:
                 vd = (row.get("vd") or "").strip()
                 medium = ModelGlass(float(row["nd"]), float(vd) if vd else None)
+            conic = float(row.get("conic") or 0.0)
+            aspheric = tuple(float(row.get(f"a{2 * k}") or 0.0) * 1e3 ** (2 * k - 1) for k in (2, 3, 4, 5))
             surfaces.append(Surface(float(row["radius_mm"]) * mm, float(row["thickness_mm"]) * mm, medium,
-                                    float(row["semi_diameter_mm"]) * mm, stop))
+                                    float(row["semi_diameter_mm"]) * mm, stop, conic,
+                                    aspheric if any(aspheric) else ()))
     except (KeyError, ValueError, TypeError) as exc:
         raise ConfigError(f"lens prescription {path}: cannot read its rows ({exc}); columns: radius_mm, "
                           "thickness_mm, nd, vd, glass, semi_diameter_mm") from None

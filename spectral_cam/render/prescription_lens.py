@@ -88,6 +88,8 @@ def plugin_dict(lens: Prescription, frame_lens, focus_distance_m: float) -> dict
              "vertices": _text(rear.vertices_m()),
              "semi_diameters": _text(s.semi_diameter_m for s in rear.surfaces),
              "stops": _text(float(s.stop) for s in rear.surfaces),
+             "conics": _text(s.conic for s in rear.surfaces),
+             "aspheric": _text(v for s in rear.surfaces for v in (tuple(s.aspheric) + (0.0,) * 4)[:4]),
              "bounds": _text(bounds.ravel())}
     for i, surface in enumerate(rear.surfaces):
         entry[f"index_{i}"] = {"type": "irregular", "wavelengths": _text(TABLE_NM),
@@ -123,6 +125,8 @@ def _sensor_class(mi):
             self.radii, self.vertices = floats(props, "radii"), floats(props, "vertices")
             self.semi_diameters, self.stops = floats(props, "semi_diameters"), floats(props, "stops")
             self.indices = [props.get(f"index_{i}") for i in range(len(self.radii))]
+            self.conics = floats(props, "conics")
+            self.aspheric = np.asarray(floats(props, "aspheric")).reshape(-1, 4).tolist()
             bounds = np.asarray(floats(props, "bounds")).reshape(-1, 4)
             self.bounds = [mi.Float(bounds[:, k].astype(np.float32)) for k in range(4)]
             self.bins = len(bounds)
@@ -136,9 +140,14 @@ def _sensor_class(mi):
             si = dr.zeros(mi.SurfaceInteraction3f)
             si.wavelengths = wavelengths
             n_before = mi.Float(1.0)
-            for radius, z0, semi, stop, index in zip(self.radii, self.vertices, self.semi_diameters, self.stops,
-                                                      self.indices):
-                if radius == 0.0:
+            for radius, z0, semi, stop, index, conic, aspheric in zip(
+                    self.radii, self.vertices, self.semi_diameters, self.stops, self.indices, self.conics,
+                    self.aspheric):
+                if conic != 0.0 or any(aspheric):
+                    p, normal, hit = self._asphere(o, d, radius, z0, conic, aspheric)
+                    active &= hit
+                    t = mi.Float(0.0)
+                elif radius == 0.0:
                     t = (z0 - o.z) / d.z
                     p = o + t * d
                     normal = mi.Vector3f(0.0, 0.0, 1.0)
@@ -166,6 +175,35 @@ def _sensor_class(mi):
                     d = dr.normalize(mu * d + (mu * cos_i - cos_t) * normal)
                 n_before = n_after
             return o, d, active
+
+        @staticmethod
+        def _asphere(o, d, radius, z0, conic, aspheric):
+            """Newton's method on F = sag(ρ) − (z − z0) along each ray (as the NumPy tracer)."""
+            c = 0.0 if radius == 0.0 else 1.0 / radius
+
+            def sag_slope(rho):
+                root = dr.safe_sqrt(1.0 - (1.0 + conic) * c * c * rho)
+                sag = c * rho / (1.0 + root)
+                slope = c / (2.0 * dr.maximum(root, 1e-30))
+                for i, a in enumerate(aspheric):
+                    sag += a * dr.power(rho, i + 2)
+                    slope += (i + 2) * a * dr.power(rho, i + 1)
+                return sag, slope
+
+            t = (z0 - o.z) / d.z
+            for _ in range(12):
+                p = o + t * d
+                rho = p.x * p.x + p.y * p.y
+                sag, slope = sag_slope(rho)
+                f = sag - (p.z - z0)
+                dfdt = 2.0 * p.x * slope * d.x + 2.0 * p.y * slope * d.y - d.z
+                t = t - f / dfdt
+            p = o + t * d
+            rho = p.x * p.x + p.y * p.y
+            sag, slope = sag_slope(rho)
+            hit = (1.0 - (1.0 + conic) * c * c * rho >= 0.0) & (dr.abs(sag - (p.z - z0)) < 1e-7) & (t >= 0.0)
+            normal = dr.normalize(mi.Vector3f(2.0 * p.x * slope, 2.0 * p.y * slope, -1.0))
+            return p, normal, hit
 
         def sample_ray(self, time, wavelength_sample, position_sample, aperture_sample, active=True):
             wavelengths, weight = self.sample_wavelengths(dr.zeros(mi.SurfaceInteraction3f), wavelength_sample,
