@@ -27,6 +27,7 @@ References
 from __future__ import annotations
 
 import csv
+import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -335,8 +336,9 @@ class Prescription:
         return -matrix[0, 1] / matrix[1, 1]
 
     # ---------------------------------------------------------------- real rays
-    def trace(self, origins, directions, wavelength_nm: float = LINES_NM["d"]):
-        """Trace rays (N, 3) from object space through every surface.
+    def trace(self, origins, directions, wavelength_nm: float = LINES_NM["d"], *, heights: list | None = None):
+        """Trace rays (N, 3) from object space through every surface (``heights``: a list that
+        receives each surface's radial ray heights, for sizing clear apertures).
 
         Returns
         -------
@@ -354,6 +356,8 @@ class Prescription:
         for i, (surface, z0) in enumerate(zip(self.surfaces, self.vertices_m())):
             o, normal, hit = (_intersect_asphere(o, d, surface, z0) if surface.is_asphere
                               else _intersect(o, d, surface.radius_m, z0))
+            if heights is not None:
+                heights.append(np.hypot(o[:, 0], o[:, 1]))
             passed &= hit & (np.hypot(o[:, 0], o[:, 1]) <= surface.semi_diameter_m)
             if surface.stop or n[i + 1] == n[i]:
                 continue
@@ -436,10 +440,51 @@ def _header(lines: list[str]) -> dict:
     info = {"title": lines[0].lstrip("# ").strip() if lines else ""}
     for line in lines:
         text = line.lstrip("# ").strip()
-        for key in ("source", "stated_focal_length_mm", "stated_f_number"):
+        for key in ("source", "stated_focal_length_mm", "stated_f_number", "entrance_pupil_diameter_mm",
+                    "half_field_deg"):
             if text.startswith(key + ":"):
                 info[key] = text.split(":", 1)[1].strip()
     return info
+
+
+#: Margin added to the traced heights when a prescription's clear apertures are derived.
+APERTURE_MARGIN = 1.01
+
+
+def _clear_apertures(path: Path, surfaces: list[Surface], info: dict) -> list[Surface]:
+    """Semi-diameters for a prescription that gives none, from its entrance pupil and half field
+    (header lines ``entrance_pupil_diameter_mm`` and ``half_field_deg``): the stop sized so the
+    paraxial entrance pupil has that diameter, every other surface just large enough (× 1.01) for
+    every ray of the axial and full-field bundles filling that pupil — a lens without vignetting
+    to its stated field."""
+    try:
+        pupil = float(info["entrance_pupil_diameter_mm"]) * 1e-3 / 2
+        field = float(info["half_field_deg"])
+    except KeyError:
+        raise ConfigError(f"lens prescription {path}: blank semi-diameters need the header lines "
+                          "'# entrance_pupil_diameter_mm: D' and '# half_field_deg: θ' to derive them") from None
+    wide = [replace(s, semi_diameter_m=1.0) for s in surfaces]  # 1 m: nothing clips yet
+    draft = Prescription(path.stem, "", "", tuple(wide))
+    stop = draft.stop_index()
+    _, unit_pupil = draft.entrance_pupil()
+    wide[stop] = replace(wide[stop], semi_diameter_m=pupil / unit_pupil * wide[stop].semi_diameter_m)
+    draft = Prescription(path.stem, "", "", tuple(wide))
+    pupil_z, _ = draft.entrance_pupil()
+    axis = np.linspace(-pupil, pupil, 41)
+    gx, gy = (a.ravel() for a in np.meshgrid(axis, axis))
+    keep = gx * gx + gy * gy <= pupil * pupil
+    rim = np.linspace(0.0, 2 * np.pi, 721)[:-1]  # the pupil's edge itself, where rays reach farthest
+    px, py = np.concatenate([gx[keep], pupil * np.cos(rim)]), np.concatenate([gy[keep], pupil * np.sin(rim)])
+    reach = np.zeros(len(wide))
+    for angle in (0.0, field, -field):
+        tilt = np.radians(angle)
+        direction = np.tile([0.0, np.sin(tilt), np.cos(tilt)], (len(px), 1))
+        origins = np.stack([px, py, np.full(len(px), pupil_z)], axis=1) - direction * (pupil_z + 1.0)
+        heights: list = []
+        draft.trace(origins, direction, heights=heights)
+        reach = np.maximum(reach, [h.max() for h in heights])
+    return [s if i == stop else replace(s, semi_diameter_m=float(reach[i]) * APERTURE_MARGIN)
+            for i, s in enumerate(wide)]
 
 
 def load_prescription(name: str) -> Prescription:
@@ -472,16 +517,19 @@ def load_prescription(name: str) -> Prescription:
                 medium = ModelGlass(float(row["nd"]), float(vd) if vd else None)
             conic = float(row.get("conic") or 0.0)
             aspheric = tuple(float(row.get(f"a{2 * k}") or 0.0) * 1e3 ** (2 * k - 1) for k in (2, 3, 4, 5))
+            semi = (row.get("semi_diameter_mm") or "").strip()
             surfaces.append(Surface(float(row["radius_mm"]) * mm, float(row["thickness_mm"]) * mm, medium,
-                                    float(row["semi_diameter_mm"]) * mm, stop, conic,
+                                    float(semi) * mm if semi else math.nan, stop, conic,
                                     aspheric if any(aspheric) else ()))
     except (KeyError, ValueError, TypeError) as exc:
         raise ConfigError(f"lens prescription {path}: cannot read its rows ({exc}); columns: radius_mm, "
                           "thickness_mm, nd, vd, glass, semi_diameter_mm") from None
+    info = _header(comments)
+    if any(math.isnan(s.semi_diameter_m) for s in surfaces):
+        surfaces = _clear_apertures(path, surfaces, info)
     if not surfaces or sum(s.stop for s in surfaces) != 1 or any(s.semi_diameter_m <= 0 for s in surfaces):
         raise ConfigError(f"lens prescription {path}: needs surfaces with positive semi-diameters and exactly one "
                           "STOP row")
-    info = _header(comments)
     focal = float(info["stated_focal_length_mm"]) * 1e-3 if "stated_focal_length_mm" in info else None
     f_number = float(info["stated_f_number"]) if "stated_f_number" in info else None
     return Prescription(path.stem, info["title"], info.get("source", str(path)), tuple(surfaces), focal, f_number)

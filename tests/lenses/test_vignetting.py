@@ -53,7 +53,7 @@ def test_the_stress_study_says_where_the_thin_lens_holds(tmp_path):
 
     result = lens_study(StressSettings())
     cases = {row["case"] for row in result["rows"]}
-    assert cases == {"dgauss_50mm", "telephoto_250mm", "wide_56deg_100mm"}
+    assert cases == {"dgauss_50mm", "dgauss_f2_100mm_glass", "telephoto_250mm", "wide_56deg_100mm"}
     spots = np.asarray(result["data"]["dgauss_50mm"]["spot_px"])[:, 0]
     assert spots[0] > 1.0 and spots[-1] < 1.0 and np.all(np.diff(spots[:4]) < 0)
     assert (tmp_path / plot_lenses(result, tmp_path)[0]).stat().st_size > 10_000
