@@ -338,10 +338,12 @@ class LensSection:
         if len(self.distortion) != 5 or not all(math.isfinite(v) and abs(v) <= 1.0 for v in self.distortion):
             _fail("lens.distortion", list(self.distortion), "give Brown–Conrady [k1, k2, p1, p2, k3] (OpenCV's "
                   "order), each within ±1")
-        shaped = self.blades or any(self.distortion)
-        if shaped and self.model not in ("spectral_thin", "auto"):
-            _fail("lens.model", self.model, "aperture blades and distortion are rendered by the \"spectral_thin\" lens "
-                  "(lens.model = \"auto\" picks it when they are set); set lens.model = \"spectral_thin\" or \"auto\"")
+        if self.blades and self.model not in ("spectral_thin", "auto", "prescription"):
+            _fail("lens.model", self.model, "aperture blades are rendered by the \"spectral_thin\" lens (lens.model = "
+                  "\"auto\" picks it) or a \"prescription\"'s stop; set lens.model accordingly")
+        if any(self.distortion) and self.model not in ("spectral_thin", "auto"):
+            _fail("lens.model", self.model, "Brown–Conrady distortion is rendered by the \"spectral_thin\" lens "
+                  "(lens.model = \"auto\" picks it; a prescription has its own); set lens.model = \"spectral_thin\"")
         spectra.validate_transmission(self.transmission)
 
 

@@ -18,7 +18,10 @@ distance) × (1 + 4N_w²)/π, so the film holds the radiance the sensor's camera
 and the image carries the lens's own vignetting (the sensor adds no cos⁴ of its own).
 
 Dispersion: a prescription whose glasses disperse traces one wavelength per ray (the others
-terminated, ×4 on the first); one that gives only nd keeps all four.
+terminated, ×4 on the first); one that gives only nd keeps all four. Aperture blades
+(``lens.blades``, rotation, rounding) shape the stop itself: a ray passes it inside the regular
+polygon (blended with the circle by the rounding) inscribed in the stop's clear aperture, so the
+image's brightness and bokeh follow the opening.
 
 References
 ----------
@@ -69,7 +72,8 @@ def pupil_bounds(rear: Prescription, sensor_z: float, max_radius: float) -> np.n
     return bounds
 
 
-def plugin_dict(lens: Prescription, frame_lens, focus_distance_m: float) -> dict:
+def plugin_dict(lens: Prescription, frame_lens, focus_distance_m: float, *, blades: int = 0,
+                blade_rotation_deg: float = 0.0, blade_rounding: float = 0.0) -> dict:
     """The plugin's scene-dict entries (without film, sampler and pose): ``lens`` focused on
     ``focus_distance_m`` (from the entrance pupil) over the sensor of ``frame_lens`` (the
     frame's ThinLens: its size and working f-number)."""
@@ -90,7 +94,8 @@ def plugin_dict(lens: Prescription, frame_lens, focus_distance_m: float) -> dict
              "stops": _text(float(s.stop) for s in rear.surfaces),
              "conics": _text(s.conic for s in rear.surfaces),
              "aspheric": _text(v for s in rear.surfaces for v in (tuple(s.aspheric) + (0.0,) * 4)[:4]),
-             "bounds": _text(bounds.ravel())}
+             "bounds": _text(bounds.ravel()), "blades": int(blades),
+             "blade_rotation": float(np.radians(blade_rotation_deg)), "blade_rounding": float(blade_rounding)}
     for i, surface in enumerate(rear.surfaces):
         entry[f"index_{i}"] = {"type": "irregular", "wavelengths": _text(TABLE_NM),
                                "values": _text(surface.medium.index(TABLE_NM))}
@@ -126,6 +131,9 @@ def _sensor_class(mi):
             self.semi_diameters, self.stops = floats(props, "semi_diameters"), floats(props, "stops")
             self.indices = [props.get(f"index_{i}") for i in range(len(self.radii))]
             self.conics = floats(props, "conics")
+            self.blades = props.get("blades", 0)
+            self.blade_rotation = props.get("blade_rotation", 0.0)
+            self.blade_rounding = props.get("blade_rounding", 0.0)
             self.aspheric = np.asarray(floats(props, "aspheric")).reshape(-1, 4).tolist()
             bounds = np.asarray(floats(props, "bounds")).reshape(-1, 4)
             self.bounds = [mi.Float(bounds[:, k].astype(np.float32)) for k in range(4)]
@@ -162,7 +170,10 @@ def _sensor_class(mi):
                     t = dr.select(closer, -b - root, -b + root)
                     p = o + t * d
                     normal = dr.normalize(p - centre)
-                active &= (t >= 0.0) & (p.x * p.x + p.y * p.y <= semi * semi)
+                if stop and self.blades >= 3:  # the opening the blades leave (as the thin lens's)
+                    active &= (t >= 0.0) & (dr.sqrt(p.x * p.x + p.y * p.y) <= semi * self._blade_boundary(p))
+                else:
+                    active &= (t >= 0.0) & (p.x * p.x + p.y * p.y <= semi * semi)
                 o = p
                 n_after = index.eval(si)[0]
                 if not stop:
@@ -175,6 +186,15 @@ def _sensor_class(mi):
                     d = dr.normalize(mu * d + (mu * cos_i - cos_t) * normal)
                 n_before = n_after
             return o, d, active
+
+        def _blade_boundary(self, p):
+            """Radius of the bladed opening (fraction of the stop's) at the point's angle from +y
+            towards +x: the regular polygon blended with the circle by the rounding."""
+            n = self.blades
+            sector = 2 * np.pi / n
+            phi = dr.atan2(p.x, p.y) - self.blade_rotation
+            local = phi - sector * dr.floor(phi / sector) - sector / 2
+            return (1.0 - self.blade_rounding) * np.cos(np.pi / n) / dr.cos(local) + self.blade_rounding
 
         @staticmethod
         def _asphere(o, d, radius, z0, conic, aspheric):

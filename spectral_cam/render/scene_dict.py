@@ -137,8 +137,9 @@ def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: s
         from .prescription_lens import plugin_dict as prescription_dict, register as register_prescription
 
         register_prescription(mi)
-        return dict(prescription_dict(load_prescription(prescription), lens, lens.focus_distance_m), to_world=pose,
-                    film=film, sampler={"type": sampler, "sample_count": spp})
+        return dict(prescription_dict(load_prescription(prescription), lens, lens.focus_distance_m, blades=blades,
+                                      blade_rotation_deg=blade_rotation_deg, blade_rounding=blade_rounding),
+                    to_world=pose, film=film, sampler={"type": sampler, "sample_count": spp})
     if model == "spectral_thin":
         from .spectral_lens import plugin_dict, register
 
