@@ -43,6 +43,23 @@ def _lens(size=128, focal=0.025, f_number=2.0, focus=1.0, pitch=6e-6):
                     sensor_height_m=size * pitch, width_px=size, height_px=size)
 
 
+def _spot_boundary(image):
+    """A defocused spot (smoothed, above half its bright level) and the Fourier magnitudes of its
+    boundary: along 360 directions from its centroid, the last radius still inside it."""
+    from scipy import ndimage
+
+    image = ndimage.gaussian_filter(image, 1.0)
+    spot = image > 0.5 * np.percentile(image[image > 0.05 * image.max()], 75)
+    rows, cols = np.nonzero(spot)
+    cy, cx = rows.mean() + 0.5, cols.mean() + 0.5
+    theta = np.radians(np.arange(360))[:, None]
+    steps = np.arange(0.0, 60.0, 0.25)[None, :]
+    inside = spot[np.clip((cy + steps * np.sin(theta)).astype(int), 0, spot.shape[0] - 1),
+                  np.clip((cx + steps * np.cos(theta)).astype(int), 0, spot.shape[1] - 1)]
+    profile = steps[0, np.argmin(np.cumprod(inside, axis=1), axis=1) - 1]
+    return spot, np.abs(np.fft.rfft(profile - profile.mean()))
+
+
 @pytest.mark.parametrize("blades, rotation, depth, vertex_up", [(5, 0.0, 3.0, True), (5, 0.0, 0.6, False),
                                                                (6, 30.0, 3.0, None), (7, 0.0, 3.0, True)])
 def test_a_defocused_point_images_as_the_blades_regular_polygon(blades, rotation, depth, vertex_up):
@@ -51,21 +68,10 @@ def test_a_defocused_point_images_as_the_blades_regular_polygon(blades, rotation
     (rotation 0), the spot of a source behind focus has its vertex up in the image — its
     centroid lies below its bounding box's middle (0.0955·R for a sharp pentagon of
     circumradius R) — and one in front of focus is flipped (rays cross before the sensor)."""
-    from scipy import ndimage
-
-    image = ndimage.gaussian_filter(_render(_lens(), _dots([(0.0, 0.0, depth)], 0.0005 * depth), blades=blades,
-                                            blade_rotation_deg=rotation), 1.0)
-    spot = image > 0.5 * np.percentile(image[image > 0.05 * image.max()], 75)
-    rows, cols = np.nonzero(spot)
-    cy, cx = rows.mean() + 0.5, cols.mean() + 0.5
-    # the boundary: along 360 directions from the centroid, the last radius still inside the spot
-    theta = np.radians(np.arange(360))[:, None]
-    steps = np.arange(0.0, 60.0, 0.25)[None, :]
-    r_idx = np.clip((cy + steps * np.sin(theta)).astype(int), 0, spot.shape[0] - 1)
-    c_idx = np.clip((cx + steps * np.cos(theta)).astype(int), 0, spot.shape[1] - 1)
-    inside = spot[r_idx, c_idx]
-    profile = steps[0, np.argmin(np.cumprod(inside, axis=1), axis=1) - 1]
-    harmonics = np.abs(np.fft.rfft(profile - profile.mean()))
+    spot, harmonics = _spot_boundary(_render(_lens(), _dots([(0.0, 0.0, depth)], 0.0005 * depth), blades=blades,
+                                             blade_rotation_deg=rotation))
+    rows, _ = np.nonzero(spot)
+    cy = rows.mean() + 0.5
     assert np.argmax(harmonics[1:12]) + 1 == blades
     if vertex_up is not None:
         middle = (rows.min() + rows.max() + 1) / 2
@@ -194,19 +200,8 @@ def test_rounded_blades_pass_their_openings_area(rounding):
 def test_rounded_blades_soften_the_polygon():
     """A defocused point through six blades: the 6-fold harmonic of the spot's boundary drops as
     the blades round (ρ = 0.7 keeps less than half of the straight blades' one)."""
-    from scipy import ndimage
-
     def harmonic(rounding):
-        image = ndimage.gaussian_filter(_render(_lens(), _dots([(0.0, 0.0, 3.0)], 0.0015), blades=6,
-                                                blade_rounding=rounding), 1.0)
-        spot = image > 0.5 * np.percentile(image[image > 0.05 * image.max()], 75)
-        rows, cols = np.nonzero(spot)
-        cy, cx = rows.mean() + 0.5, cols.mean() + 0.5
-        theta = np.radians(np.arange(360))[:, None]
-        steps = np.arange(0.0, 60.0, 0.25)[None, :]
-        inside = spot[np.clip((cy + steps * np.sin(theta)).astype(int), 0, spot.shape[0] - 1),
-                      np.clip((cx + steps * np.cos(theta)).astype(int), 0, spot.shape[1] - 1)]
-        profile = steps[0, np.argmin(np.cumprod(inside, axis=1), axis=1) - 1]
-        return np.abs(np.fft.rfft(profile - profile.mean()))[6]
+        return _spot_boundary(_render(_lens(), _dots([(0.0, 0.0, 3.0)], 0.0015), blades=6,
+                                      blade_rounding=rounding))[1][6]
 
     assert harmonic(0.7) < 0.5 * harmonic(0.0)
