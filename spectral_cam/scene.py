@@ -263,7 +263,7 @@ class SkySection:
 
 @dataclass(frozen=True)
 class IlluminantSection:
-    """The light: a named SPD, ``blackbody:<K>`` or a CSV path, at ``illuminance_lux`` on a
+    """The light: a named SPD, ``blackbody:<K>``, ``daylight:<CCT>`` or a CSV path, at ``illuminance_lux`` on a
     surface facing the camera. ``spd = "auto"``: the scene's own light, D65 for a preset and
     its emitters' spectrum for an XML scene (``emitter`` names the one to use when it has
     several; otherwise the one sending the camera most light: ``render/lights.py``)."""

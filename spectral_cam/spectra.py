@@ -240,6 +240,9 @@ COLOUR_LIGHT_SOURCE_KEYS = (
 )
 #: Blackbody temperatures ``illuminant.spd = "blackbody:<K>"`` accepts (K).
 BLACKBODY_RANGE_K = (500.0, 50000.0)
+#: Correlated colour temperatures ``illuminant.spd = "daylight:<K>"`` accepts (K): the CIE
+#: daylight locus is defined from 4000 to 25 000 K (CIE 15:2004 §3.1).
+DAYLIGHT_RANGE_K = (4000.0, 25000.0)
 
 
 @functools.lru_cache(maxsize=1)
@@ -270,22 +273,22 @@ def _resolve_illuminant(spec: str) -> tuple[str, object]:
     spec = str(spec).strip()
     if spec == "auto":  # a preset's own light; an XML scene's is resolved from its emitters first
         return "name", "D65"
-    if spec.lower().startswith("blackbody:"):
-        try:
-            kelvin = float(spec.split(":", 1)[1])
-        except ValueError:
-            kelvin = -1.0
-        low, high = BLACKBODY_RANGE_K
-        if not low <= kelvin <= high:
-            raise ConfigError(f"illuminant {spec!r}: use 'blackbody:<K>' with {low:g} <= K <= {high:g}")
-        return "blackbody", kelvin
+    for kind, (low, high) in (("blackbody", BLACKBODY_RANGE_K), ("daylight", DAYLIGHT_RANGE_K)):
+        if spec.lower().startswith(kind + ":"):
+            try:
+                kelvin = float(spec.split(":", 1)[1])
+            except ValueError:
+                kelvin = -1.0
+            if not low <= kelvin <= high:
+                raise ConfigError(f"illuminant {spec!r}: use '{kind}:<K>' with {low:g} <= K <= {high:g}")
+            return kind, kelvin
     by_fold = _illuminant_names_by_fold()
     if spec.casefold() in by_fold:  # before paths: names like "F40/DX (Broadband FL)" hold a "/"
         return "name", by_fold[spec.casefold()]
     if _looks_like_path(spec):
         return "csv", spec
     raise ConfigError(
-        f"unknown illuminant {spec!r}; valid: 'blackbody:<K>', a CSV path, or one of "
+        f"unknown illuminant {spec!r}; valid: 'blackbody:<K>', 'daylight:<K>', a CSV path, or one of "
         + ", ".join(illuminant_names())
     )
 
@@ -312,18 +315,23 @@ def illuminant(spec: str) -> "colour.SpectralDistribution":  # noqa: F821
     ----------
     spec
         A colour-science illuminant or light-source name (``"D65"``, ``"A"``, ``"FL11"``,
-        ``"LED-B1"``, ...), ``"blackbody:<temperature in K>"`` or the path of a CSV file.
+        ``"LED-B1"``, ...), ``"blackbody:<temperature in K>"``, ``"daylight:<CCT in K>"`` (the
+        CIE daylight series at that correlated colour temperature, 4000–25 000 K) or the path of
+        a CSV file.
 
     References
     ----------
-    .. [1] CIE 15:2004, Colorimetry, 3rd ed., §3 (standard illuminants) and Planck's law
-       (``colour.sd_blackbody``).
+    .. [1] CIE 15:2004, Colorimetry, 3rd ed., §3 (standard illuminants, the daylight series:
+       ``colour.sd_CIE_illuminant_D_series``) and Planck's law (``colour.sd_blackbody``).
     """
     import colour
 
     kind, value = _resolve_illuminant(spec)
     if kind == "blackbody":
         return colour.sd_blackbody(value, colour.SpectralShape(360, 830, 1))
+    if kind == "daylight":
+        xy = colour.temperature.CCT_to_xy_CIE_D(value)
+        return colour.sd_CIE_illuminant_D_series(xy).align(colour.SpectralShape(360, 830, 1))
     if kind == "csv":
         return load_spectrum_csv(value)
     table = _illuminant_table()

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from spectral_cam import ConfigError, scene_from_dict
+from spectral_cam import spectra
 from spectral_cam.spectra import load_spectrum_csv, reflectance
 
 pytestmark = pytest.mark.timeout(30)
@@ -111,3 +112,20 @@ def test_validation_refuses_what_the_loaders_refuse_with_the_same_message(spectr
         spec = spectrum_files.get(spec, spec) if isinstance(spec, str) else spec
         expected = _outcome(loader, spec)
         assert _outcome(validator, spec) == expected, spec
+
+
+@pytest.mark.parametrize("kelvin, name", [(6504.0, "D65"), (5003.0, "D50"), (7504.0, "D75")])
+def test_the_daylight_series_at_a_cct_is_cies_standard_daylight(kelvin, name):
+    """``daylight:<K>`` is the CIE daylight series at that correlated colour temperature: at the
+    CCTs of D50, D65 and D75 it is colour-science's tabulated illuminant within 0.5 % (the tables
+    are rounded), for sequences that follow daylight through a day by CCT."""
+    import colour
+
+    sd = spectra.illuminant(f"daylight:{kelvin:g}")
+    table = colour.SDS_ILLUMINANTS[name]
+    wavelengths = np.arange(380.0, 781.0, 5.0)
+    ours = np.array([sd[w] for w in wavelengths]) / sd[560]
+    theirs = np.array([table[w] for w in wavelengths]) / table[560]
+    assert np.allclose(ours, theirs, atol=5e-3)
+    with pytest.raises(ConfigError, match="daylight:<K>.*4000"):
+        spectra.validate_illuminant("daylight:2000")
