@@ -487,8 +487,9 @@ class RenderSection:
 class MotionSection:
     """Motion during the exposure: the camera's velocity (m/s) and angular velocity (°/s) in its
     own frame (x image-left, y up, z the view; yaw > 0 turns left, pitch > 0 tilts up, roll
-    about the view), and ``object_velocity_mps``, the scene in front of the camera moving
-    rigidly (the same as the camera moving the other way). Rendered as ``subframes``
+    about the view), and ``object_velocity_mps`` (same axes): the velocity of the shape named
+    ``object`` (an XML id or a preset's ``object_3``; its parts ``object_3_*`` move with it), or,
+    with no ``object``, of the whole scene moving rigidly (the camera moving the other way). Rendered as ``subframes``
     time-stratified sub-frames (``"auto"``: one per half pixel of the largest motion), each
     with an equal share of the samples, averaged before the sensor; the exposure's middle is
     the pose of the depth label. Needs a fixed ``exposure.time_s`` and ``render.spp``."""
@@ -496,6 +497,7 @@ class MotionSection:
     camera_velocity_mps: tuple[float, ...] = (0.0, 0.0, 0.0)
     camera_angular_velocity_dps: tuple[float, ...] = (0.0, 0.0, 0.0)
     object_velocity_mps: tuple[float, ...] = (0.0, 0.0, 0.0)
+    object: str = ""
     subframes: int | str = "auto"
 
     def __post_init__(self) -> None:

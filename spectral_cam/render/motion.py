@@ -2,8 +2,10 @@
 slice k renders the camera at its pose at the slice's middle, t_k = ((k + ½)/K − ½)·T (0 is the
 exposure's middle), with 1/K of the samples, and the slices are averaged before the sensor —
 the stratified estimate of the time integral ∫L(t)dt/T. Mitsuba 3 has no animated transforms,
-so only the sensor moves: the scene's objects moving rigidly (``motion.object_velocity_mps``)
-are the camera moving the other way.
+so each slice moves the sensor, and a named object (``motion.object``) by updating its
+``to_world`` (spheres, rectangles, discs, cylinders) or its vertices (meshes) through
+``mi.traverse``; with no object named, ``motion.object_velocity_mps`` moves the whole scene
+rigidly, which is the camera moving the other way.
 
 K (``motion.subframes = "auto"``) is one sub-frame per half pixel of the largest image motion:
 translation across the view |v_xy|·T/z_near·(v/p), along it |v_z|·T/z_near·r_corner, rotation
@@ -27,7 +29,7 @@ import numpy as np
 from ..optics import ThinLens
 from ..scene import SceneConfig
 
-__all__ = ["motion_blur_px", "plan_subframes", "subframe_transform"]
+__all__ = ["motion_blur_px", "plan_subframes", "subframe_transform", "ObjectMotion"]
 
 #: Largest image motion (px) one sub-frame stands for.
 PX_PER_SUBFRAME = 0.5
@@ -35,8 +37,11 @@ MAX_AUTO_SUBFRAMES = 256
 
 
 def _relative_velocity(config: SceneConfig) -> np.ndarray:
+    """The camera's velocity relative to the scene (the whole scene's motion folded in when no
+    single object moves)."""
     m = config.motion
-    return np.asarray(m.camera_velocity_mps, dtype=float) - np.asarray(m.object_velocity_mps, dtype=float)
+    camera = np.asarray(m.camera_velocity_mps, dtype=float)
+    return camera if m.object else camera - np.asarray(m.object_velocity_mps, dtype=float)
 
 
 def motion_blur_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray | None) -> float:
@@ -48,6 +53,9 @@ def motion_blur_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray | No
     corner = 0.5 * math.hypot(lens.width_px, lens.height_px)
     vx, vy, vz = _relative_velocity(config)
     yaw, pitch, roll = (math.radians(w) for w in config.motion.camera_angular_velocity_dps)
+    if config.motion.object:  # the object's own motion, over the camera's
+        ox, oy, oz = config.motion.object_velocity_mps
+        vx, vy, vz = abs(vx) + abs(ox), abs(vy) + abs(oy), abs(vz) + abs(oz)
     across = math.hypot(vx, vy) * exposure / near * scale
     along = abs(vz) * exposure / near * corner
     turning = math.hypot(yaw, pitch) * exposure * scale + abs(roll) * exposure * corner
@@ -74,3 +82,45 @@ def subframe_transform(mi, config: SceneConfig, index: int, count: int):
     offset = [float(v) for v in _relative_velocity(config) * t]
     return (mi.ScalarTransform4f().translate(offset).rotate([0, 1, 0], yaw).rotate([1, 0, 0], -pitch)
             .rotate([0, 0, 1], roll))
+
+
+class ObjectMotion:
+    """Moves the shape ``motion.object`` (and its parts ``<name>_*``) of a loaded scene to its place
+    at each sub-frame's time, and back when done: ``to_world`` parameters are translated, mesh
+    vertices offset, by the velocity (camera frame, turned into the world by the sensor's pose) ×
+    the sub-frame's time."""
+
+    def __init__(self, mi, scene, sensor, config: SceneConfig):
+        from ..errors import ConfigError
+
+        self.mi, self.config = mi, config
+        self.params = mi.traverse(scene)
+        name = config.motion.object
+        owners = {key.rsplit(".", 1)[0] for key in self.params.keys()
+                  if key.endswith((".to_world", ".vertex_positions"))}
+        moving = sorted(o for o in owners if o == name or o.startswith(name + "_"))
+        if not moving:
+            listed = ", ".join(sorted(owners)[:30])
+            raise ConfigError(f"motion.object = {name!r} is no movable shape of the scene (shapes with a "
+                              f"to_world or vertices: {listed})")
+        self.keys = [f"{o}.to_world" if f"{o}.to_world" in self.params else f"{o}.vertex_positions" for o in moving]
+        self.original = {k: type(self.params[k])(self.params[k]) for k in self.keys}
+        pose = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
+        self.velocity = pose[:3, :3] @ np.asarray(config.motion.object_velocity_mps, dtype=float)
+
+    def place(self, index: int, count: int) -> None:
+        t = ((index + 0.5) / count - 0.5) * float(self.config.exposure.time_s)
+        offset = self.velocity * t
+        for key in self.keys:
+            if key.endswith(".to_world"):
+                self.params[key] = type(self.original[key])().translate([float(v) for v in offset]) @ \
+                    self.original[key]
+            else:
+                vertices = np.asarray(self.original[key], dtype=np.float64).reshape(-1, 3) + offset
+                self.params[key] = self.mi.Float(vertices.astype(np.float32).ravel())
+        self.params.update()
+
+    def restore(self) -> None:
+        for key, value in self.original.items():
+            self.params[key] = value
+        self.params.update()

@@ -24,7 +24,7 @@ from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction
 from .films import band_film, camera_film
-from .motion import plan_subframes, subframe_transform
+from .motion import ObjectMotion, plan_subframes, subframe_transform
 from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, moved_sensor, pass_seed,
                          release_render_memory, tile_sensors)
 
@@ -219,15 +219,20 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     tiled = len(tiles) > 1
     data = np.empty((height, width, n_channels), np.float32) if tiled else None
     done, seeds, radiance_range = 0, [], _RadianceRange()
-    subframes = 1
+    subframes, mover = 1, None
     if config.motion.moving:
         subframes, decisions["motion"] = plan_subframes(config, lens, depth, target_spp)
+        if config.motion.object:
+            mover = ObjectMotion(mi, scene, sensor, config)
+            decisions["motion"]["object"] = {"name": config.motion.object, "shapes": mover.keys}
     for tile, rows, tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
         accumulated = _PassMean()
         done, index = 0, 0
         for subframe in range(subframes):
             frame_camera = tile_camera if subframes == 1 else moved_sensor(
                 mi, tile_camera, camera, subframe_transform(mi, config, subframe, subframes))
+            if mover is not None:
+                mover.place(subframe, subframes)
             share = target_spp // subframes
             passes = (_auto_passes(sampler, target_spp, lane_cap) if auto_spp
                       else _fixed_passes(sampler, share, lane_cap))
@@ -244,6 +249,8 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
                 if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
                     break
         del image
+        if mover is not None:
+            mover.restore()
         if tiled:
             data[rows[0]:rows[1]] = radiance_range.clear_rounding(accumulated.mean())
         else:
