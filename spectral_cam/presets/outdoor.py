@@ -107,14 +107,6 @@ def lit_by_sky(config: "SceneConfig") -> bool:
             and light_kind(config) == "sunsky")
 
 
-def sun_direction_camera(config: "SceneConfig", view: GroundView) -> np.ndarray:
-    """Unit vector towards the sun in the camera frame (NOAA's position for ``[sky]``)."""
-    sky = config.sky
-    sun = sun_position(sky.date, sky.hour, utc_offset_h=sky.utc_offset_h, latitude_deg=sky.latitude_deg,
-                       longitude_deg=sky.longitude_deg)
-    return view.rotation @ sun.direction_enu()
-
-
 def sunsky(config: "SceneConfig", view: GroundView, mi) -> dict:
     """Mitsuba's sun and sky with the sun where NOAA puts it and the sky's zenith up."""
     from ..errors import ConfigError

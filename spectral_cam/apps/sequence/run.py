@@ -156,14 +156,18 @@ def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureS
     return ExposureState(t, iso)
 
 
-def _develop(image, config: SceneConfig, state: ExposureState, white, index: int):
-    from ...isp import develop
+def _expose(image, config: SceneConfig, state: ExposureState, index: int):
+    """The frame's RAW at the controller's exposure (the same noise for the same frame)."""
     from ...sensor import expose
 
-    shot = config.replace(**{"exposure.time_s": state.time_s, "exposure.iso": state.iso})
-    raw = expose(image, shot, frame_seed=index)
-    isp = replace(config.isp, white_balance="manual", wb_gains=tuple(1.0 / w for w in white))
-    return raw, develop(raw, isp)
+    return expose(image, config.replace(**{"exposure.time_s": state.time_s, "exposure.iso": state.iso}),
+                  frame_seed=index)
+
+
+def _develop(raw, config: SceneConfig, white):
+    from ...isp import develop
+
+    return develop(raw, replace(config.isp, white_balance="manual", wb_gains=tuple(1.0 / w for w in white)))
 
 
 def _write_labels(image, folder: Path) -> None:
@@ -195,8 +199,7 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
     if mode == "locked":  # what the auto controllers settle on at the lock frame, held for every frame
         config, image = frames[lock]
         state = _initial_exposure(image, config, ae)
-        raw, _ = _develop(image, config, state, (1.0, 1.0, 1.0), lock)
-        held_white = awb.step(None, bayer_stats(raw)).white
+        held_white = awb.step(None, bayer_stats(_expose(image, config, state, lock))).white
         ae, awb = replace(ae, mode="locked"), AutoWhiteBalance(mode="manual", manual_white=held_white)
     else:
         state = _initial_exposure(frames[0][1], frames[0][0], ae)
@@ -204,10 +207,10 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
     rows = []
     with staged_directory(output / mode, force=True) as stage:
         for index, (config, image) in enumerate(frames):
+            raw = _expose(image, config, state, index)
             if white_state is None:  # the first frame: balanced for its own white
-                raw, _ = _develop(image, config, state, (1.0, 1.0, 1.0), index)
                 white_state = awb.step(None, bayer_stats(raw))
-            raw, developed = _develop(image, config, state, white_state.white, index)
+            developed = _develop(raw, config, white_state.white)
             stats = bayer_stats(raw)
             folder = stage / f"{index:04d}"
             folder.mkdir()
