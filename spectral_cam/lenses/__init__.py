@@ -1,4 +1,5 @@
-"""Real lenses: optical glasses and their dispersion (:mod:`.glass`). The Mitsuba camera that
+"""Real lenses: optical glasses and their dispersion (:mod:`.glass`), prescriptions
+(:mod:`.prescription`), distortion (:mod:`.distortion`) and bladed openings (:mod:`.aperture`). The Mitsuba camera that
 renders through a dispersive thin lens is :mod:`spectral_cam.render.spectral_lens` (Mitsuba
 stays inside ``render/``).
 

@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import ConfigError
 from .glass import LINES_NM, glass as catalogue_glass
 
-__all__ = ["Surface", "Prescription", "load_prescription", "PRESCRIPTION_NAMES", "ModelGlass"]
+__all__ = ["Surface", "Prescription", "load_prescription", "PRESCRIPTION_NAMES", "ModelGlass", "sag_and_slope"]
 
 FOLDER = Path(__file__).resolve().parent.parent / "data" / "lenses"
 #: The bundled prescriptions (``lens.prescription``).
@@ -389,17 +389,24 @@ def _intersect(o, d, radius, z0):
     return points, normal, (disc >= 0) & (t >= 0)
 
 
-def asphere_sag(surface: Surface, rho):
-    """Sag z(ρ) of an even asphere and dz/dρ, ρ = x² + y² (m², arrays)."""
-    c = 0.0 if surface.radius_m == 0 else 1.0 / surface.radius_m
-    root = np.sqrt(np.clip(1.0 - (1.0 + surface.conic) * c * c * rho, 0.0, None))
+def sag_and_slope(rho, radius_m: float, conic: float, aspheric, xp=np):
+    """Sag z(ρ) of an even asphere and dz/dρ, ρ = x² + y² (m²): one formula for the NumPy tracer
+    and the drjit camera (``xp``: ``numpy`` or ``drjit``). Where the conic's root vanishes (its rim)
+    the slope is that of a root of 10⁻³⁰: vertical."""
+    c = 0.0 if radius_m == 0 else 1.0 / radius_m
+    root = xp.sqrt(xp.maximum(1.0 - (1.0 + conic) * c * c * rho, 0.0))
     sag = c * rho / (1.0 + root)
-    slope = np.where(root > 0, c / (2.0 * np.maximum(root, 1e-300)), np.inf) if c else np.zeros_like(rho)
-    for i, a in enumerate(surface.aspheric):
+    slope = c / (2.0 * xp.maximum(root, 1e-30))
+    for i, a in enumerate(aspheric):
         power = i + 2
         sag = sag + a * rho ** power
         slope = slope + power * a * rho ** (power - 1)
     return sag, slope
+
+
+def asphere_sag(surface: Surface, rho):
+    """Sag and slope of ``surface`` (NumPy arrays of ρ)."""
+    return sag_and_slope(np.asarray(rho, dtype=np.float64), surface.radius_m, surface.conic, surface.aspheric)
 
 
 def _intersect_asphere(o, d, surface: Surface, z0):

@@ -36,7 +36,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..lenses.glass import LINES_NM
-from ..lenses.prescription import Prescription
+from ..lenses.aperture import rounded_boundary
+from ..lenses.prescription import Prescription, sag_and_slope
 from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
 
 __all__ = ["PLUGIN", "register", "plugin_dict", "pupil_bounds"]
@@ -190,11 +191,7 @@ def _sensor_class(mi):
         def _blade_boundary(self, p):
             """Radius of the bladed opening (fraction of the stop's) at the point's angle from +y
             towards +x: the regular polygon blended with the circle by the rounding."""
-            n = self.blades
-            sector = 2 * np.pi / n
-            phi = dr.atan2(p.x, p.y) - self.blade_rotation
-            local = phi - sector * dr.floor(phi / sector) - sector / 2
-            return (1.0 - self.blade_rounding) * np.cos(np.pi / n) / dr.cos(local) + self.blade_rounding
+            return rounded_boundary(dr.atan2(p.x, p.y), self.blades, self.blade_rotation, self.blade_rounding, xp=dr)
 
         @staticmethod
         def _asphere(o, d, radius, z0, conic, aspheric):
@@ -202,13 +199,7 @@ def _sensor_class(mi):
             c = 0.0 if radius == 0.0 else 1.0 / radius
 
             def sag_slope(rho):
-                root = dr.safe_sqrt(1.0 - (1.0 + conic) * c * c * rho)
-                sag = c * rho / (1.0 + root)
-                slope = c / (2.0 * dr.maximum(root, 1e-30))
-                for i, a in enumerate(aspheric):
-                    sag += a * dr.power(rho, i + 2)
-                    slope += (i + 2) * a * dr.power(rho, i + 1)
-                return sag, slope
+                return sag_and_slope(rho, radius, conic, aspheric, xp=dr)
 
             t = (z0 - o.z) / d.z
             for _ in range(12):

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..lenses.aperture import rounded_boundary
 from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
 
 __all__ = ["PLUGIN", "register", "plugin_dict"]
@@ -149,15 +150,6 @@ def _sensor_class(mi):
 
 #: Angular bins of a rounded opening's tabulated boundary.
 ROUNDED_BINS = 2048
-
-
-def rounded_boundary(phi, blades: int, rotation: float, rounding: float) -> np.ndarray:
-    """Radius (fraction of the circle's) of the opening at angle ``phi`` (from +y towards +x):
-    the regular ``blades``-gon inscribed in the circle, a vertex at ``rotation``, blended with the
-    circle by ``rounding`` (0: straight blades, 1: the circle), r = (1 − ρ)·r_gon + ρ."""
-    sector = 2 * np.pi / blades
-    local = np.mod(np.asarray(phi, dtype=float) - rotation, sector) - sector / 2
-    return (1.0 - rounding) * np.cos(np.pi / blades) / np.cos(local) + rounding
 
 
 def plugin_dict(lens, glass_spec: str, *, blades: int = 0, blade_rotation_deg: float = 0.0,
