@@ -95,6 +95,42 @@ def ground_point_in_frame(view: GroundView, lens: "ThinLens", rng, height_m: flo
     return view.camera_m + t * direction if t > 0 else None
 
 
+def scatter_on_ground(config: "SceneConfig", lens: "ThinLens", rng, *, margin: float, spacing: float,
+                      centre_height: float, noun: str):
+    """Yield (east, north, size) of ``scene.object_count`` things on the ground, one at a time
+    (the caller may draw more from ``rng`` between them): each size a fraction
+    ``scene.object_size`` of the view's width, each centre (``centre_height`` × size above the
+    ground) where a ray through a uniformly drawn point of the frame's middle ``margin`` meets
+    that height, no farther than 3·``distance_m`` and no nearer to another than ``spacing`` × the
+    sum of their sizes (1000 tries each).
+
+    Raises
+    ------
+    ConfigError
+        When the next one does not fit (the message names ``noun`` and the remedy).
+    """
+    from ..errors import ConfigError
+
+    s = config.scene
+    view = GroundView.from_config(config)
+    width = view_width_m(config, lens)
+    placed: list[tuple[float, float, float]] = []
+    for n in range(s.object_count):
+        size = width * rng.uniform(*s.object_size)
+        for _ in range(1000):
+            point = ground_point_in_frame(view, lens, rng, centre_height * size, margin)
+            if point is None or np.hypot(*point[:2]) > 3 * s.distance_m:
+                continue
+            if all(math.hypot(point[0] - e, point[1] - nn) > spacing * (size + z) for e, nn, z in placed):
+                break
+        else:
+            raise ConfigError(f"scene.object_count = {s.object_count}: only {n} {noun} of "
+                              f"{s.object_size[0]:g}–{s.object_size[1]:g} of the view's width fit; lower "
+                              "scene.object_count or scene.object_size")
+        placed.append((float(point[0]), float(point[1]), float(size)))
+        yield placed[-1]
+
+
 def light_kind(config: "SceneConfig") -> str:
     """``"sunsky"`` or ``"illuminant"``: how an outdoor preset is lit."""
     return OUTDOOR_LIGHT_DEFAULT if config.scene.light == "auto" else config.scene.light

@@ -25,7 +25,6 @@ References
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -75,29 +74,14 @@ def tabletop_layout(config: "SceneConfig", lens: "ThinLens", reflectance_count: 
     ConfigError
         When ``scene.object_count`` objects of ``scene.object_size`` do not fit in the view.
     """
-    from ..errors import ConfigError
-
     s = config.scene
-    view = outdoor.GroundView.from_config(config)
-    width = outdoor.view_width_m(config, lens)
     rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x7AB1E]))
     objects: list[TabletopObject] = []
-    for n in range(s.object_count):
-        size = width * rng.uniform(*s.object_size)
-        for _ in range(1000):
-            centre = outdoor.ground_point_in_frame(view, lens, rng, size / 2, FRAME_MARGIN)
-            if centre is None or np.hypot(*centre[:2]) > 3 * s.distance_m:
-                continue
-            east, north = centre[:2]
-            if all(math.hypot(east - o.east_m, north - o.north_m) > 0.55 * (size + o.size_m) * 1.2 for o in objects):
-                break
-        else:
-            raise ConfigError(f"scene.object_count = {s.object_count}: only {n} objects of "
-                              f"{s.object_size[0]:g}–{s.object_size[1]:g} of the view's width fit without "
-                              "overlapping; lower scene.object_count or scene.object_size")
+    for east, north, size in outdoor.scatter_on_ground(config, lens, rng, margin=FRAME_MARGIN, spacing=0.66,
+                                                       centre_height=0.5, noun="objects (without overlapping)"):
         material = s.object_materials[rng.integers(len(s.object_materials))]
         objects.append(TabletopObject(
-            shape=SHAPES[rng.integers(len(SHAPES))], east_m=float(east), north_m=float(north), size_m=float(size),
+            shape=SHAPES[rng.integers(len(SHAPES))], east_m=east, north_m=north, size_m=size,
             turn_deg=float(rng.uniform(0, 360)), material=material,
             reflectance=int(rng.integers(reflectance_count)) if material in ("diffuse", "plastic") else -1,
             conductor=CONDUCTORS[rng.integers(len(CONDUCTORS))], roughness=float(rng.uniform(0.05, 0.3))))

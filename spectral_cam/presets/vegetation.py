@@ -87,28 +87,17 @@ def plant_mesh(rng, height_m: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def vegetation_layout(config: "SceneConfig", lens: "ThinLens"):
-    """(east, north, size) of each plant in the ground frame (m), drawn by ``layout_seed``."""
-    from ..errors import ConfigError
+    """(east, north, size) of each plant in the ground frame (m), drawn by ``layout_seed``
+    (:func:`spectral_cam.presets.outdoor.scatter_on_ground`).
 
-    s = config.scene
-    view = outdoor.GroundView.from_config(config)
-    width = outdoor.view_width_m(config, lens)
-    rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x1EAF5]))
-    plants: list[tuple[float, float, float]] = []
-    for n in range(s.object_count):
-        size = width * rng.uniform(*s.object_size)
-        for _ in range(1000):
-            point = outdoor.ground_point_in_frame(view, lens, rng, 0.0, 0.9)
-            if point is None or np.hypot(*point[:2]) > 3 * s.distance_m:
-                continue
-            if all(math.hypot(point[0] - e, point[1] - nn) > 0.4 * (size + z) for e, nn, z in plants):
-                plants.append((float(point[0]), float(point[1]), float(size)))
-                break
-        else:
-            raise ConfigError(f"scene.object_count = {s.object_count}: only {n} plants of "
-                              f"{s.object_size[0]:g}–{s.object_size[1]:g} of the view's width fit; lower "
-                              "scene.object_count or scene.object_size")
-    return plants
+    Raises
+    ------
+    ConfigError
+        When ``scene.object_count`` plants of ``scene.object_size`` do not fit in the view.
+    """
+    rng = np.random.default_rng(np.random.SeedSequence([config.scene.layout_seed, 0x1EAF5]))
+    return list(outdoor.scatter_on_ground(config, lens, rng, margin=0.9, spacing=0.4, centre_height=0.0,
+                                          noun="plants"))
 
 
 def _split_dry(samples) -> tuple[list, list]:
