@@ -685,10 +685,10 @@ def _lens_for_prescription(lens: dict[str, Any]) -> dict[str, Any]:
     passes every aperture)."""
     if lens.get("model") != "prescription":
         return lens
-    from .lenses.prescription import load_prescription
+    from .lenses.prescription import focal_length_and_f_number
 
-    design = load_prescription(str(lens.get("prescription", "dgauss_50mm")))
-    return dict(lens, focal_length_mm=design.focal_length_m() * 1e3, f_number=design.traced_f_number())
+    focal_m, f_number = focal_length_and_f_number(str(lens.get("prescription", "dgauss_50mm")))
+    return dict(lens, focal_length_mm=focal_m * 1e3, f_number=f_number)
 
 
 def _lens_for_xml_camera(lens: dict[str, Any], scene: SceneSection, sensor: SensorSection) -> dict[str, Any]:

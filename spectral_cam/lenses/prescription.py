@@ -27,6 +27,7 @@ References
 from __future__ import annotations
 
 import csv
+import functools
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -494,6 +495,27 @@ def _clear_apertures(path: Path, surfaces: list[Surface], info: dict) -> list[Su
             for i, s in enumerate(wide)]
 
 
+def _prescription_path(name: str) -> Path:
+    path = Path(name) if str(name).lower().endswith(".csv") else FOLDER / f"{name}.csv"
+    if not path.is_file():
+        raise ConfigError(f"lens.prescription = {name!r}: no such prescription; bundled: "
+                          f"{', '.join(PRESCRIPTION_NAMES)}, or a CSV path (spectral_cam/data/lenses/README.md)")
+    return path
+
+
+def focal_length_and_f_number(name: str) -> tuple[float, float]:
+    """(paraxial focal length in m, traced f-number) of a prescription, computed once per file
+    version: scene validation asks for them every time a scene is built or changed."""
+    path = _prescription_path(name)
+    return _optics(str(path.resolve()), path.stat().st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=32)
+def _optics(path: str, _version: int) -> tuple[float, float]:
+    design = load_prescription(path)
+    return design.focal_length_m(), design.traced_f_number()
+
+
 def load_prescription(name: str) -> Prescription:
     """A bundled prescription (:data:`PRESCRIPTION_NAMES`) or a CSV file in the same format
     (``spectral_cam/data/lenses/README.md``).
@@ -504,10 +526,7 @@ def load_prescription(name: str) -> Prescription:
         For an unknown name, an unreadable table, or a table without a stop or with a
         non-positive semi-diameter.
     """
-    path = Path(name) if str(name).lower().endswith(".csv") else FOLDER / f"{name}.csv"
-    if not path.is_file():
-        raise ConfigError(f"lens.prescription = {name!r}: no such prescription; bundled: "
-                          f"{', '.join(PRESCRIPTION_NAMES)}, or a CSV path (spectral_cam/data/lenses/README.md)")
+    path = _prescription_path(name)
     lines = path.read_text(encoding="utf-8").splitlines()
     comments = [line for line in lines if line.startswith("#")]
     body = [line for line in lines if line.strip() and not line.startswith("#")]
