@@ -415,24 +415,41 @@ class SensorSection:
 
 @dataclass(frozen=True)
 class ExposureSection:
-    """Exposure time (s, or ``"auto"``: the brightest relevant region at ``auto_fraction``
-    of saturation) and ISO."""
+    """Exposure time (s, or ``"auto"``: metered as a camera does, ``metering``), ISO, the
+    exposure index's definition (``iso_definition``: ``sos`` renders a metered grey at 118/255,
+    ``saturation`` leaves the rendering alone), ``compensation_ev``, and ``auto_fraction``
+    (where ``highlight`` and ``etr`` metering put the brightest 1 %)."""
 
     time_s: float | str = "auto"
     iso: float = 100.0
     auto_fraction: float = 0.8
+    metering: str = "average"
+    compensation_ev: float = 0.0
+    iso_definition: str = "sos"
 
     def __post_init__(self) -> None:
+        from .metering import ISO_DEFINITIONS, METERING
+
         if self.time_s != "auto":
             _within("exposure.time_s", self.time_s)
         _within("exposure.iso", self.iso)
         if not 0 < self.auto_fraction <= 1:
             _fail("exposure.auto_fraction", self.auto_fraction, "must lie in (0, 1]")
+        if self.metering not in METERING.names():
+            _fail("exposure.metering", self.metering, f"unknown mode; valid: {', '.join(METERING.names())}")
+        if not (isinstance(self.compensation_ev, (int, float)) and not isinstance(self.compensation_ev, bool)
+                and -10 <= self.compensation_ev <= 10):
+            _fail("exposure.compensation_ev", self.compensation_ev, "must be a number of stops in [-10, 10]")
+        if self.iso_definition not in ISO_DEFINITIONS:
+            _fail("exposure.iso_definition", self.iso_definition, f"valid: {', '.join(ISO_DEFINITIONS)}")
 
 
 #: Mitsuba samplers for ``render.sampler`` (the first is the default; see
 #: :data:`spectral_cam.render.scene_dict.SAMPLERS`, which must list the same).
 RENDER_SAMPLERS = ("multijitter", "independent", "stratified", "ldsampler")
+#: render.estimator: ``auto`` (the adaptive median of means where the scene can make fireflies,
+#: else the mean), ``mean``, ``amon`` (:mod:`spectral_cam.render.robust`).
+RENDER_ESTIMATORS = ("auto", "mean", "amon")
 
 
 @dataclass(frozen=True)
@@ -445,7 +462,10 @@ class RenderSection:
     the bundled ColorChecker, docs/bench/samplers.csv). ``bands = "auto"`` is the 31-band grid
     ``400:700:10`` when a spectral output is wanted (``spectral_output``) or diffraction
     applies, else ``"camera"``: a 6-channel film of the photon-weighted camera curves and
-    the CIE 1931 CMFs.
+    the CIE 1931 CMFs. ``estimator`` turns the passes into a pixel's radiance: ``mean``, or
+    ``amon`` (the adaptive median of 8 pass means: no fireflies, :mod:`spectral_cam.render.robust`);
+    ``auto`` takes ``amon`` where the scene can make fireflies (glossy, metal or glass
+    materials, a user's XML scene) and ``spp`` is fixed.
     """
 
     spp: int | str = 64
@@ -457,8 +477,12 @@ class RenderSection:
     spectral_output: bool = True
     max_spp: int = 1024
     sampler: str = "multijitter"
+    estimator: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.estimator not in RENDER_ESTIMATORS:
+            _fail("render.estimator", self.estimator, f"valid: {', '.join(RENDER_ESTIMATORS)} (auto: the adaptive median "
+                  "of means where the scene can make fireflies, else the mean)")
         if self.sampler not in RENDER_SAMPLERS:
             _fail("render.sampler", self.sampler, f"valid: {', '.join(RENDER_SAMPLERS)} (Mitsuba's orthogonal "
                   "sampler rounds its sample count to a prime square, so it cannot hold the spp asked for)")

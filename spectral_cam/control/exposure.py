@@ -1,10 +1,10 @@
 """Auto exposure as a controller: metering, an exposure program and a damped loop.
 
-Metering reduces a frame's linear luminance (relative to saturation) to one number:
-``average``, ``centre_weighted`` (Gaussian weight, σ = ¼ of the frame's diagonal), ``spot`` (the
-central 5 % of the area) or ``highlight`` (the 99th percentile, so highlights are protected).
-The target is 18 % of saturation for the first three (mid grey; ISO 2720's reflected-light
-convention) and ``highlight_target`` for the last.
+Metering is the camera meter of :mod:`spectral_cam.metering` (the one-shot auto exposure's):
+``average``, ``centre_weighted``, ``spot``, ``highlight`` (the average, with the 99th percentile
+kept at or below ``highlight_target``) or ``etr`` (the 99th percentile at ``highlight_target``).
+Each reads a grey-equivalent value, and the target is mid grey's place in the RAW, 10/78 of
+saturation (ISO 12232).
 
 The loop works in exposure value (EV, log₂ of exposure time × ISO gain): the error
 e = log₂(target / metered) of a frame taken at EV₀ is corrected by ``damping``·e for the next
@@ -31,50 +31,26 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import ConfigError
-from ..registry import Registry
+from ..metering import GREY_RAW, METERING, metered_grey
 
 __all__ = ["METERING", "meter", "ExposureState", "AutoExposure", "MID_GREY"]
 
-#: The metering target of the averaging modes: mid grey, 18 % of saturation.
-MID_GREY = 0.18
-METERING = Registry("metering mode")
+#: The metering target: mid grey's place in a RAW, ISO 12232's 10/78 of saturation (the one-shot
+#: auto exposure's too: :mod:`spectral_cam.metering`).
+MID_GREY = GREY_RAW
 
 
-def _centre_weights(shape) -> np.ndarray:
-    h, w = shape
-    y, x = np.mgrid[0:h, 0:w]
-    sigma = 0.25 * math.hypot(h, w)
-    return np.exp(-(((y - (h - 1) / 2) ** 2 + (x - (w - 1) / 2) ** 2) / (2 * sigma * sigma)))
-
-
-METERING.add("average", lambda lum: float(np.mean(lum)), description="mean of the frame")
-METERING.add("centre_weighted", lambda lum: float(np.average(lum, weights=_centre_weights(lum.shape))),
-             description="Gaussian weight, σ = ¼ of the diagonal")
-
-
-def _spot(lum: np.ndarray) -> float:
-    h, w = lum.shape
-    side_h, side_w = max(1, round(h * math.sqrt(0.05))), max(1, round(w * math.sqrt(0.05)))
-    top, left = (h - side_h) // 2, (w - side_w) // 2
-    return float(np.mean(lum[top:top + side_h, left:left + side_w]))
-
-
-METERING.add("spot", _spot, description="the central 5 % of the area")
-METERING.add("highlight", lambda lum: float(np.percentile(lum, 99.0)), description="the 99th percentile")
-
-
-def meter(luminance: np.ndarray, mode: str = "average") -> float:
-    """The metered value of a frame's linear luminance (1 = saturation).
+def meter(luminance: np.ndarray, mode: str = "average", *, highlight_target: float = 0.9,
+          peak: np.ndarray | None = None) -> float:
+    """The grey-equivalent value of a frame's linear luminance (1 = saturation): the shared
+    camera meter (:func:`spectral_cam.metering.metered_grey`).
 
     Raises
     ------
     ConfigError
         For an unknown mode (listing the valid ones) or a frame without pixels.
     """
-    lum = np.asarray(luminance, dtype=np.float64)
-    if lum.ndim != 2 or lum.size == 0:
-        raise ConfigError(f"metering needs a non-empty 2-D luminance image; got shape {lum.shape}")
-    return METERING[mode](lum)
+    return metered_grey(luminance, mode, peak=peak, fraction=highlight_target)
 
 
 @dataclass(frozen=True)
@@ -153,8 +129,10 @@ class AutoExposure:
 
     @property
     def target(self) -> float:
-        base = self.highlight_target if self.metering == "highlight" else MID_GREY
-        return base * 2.0 ** self.compensation_ev
+        """Where the metered grey goes: :data:`MID_GREY` × 2^compensation (every mode's meter
+        reads a grey-equivalent value; ``highlight`` and ``etr`` scale theirs by
+        ``highlight_target``)."""
+        return MID_GREY * 2.0 ** self.compensation_ev
 
     def split(self, ev: float) -> tuple[float, float]:
         """(time, ISO) for an exposure value by the program and its limits."""
@@ -169,7 +147,7 @@ class AutoExposure:
     def step(self, state: ExposureState, luminance: np.ndarray) -> ExposureState:
         """The exposure of the next frame from this frame's luminance (taken with ``state``,
         1 = saturation)."""
-        metered = meter(luminance, self.metering)
+        metered = meter(luminance, self.metering, highlight_target=self.highlight_target)
         error = math.log2(self.target / metered) if metered > 0 else math.inf
         if self.mode == "locked" or abs(error) <= self.dead_band_ev:
             return replace(state, error_ev=error, adjusted=False)

@@ -91,9 +91,11 @@ class ISPConfig:
         D65), ``"fitted"`` / ``"root_polynomial"`` (supplied in ``RawImage.meta``) or
         ``"none"`` (camera RGB passed through, for diagnostics).
     exposure_ev
-        Digital gain in stops applied to the linear image before the tone curve.
+        Exposure in stops on top of the RAW's BaselineExposure, applied before the tone curve.
     tone
-        ``"srgb"`` (the sRGB OETF only), ``"filmic"`` or ``"linear"`` (no curve).
+        ``"adobe"`` (default: Adobe's default rendering, the DNG SDK's exposure ramp and ACR3
+        curve; a camera's look with a highlight roll-off), ``"srgb"`` (the sRGB OETF only,
+        hard clip: the look before issue 23), ``"filmic"`` or ``"linear"`` (no curve).
     sharpen
         Unsharp-mask amount (0 = off).
     sharpen_radius_px
@@ -118,7 +120,7 @@ class ISPConfig:
     highlights: str = "clip"
     colour_matrix: str = "auto"
     exposure_ev: float = 0.0
-    tone: str = "srgb"
+    tone: str = "adobe"
     sharpen: float = 0.0
     sharpen_radius_px: float = 1.0
     outputs: tuple[str, ...] = ("png",)

@@ -53,11 +53,12 @@ class DevelopedImage:
     Attributes
     ----------
     image
-        (H, W, 3) float32 display values (sRGB-encoded unless ``tone = "linear"``),
-        unclipped; encoders clip to [0, 1].
+        (H, W, 3) float32 display values in [0, 1] (sRGB-encoded unless ``tone = "linear"``):
+        what a display, a PNG and a network see.
     linear
         (H, W, 3) float32 linear sRGB (D65, 1 = reference white) before the tone curve,
-        after the exposure gain: the image colour-accuracy metrics use.
+        after the exposure gain (BaselineExposure + ``exposure_ev``), unclipped:
+        scene-referred, the image colour-accuracy metrics use.
     timings_s
         Seconds spent per stage, in pipeline order.
     meta
@@ -161,16 +162,18 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
     Examples
     --------
     A flat mid-grey mosaic, developed without a colour matrix: linear 0.5 everywhere, which the
-    sRGB OETF encodes as 0.735:
+    sRGB OETF alone encodes as 0.735 and Adobe's default rendering (the default tone) as 0.908:
 
     >>> import numpy as np
     >>> from spectral_cam.isp import ISPConfig, develop
     >>> from spectral_cam.raw import RawImage
     >>> raw = RawImage(np.full((16, 16), 2048, np.uint16), "RGGB", black_level=0.0, white_level=4095,
     ...                as_shot_neutral=np.ones(3))
-    >>> image = develop(raw, ISPConfig(colour_matrix="none"))
+    >>> image = develop(raw, ISPConfig(colour_matrix="none", tone="srgb"))
     >>> image.image.shape, round(float(image.linear.mean()), 3), round(float(image.image.mean()), 3)
     ((16, 16, 3), 0.5, 0.735)
+    >>> round(float(develop(raw, ISPConfig(colour_matrix="none")).image.mean()), 3)
+    0.908
     """
     config = ISPConfig() if config is None else config
     if not isinstance(config, ISPConfig):
@@ -229,24 +232,28 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
 
     t = clock()
     transform, source = (None, "none") if monochrome else colour_transform(raw, config.colour_matrix, gains, camera_to_xyz)
-    linear = rgb if transform is None else camera_to_linear_srgb(rgb, transform)
-    if config.exposure_ev != 0:
-        linear = apply_exposure(linear, ev=config.exposure_ev)
+    scene = rgb if transform is None else camera_to_linear_srgb(rgb, transform)
     timings["colour"] = clock() - t
 
     t = clock()
-    image = tone_map(linear, method=config.tone)
+    # the RAW's BaselineExposure (what its exposure index asks of the rendering) plus the user's
+    ev = float(getattr(raw, "baseline_exposure", 0.0) or 0.0) + config.exposure_ev
+    image = tone_map(scene, method=config.tone, ev=ev)
+    linear = apply_exposure(scene, ev=ev) if ev != 0 else scene
     timings["tone"] = clock() - t
 
     t = clock()
     if config.sharpen > 0:
         image = unsharp_mask(image, amount=config.sharpen, radius_px=config.sharpen_radius_px)
+        np.clip(image, 0.0, 1.0, out=image)  # display values stay in [0, 1]
     timings["sharpen"] = clock() - t
 
     info.update({
         "white_balance_gains": [float(g) for g in gains],
         "colour_transform": source,
         "clipped_fraction": float(mask.mean()) if mask.size else 0.0,
+        "exposure_ev": ev,
+        "baseline_exposure_ev": float(getattr(raw, "baseline_exposure", 0.0) or 0.0),
         "crop": None if getattr(raw, "crop", None) is None else [int(v) for v in raw.crop],
     })
     if isinstance(transform, np.ndarray):

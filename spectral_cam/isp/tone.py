@@ -1,10 +1,14 @@
-"""Tone: the sRGB opto-electronic transfer function, an optional filmic curve, and
-exposure gain.
+"""Tone: exposure and the curve from scene-referred linear sRGB to display values in [0, 1].
 
-``"srgb"`` applies the sRGB OETF only (IEC 61966-2-1): a colorimetric rendition, which
-colour-accuracy figures are measured against (with the curve off). ``"filmic"`` first
-compresses highlights with Narkowicz's fit of the ACES reference rendering transform,
-then applies the OETF. ``"linear"`` returns the linear values (tone off).
+``"adobe"`` (the default) is Adobe's default rendering as the DNG SDK does it: exposure ramp
+(BaselineExposure + the user's offset, a black point at Adobe's default shadows), the ACR3
+default tone curve on linear ProPhoto RGB by Adobe's hue-preserving rule, then the sRGB
+encoding: a camera's look, with a highlight roll-off and the mid-tone lift that puts a
+metered grey at 118/255 from 9.5 % of white. ``"srgb"`` applies the sRGB OETF only
+(IEC 61966-2-1): a colorimetric rendition with a hard clip at white (colour accuracy is
+measured on the linear image). ``"filmic"`` first compresses highlights with Narkowicz's fit
+of the ACES reference rendering transform. ``"linear"`` shows the linear values. Every
+method returns values in [0, 1].
 
 References
 ----------
@@ -13,15 +17,20 @@ References
 .. [2] Narkowicz, K. (2016). ACES Filmic Tone Mapping Curve.
    https://knarkowicz.wordpress.com/2016/01/06/aces-filmic-tone-mapping-curve/
 .. [3] Academy of Motion Picture Arts and Sciences. ACES, Reference Rendering Transform.
+.. [4] Adobe DNG SDK 1.7, ``source/dng_render.cpp``, ``source/dng_reference.cpp``.
 """
 
 from __future__ import annotations
+
+import functools
+from pathlib import Path
 
 import numpy as np
 
 from ..registry import Registry
 
-__all__ = ["TONE", "srgb_oetf", "srgb_eotf", "filmic", "apply_exposure", "tone_map"]
+__all__ = ["TONE", "srgb_oetf", "srgb_eotf", "filmic", "adobe", "apply_exposure", "tone_map", "grey_input",
+           "profile_tone_curve", "adobe_default_curve", "adobe_exposure_ramp", "rgb_tone", "SOS_GREY_DISPLAY"]
 
 _F32 = np.float32
 
@@ -104,20 +113,254 @@ def filmic(linear: np.ndarray) -> np.ndarray:
     ----------
     .. [1] Narkowicz, K. (2016). ACES Filmic Tone Mapping Curve.
     """
-    x = np.maximum(np.asarray(linear, dtype=_F32), _F32(0))
-    y = (x * (_F32(2.51) * x + _F32(0.03))) / (x * (_F32(2.43) * x + _F32(0.59)) + _F32(0.14))
-    return srgb_oetf(np.clip(y, 0, 1))
+    return srgb_oetf(np.clip(_narkowicz(np.asarray(linear, dtype=_F32)), 0, 1))
+
+
+def _narkowicz(x):
+    x = np.maximum(x, 0)
+    return (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
 
 
 def _linear(linear: np.ndarray) -> np.ndarray:
     return np.asarray(linear, dtype=_F32).copy()
 
 
-#: Tone curves by name.
+# ----------------------------------------------------------------------------- Adobe's default rendering
+#: Adobe's default "shadows" setting (dng_render: fShadows = 5): the exposure ramp's black
+#: point is 5·0.001 of white.
+ADOBE_DEFAULT_SHADOWS = 5.0
+
+
+@functools.lru_cache(maxsize=1)
+def adobe_default_curve() -> tuple[np.ndarray, np.ndarray]:
+    """Adobe's default tone curve ("ACR3 default", DNG SDK ``dng_tone_curve_acr3_default``):
+    1025 samples (input, output), both linear in [0, 1].
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        float64 inputs k/1024 and outputs (read-only).
+
+    References
+    ----------
+    .. [1] Adobe DNG SDK 1.7, ``source/dng_render.cpp`` (``dng_tone_curve_acr3_default``);
+       provenance and licence in ``spectral_cam/data/tone/README.md``.
+    """
+    path = Path(__file__).resolve().parent.parent / "data" / "tone" / "adobe_acr3_default.csv"
+    table = np.loadtxt(path, delimiter=",", skiprows=1)
+    x, y = np.ascontiguousarray(table[:, 0]), np.ascontiguousarray(table[:, 1])
+    x.setflags(write=False)
+    y.setflags(write=False)
+    return x, y
+
+
+def adobe_exposure_ramp(linear: np.ndarray, *, ev: float = 0.0, shadows: float = ADOBE_DEFAULT_SHADOWS
+                        ) -> np.ndarray:
+    """Adobe's exposure ramp and negative-exposure shoulder (DNG SDK ``dng_render``).
+
+    With ``w = 2^−max(ev, 0)`` and black ``b = min(shadows·0.001, 0.99·w)``: ``(x − b)/(w − b)``
+    clipped to [0, 1], joined to 0 below ``b`` by a parabola of radius
+    ``r = min(b/2, (w − b)/16)``; for ``ev < 0``, ``x·2^ev`` up to 0.25 and above it the
+    parabola ``a·x² + b'·x + c`` (a = 16/9·(1 − 2^ev)) that keeps white at white.
+
+    Parameters
+    ----------
+    linear : numpy.ndarray
+        Linear values (1 = white).
+    ev : float
+        Exposure in stops (BaselineExposure + the user's offset).
+    shadows : float
+        Adobe's shadows setting (default 5; 0 = no black point).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 in [0, 1].
+
+    References
+    ----------
+    .. [1] Adobe DNG SDK 1.7, ``source/dng_render.cpp`` (``dng_function_exposure_ramp``,
+       ``dng_function_exposure_tone``, ``dng_render_task::Start``).
+    """
+    x = np.asarray(linear, dtype=np.float64)
+    white = 2.0 ** -max(float(ev), 0.0)
+    black = min(shadows * 0.001, 0.99 * white)
+    slope = 1.0 / (white - black)
+    radius = min(0.5 * black, (1.0 / 16.0) / slope)
+    y = np.clip((x - black) * slope, 0.0, 1.0)
+    if radius > 0:
+        toe = np.abs(x - black) < radius
+        q = slope / (4.0 * radius)
+        y[toe] = q * (x[toe] - (black - radius)) ** 2
+    if ev < 0:
+        gain = 2.0 ** float(ev)
+        a = 16.0 / 9.0 * (1.0 - gain)
+        b = gain - 0.5 * a
+        c = 1.0 - a - b
+        y = np.where(y <= 0.25, y * gain, (a * y + b) * y + c)
+    return y.astype(_F32)
+
+
+def rgb_tone(rgb: np.ndarray, curve) -> np.ndarray:
+    """Adobe's hue-preserving RGB tone rule: the curve on each pixel's largest and smallest
+    channel, the middle one placed between them in the same proportion as before
+    (``out_c = lo' + (hi' − lo')·(x_c − lo)/(hi − lo)``; neutrals get ``curve(x)``).
+
+    Parameters
+    ----------
+    rgb : numpy.ndarray
+        (..., 3) values in [0, 1].
+    curve : callable
+        Maps values in [0, 1] to [0, 1].
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (..., 3).
+
+    References
+    ----------
+    .. [1] Adobe DNG SDK 1.7, ``source/dng_reference.cpp`` (``RefBaselineRGBTone``).
+    """
+    x = np.asarray(rgb, dtype=_F32)
+    hi, lo = x.max(axis=-1, keepdims=True), x.min(axis=-1, keepdims=True)
+    hi_t, lo_t = curve(hi), curve(lo)
+    span = hi - lo
+    safe = np.where(span > 0, span, _F32(1))
+    return np.where(span > 0, lo_t + (hi_t - lo_t) * (x - lo) / safe, curve(x)).astype(_F32, copy=False)
+
+
+def _primaries_to_xyz(xy_rgb, xy_white) -> np.ndarray:
+    """RGB → XYZ of a colour space from its primaries and white (SMPTE RP 177-1993 §3.3)."""
+    xy = np.asarray(xy_rgb, dtype=np.float64)
+    primaries = np.stack([xy[:, 0] / xy[:, 1], np.ones(3), (1 - xy[:, 0] - xy[:, 1]) / xy[:, 1]])
+    wx, wy = xy_white
+    white = np.array([wx / wy, 1.0, (1 - wx - wy) / wy])
+    return primaries * np.linalg.solve(primaries, white)
+
+
+@functools.lru_cache(maxsize=1)
+def srgb_prophoto_matrices() -> tuple[np.ndarray, np.ndarray]:
+    """Linear sRGB (D65) → linear ProPhoto RGB (ROMM, D50) through XYZ with Bradford
+    adaptation, and its inverse.
+
+    References
+    ----------
+    .. [1] ISO 22028-2:2013 (ROMM RGB primaries and D50 white).
+    .. [2] IEC 61966-2-1:1999; Lam (1985) Bradford transform.
+    """
+    from .colour_correction import SRGB_TO_XYZ, von_kries_bradford, xy_to_xyz, xyz_d65_white
+
+    d50 = (0.3457, 0.3585)
+    romm_to_xyz = _primaries_to_xyz([(0.7347, 0.2653), (0.1596, 0.8404), (0.0366, 0.0001)], d50)
+    adapt = von_kries_bradford(xyz_d65_white(), xy_to_xyz(np.array(d50)))
+    forward = np.linalg.inv(romm_to_xyz) @ adapt @ SRGB_TO_XYZ
+    return forward, np.linalg.inv(forward)
+
+
+def _adobe_curve_at(values: np.ndarray) -> np.ndarray:
+    x, y = adobe_default_curve()
+    return np.interp(values, x, y).astype(_F32)
+
+
+def adobe(linear: np.ndarray, *, ev: float = 0.0) -> np.ndarray:
+    """Adobe's default rendering of scene-referred linear sRGB: linear ProPhoto RGB, Adobe's
+    exposure ramp (``ev``, default shadows), the ACR3 default curve by Adobe's hue-preserving
+    RGB tone rule, back to linear sRGB, clipped, then the sRGB encoding.
+
+    Parameters
+    ----------
+    linear : numpy.ndarray
+        (..., 3) linear sRGB (D65; 1 = reference white), before any exposure gain.
+    ev : float
+        Exposure in stops (the DNG's BaselineExposure plus the user's ``exposure_ev``).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 display sRGB in [0, 1].
+
+    References
+    ----------
+    .. [1] Adobe DNG SDK 1.7, ``dng_render.cpp`` (``dng_render_task``: exposure ramp, baseline
+       tone curve, final colour space) and ``dng_reference.cpp`` (``RefBaselineRGBTone``).
+    .. [2] Adobe (2023). DNG Specification 1.7.1.0, BaselineExposure, ProfileToneCurve.
+    """
+    x = np.asarray(linear, dtype=_F32)
+    to_prophoto, to_srgb = srgb_prophoto_matrices()
+    prophoto = (x.reshape(-1, 3) @ to_prophoto.T.astype(_F32)).reshape(x.shape)
+    ramped = adobe_exposure_ramp(prophoto, ev=ev)
+    toned = rgb_tone(ramped, _adobe_curve_at)
+    back = (toned.reshape(-1, 3) @ to_srgb.T.astype(_F32)).reshape(x.shape)
+    return srgb_oetf(np.clip(back, 0, 1))
+
+
+def _gain(ev: float):
+    return _F32(2.0 ** float(ev))
+
+
+#: Tone curves by name: each maps linear sRGB and an exposure (stops) to display values in [0, 1].
 TONE = Registry("tone curve")
-TONE.add("srgb", srgb_oetf, description="the sRGB OETF only (colorimetric)")
-TONE.add("filmic", filmic, description="ACES-like filmic curve, then the sRGB OETF")
-TONE.add("linear", _linear, description="no curve")
+TONE.add("adobe", adobe, description="Adobe's default rendering (DNG SDK: exposure ramp, ACR3 curve on "
+                                     "ProPhoto, hue-preserving), then sRGB encoding: a camera's look")
+TONE.add("srgb", lambda linear, *, ev=0.0: np.clip(srgb_oetf(np.asarray(linear, _F32) * _gain(ev)), 0, 1),
+         description="the sRGB OETF only (colorimetric), hard clip at white")
+TONE.add("filmic", lambda linear, *, ev=0.0: filmic(np.asarray(linear, _F32) * _gain(ev)),
+         description="ACES-like filmic curve (Narkowicz), then the sRGB OETF")
+TONE.add("linear", lambda linear, *, ev=0.0: np.clip(np.asarray(linear, _F32) * _gain(ev), 0, 1),
+         description="no curve (display = linear, clipped)")
+
+#: The display value ISO 12232's standard output sensitivity puts mid grey at: 118 of 255 in sRGB.
+SOS_GREY_DISPLAY = 118.0 / 255.0
+
+
+def profile_tone_curve(method: str, samples: int = 129) -> np.ndarray:
+    """The tone curve of ``method`` as a DNG ``ProfileToneCurve``: (samples, 2) pairs of linear
+    input and linear output in [0, 1], which an Adobe-path reader applies before its output
+    encoding (the ACR3 curve for ``"adobe"``; Narkowicz's curve for ``"filmic"``; the identity
+    for ``"srgb"`` and ``"linear"``, whose only encoding is the sRGB one). 129 samples: a cubic
+    spline through them (as Adobe's reader fits) is within 2.3·10⁻⁴ of the 1025-sample ACR3
+    table, and exiftool decodes the tag without a "large array" warning (257 samples draw one).
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 (samples, 2).
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ProfileToneCurve (tag 50940).
+    """
+    TONE.check(method, key="isp.tone")
+    x = np.linspace(0.0, 1.0, samples)
+    if method == "adobe":
+        y = np.interp(x, *adobe_default_curve())
+    elif method == "filmic":
+        y = _narkowicz(x)
+    else:
+        y = x.copy()
+    return np.stack([x, y], axis=-1)
+
+
+@functools.lru_cache(maxsize=16)
+def grey_input(method: str, display: float = SOS_GREY_DISPLAY) -> float:
+    """The linear value (at exposure 0) that the tone curve ``method`` renders as ``display``
+    on a neutral (bisection on the curve): mid grey's place for the standard output
+    sensitivity.
+
+    Measured: ``adobe`` 0.0946 (Adobe's curve lifts mid-tones: 18 % grey would render at 167),
+    ``srgb`` and ``linear`` 0.18 and 0.4627, ``filmic`` 0.238.
+
+    References
+    ----------
+    .. [1] ISO 12232:2019, §6 (standard output sensitivity: H_SOS = 10/S gives 118 of 255 in sRGB).
+    """
+    lo, hi = 1e-6, 1.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        shown = float(TONE[method](np.full((1, 1, 3), mid, _F32))[0, 0, 1])
+        lo, hi = (mid, hi) if shown < display else (lo, mid)
+    return 0.5 * (lo + hi)
 
 
 def apply_exposure(linear: np.ndarray, *, ev: float = 0.0) -> np.ndarray:
@@ -142,20 +385,22 @@ def apply_exposure(linear: np.ndarray, *, ev: float = 0.0) -> np.ndarray:
     return (np.asarray(linear, dtype=_F32) * _F32(2.0 ** float(ev))).astype(_F32, copy=False)
 
 
-def tone_map(linear: np.ndarray, *, method: str = "srgb") -> np.ndarray:
-    """Apply the named tone curve.
+def tone_map(linear: np.ndarray, *, method: str = "adobe", ev: float = 0.0) -> np.ndarray:
+    """Apply the named tone curve at an exposure.
 
     Parameters
     ----------
     linear
-        (H, W, 3) linear sRGB.
+        (H, W, 3) linear sRGB, before the exposure.
     method
-        ``"srgb"``, ``"filmic"`` or ``"linear"``.
+        A :data:`TONE` name: ``"adobe"`` (default), ``"srgb"``, ``"filmic"`` or ``"linear"``.
+    ev
+        Exposure in stops: the RAW's BaselineExposure plus the user's ``exposure_ev``.
 
     Returns
     -------
     numpy.ndarray
-        (H, W, 3) float32 display values (unclipped except for ``"filmic"``).
+        (H, W, 3) float32 display values in [0, 1].
 
     Raises
     ------
@@ -165,6 +410,7 @@ def tone_map(linear: np.ndarray, *, method: str = "srgb") -> np.ndarray:
     References
     ----------
     .. [1] IEC 61966-2-1:1999.
-    .. [2] Narkowicz, K. (2016). ACES Filmic Tone Mapping Curve.
+    .. [2] Adobe DNG SDK 1.7, ``dng_render.cpp``.
+    .. [3] Narkowicz, K. (2016). ACES Filmic Tone Mapping Curve.
     """
-    return TONE[method](linear)
+    return TONE[method](linear, ev=ev)

@@ -49,6 +49,9 @@ DNG_TAGS = {
     "ForwardMatrix1": 50964,
     "ForwardMatrix2": 50965,
     "NoiseProfile": 51041,
+    "BaselineExposure": 50730,
+    "ProfileToneCurve": 50940,
+    "DefaultBlackRender": 51110,
     "DefaultCropOrigin": 50719,
     "DefaultCropSize": 50720,
     "ActiveArea": 50829,
@@ -81,6 +84,7 @@ ILLUMINANT_D65 = 21
 
 ILLUMINANT_A = 17
 _TIFF_BYTE, _TIFF_ASCII, _TIFF_SHORT, _TIFF_LONG, _TIFF_RATIONAL, _TIFF_SRATIONAL, _TIFF_DOUBLE = 1, 2, 3, 4, 5, 10, 12
+_TIFF_FLOAT = 11
 
 
 _RATIONAL_DENOMINATOR = 1_000_000
@@ -125,6 +129,27 @@ def _colour_tags(raw: RawImage) -> list[tuple]:
                  (DNG_TAGS[f"CalibrationIlluminant{number}"], _TIFF_SHORT, 1, (illuminant,), True)]
         if forward is not None:
             tags.append(_matrix_tag(f"ForwardMatrix{number}", forward))
+    return tags
+
+
+def _rendering_tags(raw: RawImage) -> list[tuple]:
+    """BaselineExposure, and the tone curve as ProfileToneCurve with DefaultBlackRender: how
+    the default rendering should look, so Adobe-path readers show what our develop shows. A
+    curve with a black point of its own ("adobe") lets the reader apply its default shadows
+    (Auto, 0); the others ask for none (1)."""
+    ev = float(getattr(raw, "baseline_exposure", 0.0) or 0.0)
+    if not np.isfinite(ev) or abs(ev) > 20:
+        raise RawFormatError(f"baseline_exposure = {ev!r}: give a finite number of stops within ±20")
+    tags = [(DNG_TAGS["BaselineExposure"], _TIFF_SRATIONAL, 1, _rationals([ev], signed=True), True)]
+    curve = getattr(raw, "profile_tone_curve", None)
+    if curve is not None:
+        pairs = np.asarray(curve, dtype=np.float32)
+        if pairs.ndim != 2 or pairs.shape[1] != 2 or len(pairs) < 2 or not np.all(np.diff(pairs[:, 0]) > 0) \
+                or pairs.min() < 0 or pairs.max() > 1:
+            raise RawFormatError("profile_tone_curve must be (N >= 2, 2) pairs in [0, 1] with rising inputs")
+        own_black = bool((raw.meta or {}).get("tone_black_render", False))
+        tags += [(DNG_TAGS["ProfileToneCurve"], _TIFF_FLOAT, pairs.size, tuple(float(v) for v in pairs.ravel()), True),
+                 (DNG_TAGS["DefaultBlackRender"], _TIFF_LONG, 1, (0 if own_black else 1,), True)]
     return tags
 
 
@@ -327,6 +352,7 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
             if neutral.shape != (3,) or not np.all(neutral > 0):
                 raise RawFormatError(f"as_shot_neutral must be three positive numbers; got {neutral}")
             tags.append((DNG_TAGS["AsShotNeutral"], _TIFF_RATIONAL, 3, _rationals(neutral, signed=False), True))
+    tags += _rendering_tags(raw)
     if raw.noise_profile is not None:
         scale, offset = (float(v) for v in raw.noise_profile)
         tags.append((DNG_TAGS["NoiseProfile"], _TIFF_DOUBLE, 2, (scale, offset), True))

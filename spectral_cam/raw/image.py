@@ -57,6 +57,13 @@ class RawImage:
         DefaultCropSize): the pixels outside it are a margin of real data that lets a
         demosaicer interpolate the image's edges; an ISP develops the mosaic and keeps the
         crop. None: the whole mosaic is the image.
+    baseline_exposure
+        Stops by which a developer brightens the image (DNG BaselineExposure): the offset that
+        puts a metered mid grey at 118/255 in the default rendering (ISO 12232 standard output
+        sensitivity); 0 for a camera raw without the tag.
+    profile_tone_curve
+        (N, 2) linear input → output pairs of the tone curve the default rendering applies (DNG
+        ProfileToneCurve), or None.
     """
 
     mosaic: np.ndarray
@@ -72,6 +79,8 @@ class RawImage:
     forward_matrix: np.ndarray | None = None
     forward_matrix_2: np.ndarray | None = None
     crop: tuple[int, int, int, int] | None = None
+    baseline_exposure: float = 0.0
+    profile_tone_curve: np.ndarray | None = None
 
 
 def check_raw(raw: RawImage) -> np.ndarray:

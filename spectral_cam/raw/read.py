@@ -83,7 +83,7 @@ def _tiff_extras(path: Path) -> dict:
                 tags = page.tags
                 for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model", "ColorMatrix1",
                              "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2", "WhiteLevel",
-                             "DefaultCropOrigin", "DefaultCropSize"):
+                             "DefaultCropOrigin", "DefaultCropSize", "BaselineExposure", "ProfileToneCurve"):
                     tag = tags.get(DNG_TAGS[name])
                     if tag is not None and name not in extras:
                         extras[name] = tag.value
@@ -318,6 +318,25 @@ def _tungsten_matrix(extras: dict) -> np.ndarray | None:
     return None
 
 
+def _baseline_exposure(value) -> float:
+    """BaselineExposure (SRATIONAL, stops) as a number; 0 when absent or unreadable."""
+    if value is None:
+        return 0.0
+    flat = np.ravel(np.asarray(value, dtype=float))  # tifffile: (numerator, denominator), or the value
+    ev = flat[0] / flat[1] if flat.size == 2 and flat[1] != 0 else float(flat[0]) if flat.size == 1 else 0.0
+    return ev if np.isfinite(ev) and abs(ev) <= 20 else 0.0
+
+
+def _tone_curve(value) -> np.ndarray | None:
+    """ProfileToneCurve (FLOAT pairs) as (N, 2); None when absent or malformed."""
+    if value is None:
+        return None
+    flat = np.asarray(value, dtype=np.float64).ravel()
+    if flat.size < 4 or flat.size % 2 or not np.all(np.isfinite(flat)):
+        return None
+    return flat.reshape(-1, 2)
+
+
 def read_raw(path) -> RawImage:
     """Read any raw file LibRaw supports (DNG or a camera's format) into a RawImage.
 
@@ -427,6 +446,8 @@ def read_raw(path) -> RawImage:
         cfa=cfa,
         black_level=black,
         white_level=white,
+        baseline_exposure=_baseline_exposure(extras.get("BaselineExposure")),
+        profile_tone_curve=_tone_curve(extras.get("ProfileToneCurve")),
         crop=_default_crop(path, extras, sizes, mosaic.shape[:2]),
         color_matrix=matrix,
         color_matrix_2=_tungsten_matrix(extras) if matrix is not None else None,

@@ -24,7 +24,7 @@ from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import SceneConfig
 from ..presets import white_reference_mask
-from .decisions import decide_lens_model
+from .decisions import decide_estimator, decide_lens_model
 from .defocus import render_layered
 from .depth import render_depth
 from .focus import resolve_focus
@@ -97,7 +97,8 @@ def render(
     if with_margin:
         lens = lens.layout_lens.widened(config.sensor.crop_margin_px)
     channels = _most_channels(config)
-    check_render_memory(lens.width_px, lens.height_px, channels=channels, layered=config.lens.model == "layered")
+    check_render_memory(lens.width_px, lens.height_px, channels=channels, layered=config.lens.model == "layered",
+                        robust_passes=decide_estimator(config, config.render.spp)[0])
     check_tiling(config, lens)
     variant, variant_record = choose_variant_record(config.render.variant)
     mi.set_variant(variant)

@@ -17,6 +17,7 @@ References
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -185,6 +186,85 @@ class NoiseMonitor:
 LAYERED_NOISE_BUDGET = 0.01
 #: CoC bin of the layered model (a ratio): surfaces within one bin share one disc PSF.
 LAYERED_COC_RATIO = 1.05
+
+
+#: Materials of an XML scene (Mitsuba BSDF plugin names) whose specular or glossy lobes can carry
+#: rare bright paths; Lambertian-only scenes cannot make fireflies under direct light sampling.
+GLOSSY_BSDFS = ("conductor", "roughconductor", "dielectric", "roughdielectric", "thindielectric", "plastic",
+                "roughplastic", "principled", "principledthin", "hair", "measured", "blendbsdf")
+#: Passes of the adaptive median of means, and the fewest samples in one: the median of means
+#: of a few samples each is biased low even where no firefly is (the median of a skewed
+#: distribution), so a pass needs some samples.
+ROBUST_PASSES = (8, 16, 4)
+ROBUST_MIN_PASS_SPP = 4
+
+
+def _can_make_fireflies(config: SceneConfig) -> tuple[bool, str]:
+    """Whether a scene holds materials that make fireflies, and why."""
+    if config.scene.mitsuba_xml:
+        import re
+
+        try:
+            text = Path(config.scene.mitsuba_xml).read_text(errors="replace")
+        except OSError:
+            return True, "an XML scene whose materials could not be read"
+        found = sorted(set(re.findall(r'<bsdf[^>]*type\s*=\s*"([a-z_]+)"', text)) & set(GLOSSY_BSDFS))
+        if found or "<include" in text:
+            return True, f"the XML scene has {', '.join(found) or 'included files'} materials"
+        return False, "the XML scene's materials are all Lambertian"
+    if config.scene.preset == "tabletop":
+        glossy = sorted(set(config.scene.object_materials) - {"diffuse"})
+        if config.scene.object_count == 0:
+            return False, "the tabletop has no objects, only its Lambertian ground"
+        if glossy:
+            return True, f"tabletop objects of {', '.join(glossy)}"
+        return False, "tabletop objects are all Lambertian"
+    return False, f"the {config.scene.preset} preset is Lambertian or emissive only"
+
+
+def decide_estimator(config: SceneConfig, spp: int | str) -> tuple[int, dict]:
+    """How the passes become a pixel's radiance: the number K of equal passes whose adaptive
+    median of means (:mod:`spectral_cam.render.robust`) removes fireflies, or 1 for the plain
+    mean.
+
+    ``render.estimator = "auto"`` takes the adaptive median where the scene can make fireflies
+    (:func:`_can_make_fireflies`), ``"amon"`` always, ``"mean"`` never; it needs a fixed
+    ``spp`` that splits into K passes the sampler keeps exactly, and no motion sub-frames.
+
+    Returns
+    -------
+    (int, dict)
+        K (1 = the mean) and the record for ``model_decisions``.
+
+    References
+    ----------
+    .. [1] Buisine, J., Delepoulle, S., & Renaud, C. (2021). Firefly removal in Monte Carlo
+       rendering with adaptive Median of meaNs. EGSR 2021.
+    """
+    from .robust import GINI_THRESHOLD
+    from .scene_dict import exact_pass_spp
+
+    mode = config.render.estimator
+    if mode == "mean":
+        return 1, {"choice": "mean", "reason": "render.estimator = 'mean'"}
+    if mode == "auto":
+        needed, why = _can_make_fireflies(config)
+        if not needed:
+            return 1, {"choice": "mean", "reason": why + ": no fireflies to remove, so the unbiased mean"}
+    else:
+        why = "render.estimator = 'amon'"
+    if spp == "auto" or config.motion.moving:
+        return 1, {"choice": "mean", "reason": f"{why}, but {'spp = auto' if spp == 'auto' else 'motion blur'} "
+                                               "renders its own passes: the mean"}
+    for k in ROBUST_PASSES:
+        if spp % k == 0 and spp // k >= ROBUST_MIN_PASS_SPP and \
+                exact_pass_spp(config.render.sampler, spp // k) == spp // k:
+            return k, {"choice": "amon", "passes": k, "gini_threshold": GINI_THRESHOLD,
+                       "reason": f"{why}: the adaptive median of {k} pass means of {spp // k} spp removes fireflies "
+                                 "(the mean where the passes agree)"}
+    return 1, {"choice": "mean", "reason": f"{why}, but {spp} spp does not split into 4, 8 or 16 passes of at least "
+                                           f"{ROBUST_MIN_PASS_SPP} spp that the {config.render.sampler} sampler keeps "
+                                           "exactly: the mean"}
 
 
 def thin_lens_noise(lens: ThinLens, depth_m: np.ndarray, spp: int) -> float:

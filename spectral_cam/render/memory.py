@@ -40,10 +40,12 @@ LAYERED_EXTRA_CUBES = 6
 LAYERED_DEPTH_BYTES_PER_PIXEL = 64.0
 
 
-def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, layered: bool = False) -> float:
+def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, layered: bool = False,
+                          robust_passes: int = 1) -> float:
     """Peak memory (bytes) of a render → expose → develop job on a ``width_px`` ×
     ``height_px`` frame whose radiance has ``channels`` float32 values per pixel (31 bands by
-    default; 6 for ``render.bands = "camera"``); ``layered`` for ``lens.model = "layered"``.
+    default; 6 for ``render.bands = "camera"``); ``layered`` for ``lens.model = "layered"``;
+    ``robust_passes`` K > 1 for the adaptive median of means, which holds K pass images of a tile.
 
     The frame renders in tiles of at most
     :data:`~spectral_cam.render.scene_dict.TILE_PIXELS` pixels, so Mitsuba's share is one
@@ -60,7 +62,9 @@ def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, 
     per_pixel = 4.0 * channels + PIPELINE_BYTES_PER_PIXEL
     if layered:
         per_pixel += LAYERED_EXTRA_CUBES * 4.0 * channels + LAYERED_DEPTH_BYTES_PER_PIXEL
-    return BASE_BYTES + pixels * per_pixel + min(pixels, TILE_PIXELS) * MITSUBA_BYTES_PER_CALL_PIXEL
+    tile = min(pixels, TILE_PIXELS)
+    robust = tile * 4.0 * channels * (robust_passes + 1) if robust_passes > 1 else 0.0
+    return BASE_BYTES + pixels * per_pixel + tile * MITSUBA_BYTES_PER_CALL_PIXEL + robust
 
 
 def _cgroup_bytes() -> float:
@@ -91,7 +95,7 @@ def available_bytes() -> float:
 
 
 def check_render_memory(width_px: int, height_px: int, *, channels: int = 31, layered: bool = False,
-                        what: str = "this frame") -> None:
+                        what: str = "this frame", robust_passes: int = 1) -> None:
     """Refuse a frame whose job would not fit in memory (:func:`estimate_render_bytes`).
 
     Raises
@@ -100,7 +104,7 @@ def check_render_memory(width_px: int, height_px: int, *, channels: int = 31, la
         With the estimate, what is available and what to change.
     """
     def need(width, height, channels=channels, layered=layered):
-        return estimate_render_bytes(width, height, channels, layered=layered)
+        return estimate_render_bytes(width, height, channels, layered=layered, robust_passes=robust_passes)
 
     have = available_bytes()
     if need(width_px, height_px) > have:

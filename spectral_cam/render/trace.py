@@ -22,7 +22,9 @@ from ..errors import ConfigError, RenderError
 from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
-from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction
+from .decisions import (AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction,
+                        decide_estimator)
+from .robust import adaptive_median_of_means
 from .films import band_film, camera_film
 from .motion import ObjectMotion, plan_subframes, subframe_transform
 from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, moved_sensor, pass_seed,
@@ -142,6 +144,31 @@ def check_tiling(config: SceneConfig, lens: ThinLens) -> None:
                           f"frame of the same scene up to {TILE_PIXELS} px shows how many samples it needs)")
 
 
+def _robust_tile(mi, scene, camera, integrator, config: SceneConfig, groups: int, sampler: str, lane_cap: int,
+                 seed_key, seeds: list, rows, width: int, n_channels: int, progress, started: float, tile: int,
+                 tiles: int):
+    """One tile rendered as ``groups`` equal passes kept apart (each group its own seeds), then
+    combined by the adaptive median of means. Returns (estimate, median share, spp, passes)."""
+    share = config.render.spp // groups
+    stack = np.empty((groups, rows[1] - rows[0], width, n_channels), np.float32)
+    done = index = 0
+    for group in range(groups):
+        accumulated = _PassMean()
+        for spp in _fixed_passes(sampler, share, lane_cap):
+            seed = pass_seed(config.render.seed, index, seed_key)
+            image = np.asarray(mi.render(scene, sensor=camera, integrator=integrator, seed=seed, spp=spp),
+                               dtype=np.float32).reshape(stack.shape[1:])
+            accumulated.add(image, spp)
+            done += spp
+            index += 1
+            seeds.append(seed)
+            if progress is not None:
+                _report(progress, done, config.render.spp, time.perf_counter() - started, tile, tiles)
+        stack[group] = accumulated.mean()
+    estimate, median_share = adaptive_median_of_means(stack)
+    return estimate, median_share, done, index
+
+
 def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
           depth: np.ndarray | None = None, depth_s: float = 0.0, decisions: dict | None = None,
           progress: Callable[[int, int, float], None] | None = None) -> SpectralImage:
@@ -225,7 +252,19 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         if config.motion.object:
             mover = ObjectMotion(mi, scene, sensor, config)
             decisions["motion"]["object"] = {"name": config.motion.object, "shapes": mover.keys}
+    groups, decisions["estimator"] = decide_estimator(config, config.render.spp)
+    robust_shares = []
     for tile, rows, tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
+        if groups > 1:  # K equal passes kept apart, then their adaptive median of means
+            estimate, share, done, index = _robust_tile(mi, scene, tile_camera, integrator, config, groups, sampler,
+                                                        lane_cap, seed_key, seeds, rows, width, n_channels,
+                                                        progress, started, tile, len(tiles))
+            robust_shares.append(share)
+            if tiled:
+                data[rows[0]:rows[1]] = radiance_range.clear_rounding(estimate)
+            else:
+                data = radiance_range.clear_rounding(estimate)
+            continue
         accumulated = _PassMean()
         done, index = 0, 0
         for subframe in range(subframes):
@@ -257,6 +296,8 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
             data = radiance_range.clear_rounding(accumulated.mean())
     release_render_memory()
     radiance_range.check()
+    if robust_shares:
+        decisions["estimator"]["median_share"] = float(np.mean(robust_shares))
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
         if progress is not None and done < target_spp:
@@ -272,7 +313,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         "variant": variant,
         "lens_model": lens_model,
         "spp": done,
-        "spp_per_pass": spp_per_pass,
+        "spp_per_pass": spp_per_pass if groups == 1 else config.render.spp // groups,
         "sampler": sampler,
         "passes": index,
         "pass_seeds": seeds,

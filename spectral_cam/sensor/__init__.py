@@ -24,9 +24,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import SensorError
+from ..isp.tone import profile_tone_curve
 from ..raw.image import RawImage
 from .colour import _colour_matrix, _fitted_corrections, _forward_matrix
-from .exposure import auto_exposure_time, expected_electrons, resolve_exposure
+from .exposure import auto_exposure_time, expected_electrons, exposure_index, resolve_exposure
 from .noise import (
     HYBRID_POISSON_BELOW_E,
     SHOT_NOISE_METHODS,
@@ -61,7 +62,7 @@ __all__ = [
     "electron_rates", "max_channel_rates", "electrons_per_band_radiance", "system_gain", "saturation_electrons",
     "dark_noise_electrons", "noise_profile", "fixed_patterns", "auto_exposure_time", "simulate_frame",
     "validate_radiance", "signal_model", "SignalModel", "film_curves", "expected_electrons", "CAMERA_CHANNELS",
-    "FILM_REFERENCE_NM", "SHOT_NOISE_METHODS", "HYBRID_POISSON_BELOW_E", "resolve_exposure",
+    "FILM_REFERENCE_NM", "SHOT_NOISE_METHODS", "HYBRID_POISSON_BELOW_E", "resolve_exposure", "exposure_index",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -107,12 +108,14 @@ def expose(
         SpectralImage works, a synthetic uniform one included.
     config : SceneConfig
         Uses ``sensor``, ``lens`` (working f-number, transmission, vignetting geometry),
-        ``exposure`` (time or ``"auto"``, ISO, auto_fraction), ``illuminant.spd`` (for
-        AsShotNeutral) and ``render.seed`` (the default frame seed).
+        ``exposure`` (time or ``"auto"`` metered by ``metering``, ISO, ``iso_definition``),
+        ``isp.tone`` (the BaselineExposure and ProfileToneCurve the RAW carries: the rendering
+        a metered grey needs to show at 118/255), ``illuminant.spd`` (for AsShotNeutral and
+        the meter's white balance) and ``render.seed`` (the default frame seed).
     frame_seed : int, optional
         Seed of the temporal noise (default ``config.render.seed``).
     white_mask : numpy.ndarray, optional
-        Boolean (H, W) white reference for ``exposure.time_s = "auto"``; default the
+        Boolean (H, W) white reference for ``exposure.metering = "etr"``; default the
         rendered scene's own (``radiance.white_reference``: the ColorChecker's white patch),
         so the API and ``spectral-cam render`` expose alike; without one the 99th percentile
         of the max-channel electron rate is used.
@@ -185,6 +188,7 @@ def expose(
     timings["noise_chain"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    index = exposure_index(config)
     black, white = sensor.black_level_dn, 2 ** sensor.bit_depth - 1
     sigma_d = dark_noise_electrons(sensor, exposure_s)
     if monochrome:
@@ -210,7 +214,9 @@ def expose(
         "exposure_s": exposure_s,
         "exposure_auto": auto,
         "auto_reference_e_per_s": reference_rate,
-        "auto_fraction": exposure.auto_fraction if auto else None,
+        "auto_fraction": exposure.auto_fraction if auto and exposure.metering in ("highlight", "etr") else None,
+        "exposure_index": index,
+        "tone_black_render": config.isp.tone == "adobe",
         "iso": exposure.iso,
         "base_iso": sensor.base_iso,
         "saturation_e": saturation_e,
@@ -253,4 +259,6 @@ def expose(
         forward_matrix=forward,
         forward_matrix_2=forward_a,
         crop=radiance.frame_window if hasattr(radiance, "frame_window") else None,
+        baseline_exposure=index["baseline_exposure_ev"],
+        profile_tone_curve=profile_tone_curve(config.isp.tone),
     )

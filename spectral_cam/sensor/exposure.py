@@ -1,5 +1,5 @@
-"""Exposure: the time that puts the brightest relevant region at a fraction of saturation,
-and the noise-free electrons of a frame at that exposure.
+"""Exposure: the metered time (a camera's meter, ISO 12232 mid grey; or expose to the right),
+the exposure index the rendering must honour, and the noise-free electrons of a frame.
 
 References
 ----------
@@ -89,24 +89,82 @@ def _on_capture(mask: np.ndarray, radiance) -> np.ndarray:
     return full
 
 
+def _white_gains(radiance, config: "SceneConfig", model) -> np.ndarray:
+    """White-balance gains of the frame's light (its white's camera RGB inverted, smallest 1),
+    so the meter reads luminance as the develop will show it; ones where the light is unknown
+    (a radiance without a resolved ``illuminant.spd = "auto"``) or for a monochrome sensor."""
+    from .radiometry import _illuminant_bands, _illuminant_film_response
+
+    n = model.weights.shape[1]
+    spd = config.illuminant.spd
+    if spd == "auto":
+        spd = (getattr(radiance, "meta", None) or {}).get("illuminant_spd")
+    if n != 3 or spd is None:
+        return np.ones(n)
+    if model.camera_channels:
+        white = _illuminant_film_response(config.replace(**{"illuminant.spd": spd}))
+    else:
+        white = _illuminant_bands(spd, tuple(np.asarray(radiance.band_edges_nm, float).tolist())) @ model.weights
+    white = np.asarray(white, dtype=np.float64)
+    if not np.all(white > 0):
+        return np.ones(n)
+    return white.max() / white
+
+
+def metering_images(data: np.ndarray, model, gains: np.ndarray, *, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """What the meter reads, per pixel of every ``step``-th row: the white-balanced luminance
+    rate ¼R·g_R + ½G·g_G + ¼B·g_B and the brightest channel's raw rate (both e⁻/s, noise-free,
+    with cos⁴). For a neutral surface both equal the rate of the channel with gain 1, whose
+    saturation is the RAW's.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        float32 (rows, W) luminance and peak rates.
+
+    References
+    ----------
+    .. [1] ISO 12232:2019, §4 (exposure of mid grey); EMVA 1288 Release 4.0, §2.1.
+    """
+    weights = np.asarray(model.weights, dtype=np.float32)
+    n = weights.shape[1]
+    mix = np.full(n, 1.0 / n) if n != 3 else np.array([0.25, 0.5, 0.25]) * np.asarray(gains, float)
+    rows = range(0, data.shape[0], step)
+    lum = np.empty((len(rows), data.shape[1]), np.float32)
+    peak = np.empty_like(lum)
+    for i, row in enumerate(rows):
+        rates = np.asarray(data[row], dtype=np.float32) @ weights  # (W, C)
+        lum[i] = rates @ mix.astype(np.float32)
+        peak[i] = rates.max(axis=1)
+    if model.cos4 is not None:
+        lum *= model.cos4[::step]
+        peak *= model.cos4[::step]
+    return lum, peak
+
+
 def resolve_exposure(radiance: "SpectralImage", config: "SceneConfig", model, *,
                      white_mask: np.ndarray | None = None) -> tuple[float, float | None]:
-    """The exposure time of a frame: ``exposure.time_s``, or, for ``"auto"``, the time that
-    puts the reference region at ``exposure.auto_fraction`` of saturation
-    (:func:`auto_exposure_time`). The reference is the mean max-channel rate over
-    ``white_mask`` (e.g. the ColorChecker's white patch), else the 99th percentile over the
-    frame (every :data:`_AUTO_STEP`-th row above :data:`_AUTO_FULL_BELOW` pixels).
+    """The exposure time of a frame: ``exposure.time_s``, or, for ``"auto"``, the metered one.
+
+    A camera's meter (``exposure.metering``, :mod:`spectral_cam.metering`) reads the
+    white-balanced luminance and puts its grey-equivalent at
+    :data:`~spectral_cam.metering.GREY_RAW` (10/78) of saturation × 2^``compensation_ev``:
+    ``t = g_target·μ_e,sat / (r + I_d)`` with r the metered rate. ``etr`` (expose to the right)
+    keeps the former rule: the mean max-channel rate over ``white_mask`` (e.g. the
+    ColorChecker's white patch) or else the 99th percentile over the frame at
+    ``exposure.auto_fraction`` (:func:`auto_exposure_time`). Above :data:`_AUTO_FULL_BELOW`
+    pixels every :data:`_AUTO_STEP`-th row is read.
 
     Parameters
     ----------
     radiance : SpectralImage
         The frame's radiance.
     config : SceneConfig
-        Uses ``exposure`` and ``sensor``.
+        Uses ``exposure``, ``sensor`` and ``illuminant`` (the white the meter balances for).
     model : SignalModel
         The frame's signal model (:func:`spectral_cam.sensor.radiometry.signal_model`).
     white_mask : numpy.ndarray, optional
-        Boolean (H, W) reference region (default ``radiance.white_reference``).
+        Boolean (H, W) reference region for ``etr`` (default ``radiance.white_reference``).
 
     Returns
     -------
@@ -116,31 +174,77 @@ def resolve_exposure(radiance: "SpectralImage", config: "SceneConfig", model, *,
     Raises
     ------
     SensorError
-        For a white mask of the wrong shape or without a pixel, or a reference without light.
+        For a white mask of the wrong shape or without a pixel, or a frame without light.
 
     References
     ----------
-    .. [1] ISO 12232:2019 (saturation-based exposure).
+    .. [1] ISO 12232:2019, §4–6 (mid grey at H = 10/S; S_sat = 78/H_sat; SOS).
     """
+    from ..metering import GREY_RAW, metered_grey
+
     exposure, sensor = config.exposure, config.sensor
     if exposure.time_s != "auto":
         return float(exposure.time_s), None
     data = radiance.data
-    if white_mask is None:
-        white_mask = getattr(radiance, "white_reference", None)
-    if white_mask is not None:
-        mask = _on_capture(np.asarray(white_mask, dtype=bool), radiance)
-        if mask.shape != data.shape[:2] or not mask.any():
-            raise SensorError(f"white_mask must be a boolean {data.shape[:2]} array with at least one True pixel")
-        reference_rates = max_channel_rates(data, model.weights, cos4=model.cos4, mask=mask)
-        percentile = None
-    else:
-        step = 1 if data.shape[0] * data.shape[1] <= _AUTO_FULL_BELOW else _AUTO_STEP
-        reference_rates = max_channel_rates(data, model.weights, cos4=model.cos4, step=step)
-        percentile = 99.0
     saturation_e = saturation_electrons(sensor, system_gain(sensor, exposure.iso))
-    return auto_exposure_time(reference_rates, saturation_e=saturation_e, fraction=exposure.auto_fraction,
-                              dark_current_e_per_s=sensor.dark_current_e_per_s, percentile=percentile)
+    step = 1 if data.shape[0] * data.shape[1] <= _AUTO_FULL_BELOW else _AUTO_STEP
+    if exposure.metering == "etr":
+        if white_mask is None:
+            white_mask = getattr(radiance, "white_reference", None)
+        if white_mask is not None:
+            mask = _on_capture(np.asarray(white_mask, dtype=bool), radiance)
+            if mask.shape != data.shape[:2] or not mask.any():
+                raise SensorError(f"white_mask must be a boolean {data.shape[:2]} array with at least one True pixel")
+            reference_rates = max_channel_rates(data, model.weights, cos4=model.cos4, mask=mask)
+            percentile = None
+        else:
+            reference_rates = max_channel_rates(data, model.weights, cos4=model.cos4, step=step)
+            percentile = 99.0
+        return auto_exposure_time(reference_rates, saturation_e=saturation_e, fraction=exposure.auto_fraction,
+                                  dark_current_e_per_s=sensor.dark_current_e_per_s, percentile=percentile)
+    lum, peak = metering_images(data, model, _white_gains(radiance, config, model), step=step)
+    metered = metered_grey(lum, exposure.metering, peak=peak, fraction=exposure.auto_fraction)
+    if not metered > 0:
+        raise SensorError("exposure.time_s = 'auto' found no light to meter; give exposure.time_s in seconds")
+    target = GREY_RAW * 2.0 ** exposure.compensation_ev
+    return target * saturation_e / (metered + sensor.dark_current_e_per_s), metered
+
+
+def exposure_index(config: "SceneConfig") -> dict:
+    """How the exposure is defined and what the rendering must add: the ISO definition, mid
+    grey's place in the RAW and the BaselineExposure (stops) that the tone curve
+    ``isp.tone`` needs to show that grey at 118/255 (``sos``), or 0 (``saturation``).
+
+    The definition is recorded as ``rei`` (recommended exposure index: the user's own) when
+    the exposure was compensated or exposed to the right, and as ``manual`` for a given time.
+
+    Returns
+    -------
+    dict
+        ``iso_definition``, ``metering``, ``grey_raw_fraction``, ``baseline_exposure_ev``,
+        ``compensation_ev``, ``tone``.
+
+    References
+    ----------
+    .. [1] ISO 12232:2019, §4–6; Adobe (2023). DNG Specification 1.7.1.0, BaselineExposure.
+    """
+    import math
+
+    from ..isp.tone import grey_input
+    from ..metering import GREY_RAW
+
+    exposure, tone = config.exposure, config.isp.tone
+    baseline = math.log2(grey_input(tone) / GREY_RAW) if exposure.iso_definition == "sos" else 0.0
+    if exposure.time_s != "auto":
+        definition = "manual"
+    elif exposure.compensation_ev != 0 or exposure.metering == "etr":
+        definition = "rei"
+    else:
+        definition = exposure.iso_definition
+    return {"iso_definition": definition, "configured": exposure.iso_definition,
+            "metering": exposure.metering if exposure.time_s == "auto" else None,
+            "grey_raw_fraction": GREY_RAW * 2.0 ** exposure.compensation_ev,
+            "baseline_exposure_ev": baseline, "compensation_ev": exposure.compensation_ev, "tone": tone}
 
 
 def expected_electrons(radiance: "SpectralImage", config: "SceneConfig", *, exposure_s: float | None = None,

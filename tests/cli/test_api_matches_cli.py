@@ -28,13 +28,13 @@ def test_the_readme_snippet_and_the_cli_write_the_same_dng(tmp_path):
         args += ["--set", f"{key}={value}"]
     assert main(args) == 0
     assert (tmp_path / "api.dng").read_bytes() == (tmp_path / "cli" / "raw.dng").read_bytes()
-    # and both exposed for the white patch: t = fraction·saturation / (r + I_d), r the patch's
-    # mean max-channel photo-electron rate (ISO 12232 saturation-based exposure)
-    white = radiance.white_reference
-    assert white is not None and white.sum() > 4
+    # and both metered as a camera meters (ISO 12232): the mean white-balanced luminance
+    # ¼R + ½G + ¼B of the photo-electron rates (gains 1/AsShotNeutral) at 10/78 of saturation,
+    # t = (10/78)·saturation / (r + I_d)
     model = signal_model(radiance, scene)
-    rates = np.asarray(radiance.data, float)[white] @ np.asarray(model.weights, float)
-    rates *= np.asarray(model.cos4, float)[white][:, None]  # natural vignetting, cos⁴θ
-    r = rates.max(axis=1).mean()
-    expected = scene.exposure.auto_fraction * raw.meta["saturation_e"] / (r + scene.sensor.dark_current_e_per_s)
+    rates = np.asarray(radiance.data, float).reshape(-1, radiance.data.shape[-1]) @ np.asarray(model.weights, float)
+    rates *= np.asarray(model.cos4, float).reshape(-1, 1)  # natural vignetting, cos⁴θ
+    gains = 1.0 / np.asarray(raw.as_shot_neutral, float)
+    r = (rates @ (np.array([0.25, 0.5, 0.25]) * gains)).mean()
+    expected = 10 / 78 * raw.meta["saturation_e"] / (r + scene.sensor.dark_current_e_per_s)
     assert raw.meta["exposure_s"] == pytest.approx(expected, rel=1e-5)

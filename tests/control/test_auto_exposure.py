@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from spectral_cam.control import AutoExposure, ExposureState, meter
+from spectral_cam.metering import GREY_RAW
 from spectral_cam.errors import ConfigError
 
 
@@ -35,7 +36,8 @@ def test_a_brightness_step_settles_in_the_frames_the_damping_implies_without_ove
     corrections, then the loop rests; every error has the same sign and shrinks (no
     oscillation)."""
     ae = AutoExposure(damping=0.5, dead_band_ev=1 / 6, max_shutter_s=1.0, max_iso=100.0)
-    start = ExposureState(time_s=0.18 / 1.0 / 1.0 * 1e-2, iso=100.0)  # exposure that meters 0.18 at brightness 100
+    # the exposure that meters mid grey (ISO 12232: 10/78 of saturation) at brightness 100
+    start = ExposureState(time_s=GREY_RAW * 1e-2, iso=100.0)
     history = _run(ae, lambda k: 100.0 / 8.0, 12, start)
     errors = [s.error_ev for s in history]
     assert errors[0] == pytest.approx(3.0, abs=1e-9)
@@ -47,11 +49,11 @@ def test_a_brightness_step_settles_in_the_frames_the_damping_implies_without_ove
 
 def test_damping_one_corrects_at_once_and_locked_never_moves():
     ae = AutoExposure(damping=1.0, dead_band_ev=0.1, max_shutter_s=1.0)
-    start = ExposureState(time_s=1.8e-3, iso=100.0)
+    start = ExposureState(time_s=GREY_RAW * 1e-2, iso=100.0)
     history = _run(ae, lambda k: 100.0 / 4.0, 3, start)
     assert [s.adjusted for s in history] == [True, False, False] and abs(history[1].error_ev) < 1e-9
     locked = _run(AutoExposure(mode="locked"), lambda k: 100.0 / 4.0, 3, start)
-    assert {(s.time_s, s.iso) for s in locked} == {(1.8e-3, 100.0)} and locked[-1].error_ev == pytest.approx(2.0)
+    assert {(s.time_s, s.iso) for s in locked} == {(GREY_RAW * 1e-2, 100.0)} and locked[-1].error_ev == pytest.approx(2.0)
 
 
 def test_the_program_keeps_its_limits():
@@ -63,7 +65,8 @@ def test_the_program_keeps_its_limits():
     assert time_s == pytest.approx(1 / 30) and iso == pytest.approx(800.0)
     assert ae.split(math.log2(1 / 30 * 1000))[1] == 3200.0
     assert AutoExposure(program="iso_priority").split(math.log2(1.0)) == (pytest.approx(1 / 30), 100.0)
-    assert AutoExposure(compensation_ev=1.0).target == pytest.approx(0.36)
+    assert AutoExposure().target == pytest.approx(10 / 78)  # ISO 12232: H = 10/S, S_sat = 78/H_sat
+    assert AutoExposure(compensation_ev=1.0).target == pytest.approx(20 / 78)
 
 
 def test_metering_modes_weigh_the_frame_as_their_names_say():
@@ -72,7 +75,13 @@ def test_metering_modes_weigh_the_frame_as_their_names_say():
     assert meter(frame, "average") == pytest.approx(0.1 + 0.8 * 0.09)
     assert meter(frame, "spot") == pytest.approx(0.9)
     assert meter(frame, "average") < meter(frame, "centre_weighted") < meter(frame, "spot")
-    assert meter(frame, "highlight") == pytest.approx(0.9)
+    # highlight-protecting: the average while the brightest 1 % stays below the fraction ...
+    assert meter(frame, "highlight", highlight_target=0.9) == pytest.approx(meter(frame, "average"))
+    # ... and the 99th percentile placed at it (0.9 of saturation) once it would clip
+    frame[35:65, 35:65] = 3.0
+    assert meter(frame, "highlight", highlight_target=0.9) == pytest.approx(3.0 * GREY_RAW / 0.9)
+    assert meter(frame, "highlight", highlight_target=0.9) > meter(frame, "average")
+    assert meter(frame, "etr", highlight_target=0.8) == pytest.approx(3.0 * GREY_RAW / 0.8)
     with pytest.raises(ConfigError, match="unknown metering mode 'matrix'; valid: average"):
         meter(frame, "matrix")
     with pytest.raises(ConfigError, match="overshoot"):

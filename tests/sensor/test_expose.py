@@ -140,7 +140,7 @@ def test_vignetting_is_cos4():
 # ----------------------------------------------------------------------------- exposure, gain
 def test_auto_exposure_puts_brightest_channel_at_fraction_of_saturation():
     cfg = config({"model": "sony_ilce_7m3", "cfa": "GRBG", "vignetting": False, **QUIET},
-                 {"time_s": "auto", "auto_fraction": 0.7})
+                 {"time_s": "auto", "auto_fraction": 0.7, "metering": "etr"})
     wl, irradiance = spectra.absolute_irradiance("A", 300.0)
     radiance = spectra.band_integrals(0.9 * irradiance / np.pi, wl, spectra.parse_bands("400:700:10"))
     raw = S.expose(image((64, 64), radiance), cfg)
@@ -156,7 +156,7 @@ def test_auto_exposure_white_mask():
     data = np.zeros((size, size, len(WAVELENGTHS)), np.float32)
     data[:, : size // 2, 15] = 10.0  # bright left half
     data[:, size // 2:, 15] = 1.0  # the "white patch" on the right
-    cfg = config({"model": "ideal", "cfa": "none", "vignetting": False, **QUIET}, {"time_s": "auto"})
+    cfg = config({"model": "ideal", "cfa": "none", "vignetting": False, **QUIET}, {"time_s": "auto", "metering": "etr"})
     mask = np.zeros((size, size), bool)
     mask[:, size // 2:] = True
     raw = S.expose(SpectralImage(data, WAVELENGTHS, EDGES), cfg, white_mask=mask)

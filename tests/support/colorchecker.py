@@ -18,7 +18,8 @@ def colorchecker_tables(**sensor) -> dict:
         "illuminant": {"spd": "D65"},
         "lens": {"model": "pinhole"},
         "sensor": {"width_px": WIDTH, "height_px": HEIGHT, **sensor},
-        "exposure": {"time_s": "auto", "iso": 100, "auto_fraction": 0.8},
+        # exposed for the white patch, as a colour-measurement shot is (expose to the right)
+        "exposure": {"time_s": "auto", "iso": 100, "auto_fraction": 0.8, "metering": "etr"},
         "render": {"spp": SPP, "seed": 1},
     }
 

@@ -138,19 +138,23 @@ def bayer_stats(raw) -> np.ndarray:
 
 
 def _luminance(rgb: np.ndarray) -> np.ndarray:
-    return 0.25 * rgb[..., 0] + 0.5 * rgb[..., 1] + 0.25 * rgb[..., 2]
+    from ...metering import bayer_luminance
+
+    return bayer_luminance(rgb)
 
 
 def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureState:
-    """A one-shot exposure for the first frame: the sensor's own auto exposure (saturation-based)
-    scaled to the controller's metering target, so the loop starts near its goal."""
+    """A one-shot exposure for the first frame: the sensor's own auto exposure (the same camera
+    meter) scaled to the controller's reading of the RAW cells, so the loop starts at its goal."""
     from ...sensor import expose
 
-    probe = expose(image, config.replace(**{"exposure.time_s": "auto", "exposure.iso": ae.base_iso}), frame_seed=0)
+    probe = expose(image, config.replace(**{"exposure.time_s": "auto", "exposure.iso": ae.base_iso,
+                                            "exposure.metering": ae.metering,
+                                            "exposure.auto_fraction": ae.highlight_target}), frame_seed=0)
     time_s = float(probe.meta["exposure_s"])
     from ...control.exposure import meter
 
-    metered = meter(_luminance(bayer_stats(probe)), ae.metering)
+    metered = meter(_luminance(bayer_stats(probe)), ae.metering, highlight_target=ae.highlight_target)
     scale = ae.target / metered if metered > 0 else 1.0
     t, iso = ae.split(math.log2(time_s * scale))
     return ExposureState(t, iso)

@@ -14,7 +14,7 @@ controllers).
 
     [camera]
     exposure = "auto"         # or "locked": every frame at the first frame's exposure
-    metering = "average"      # average, centre_weighted, spot, highlight
+    metering = "average"      # average, centre_weighted, spot, highlight, etr (spectral_cam.metering)
     program = "program"       # program, shutter_priority, iso_priority
     damping = 0.5
     dead_band_ev = 0.167

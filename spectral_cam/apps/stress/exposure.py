@@ -200,7 +200,7 @@ def exposure_study(settings: StressSettings) -> dict:
         base = {"illuminant": {"spd": illuminant},
                 "sensor": {"model": STUDY_CAMERA, "width_px": hl_size, "height_px": hl_size, "vignetting": False}}
         image = uniform_image(lambertian_radiance(illuminant, [0.9])[0], (hl_size, hl_size))
-        probe = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": "auto", "auto_fraction": 1.0}}),
+        probe = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": "auto", "auto_fraction": 1.0, "metering": "etr"}}),
                          frame_seed=1)
         t_sat = probe.meta["exposure_s"]
         chroma = {m: [] for m in methods}

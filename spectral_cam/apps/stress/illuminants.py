@@ -129,7 +129,7 @@ def illuminant_study(settings: StressSettings, *, directory: Path | None = None,
         config = scene_from_dict({"illuminant": {"spd": illuminant},
                                   "sensor": {"model": STUDY_CAMERA, "width_px": width, "height_px": height,
                                              "vignetting": False},
-                                  "exposure": {"time_s": "auto", "auto_fraction": 0.8}})
+                                  "exposure": {"time_s": "auto", "auto_fraction": 0.8, "metering": "etr"}})
         white = np.zeros((height, width), bool)
         white[chart.patches[chart.white_index].interior(PATCH_MARGIN)] = True
         raw = S.expose(chart.radiance, config, white_mask=white, frame_seed=settings.seed_for(10, i_index))

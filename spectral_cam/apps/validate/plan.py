@@ -48,7 +48,7 @@ SWATCH_MODES = ("all", "failing", "none")
 VALIDATE_KEYS = ("illuminants", "cameras", "reflectance_sets", "chart", "bands", "patch_px", "gap_px",
                  "swatches", "thresholds")
 #: Keys of an ``[[exposure]]`` table.
-EXPOSURE_KEYS = ("name", "time_s", "iso", "auto_fraction")
+EXPOSURE_KEYS = ("name", "time_s", "iso", "auto_fraction", "metering")
 #: Scene-file tables a plan may hold (shared by every cell).
 SCENE_SECTIONS = ("scene", "lens", "sensor", "render", "illuminant")
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
@@ -102,12 +102,16 @@ class ExposureSpec:
         ISO speed (gain K = K_base·iso/base_iso).
     auto_fraction : float
         Fraction of saturation for auto exposure.
+    metering : str
+        ``exposure.metering``: ``"etr"`` (default: a colour-measurement shot exposed for the
+        brightest patch) or a camera meter mode (``average``, ...).
     """
 
     name: str
     time_s: float | str = "auto"
     iso: float = 100.0
     auto_fraction: float = 0.8
+    metering: str = "etr"
 
 
 @dataclass(frozen=True)
@@ -181,7 +185,7 @@ class Plan:
         overrides: dict[str, Any] = {
             "illuminant.spd": illuminant, "sensor.model": camera,
             "exposure.time_s": exposure.time_s, "exposure.iso": exposure.iso,
-            "exposure.auto_fraction": exposure.auto_fraction,
+            "exposure.auto_fraction": exposure.auto_fraction, "exposure.metering": exposure.metering,
         }
         if chart is not None and chart.source == "synthetic":
             height, width = chart.radiance.data.shape[:2]
@@ -264,20 +268,21 @@ def _exposure(table: Any, index: int, default_iso: float) -> ExposureSpec:
     time_s = table.get("time_s", "auto")
     iso = table.get("iso", default_iso)
     fraction = table.get("auto_fraction", 0.8)
+    metering = table.get("metering", "etr")
     for key, value in (("iso", iso), ("auto_fraction", fraction)):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"{where}: {key} = {value!r} must be a number")
     if time_s != "auto" and (isinstance(time_s, bool) or not isinstance(time_s, (int, float))):
         raise ConfigError(f"{where}: time_s = {time_s!r}; give seconds or 'auto'")
     section = ExposureSection(time_s=time_s if time_s == "auto" else float(time_s), iso=float(iso),
-                              auto_fraction=float(fraction))
+                              auto_fraction=float(fraction), metering=metering)
     if "name" in table:
         name = table["name"]
     elif time_s == "auto":
         name = f"auto{section.auto_fraction:g}_iso{section.iso:g}"
     else:
         name = f"{section.time_s:g}s_iso{section.iso:g}"
-    return ExposureSpec(_check_name(where, name), section.time_s, section.iso, section.auto_fraction)
+    return ExposureSpec(_check_name(where, name), section.time_s, section.iso, section.auto_fraction, section.metering)
 
 
 def _pipeline(table: Any, index: int, base_dir: Path):

@@ -296,7 +296,7 @@ def _noise_free_chart_raw(camera: str = "nikon_d850", illuminant: str = "D65"):
         "sensor": {"model": camera, "width_px": width, "height_px": height, "shot_noise": False,
                    "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, "dsnu_e": 0.0, "prnu": 0.0,
                    "vignetting": False},
-        "exposure": {"time_s": "auto", "auto_fraction": 0.8},
+        "exposure": {"time_s": "auto", "auto_fraction": 0.8, "metering": "etr"},
     })
     mask = np.zeros((height, width), dtype=bool)
     mask[chart.patches[chart.white_index].interior(PATCH_MARGIN)] = True

@@ -92,7 +92,7 @@ def test_no_colour_cast_in_clipped_highlights(illuminant):
     (CIELAB chroma < 1); without, the white-balance gains turn the clipped white coloured."""
     base = {"illuminant": {"spd": illuminant}, "sensor": {"width_px": 24, "height_px": 24, "vignetting": False}}
     image = uniform_image(lambertian_radiance(illuminant, [0.9])[0], (24, 24))
-    probe = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": "auto", "auto_fraction": 1.0}}))
+    probe = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": "auto", "auto_fraction": 1.0, "metering": "etr"}}))
     raw = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": 4 * probe.meta["exposure_s"]}}),
                    frame_seed=2)
     chroma = {}
