@@ -1,0 +1,127 @@
+"""Fireflies (issue 23 #3): what each way of turning passes into a pixel costs and how far it
+lands from a converged reference.
+
+Scenes: the bundled glass and copper spheres under a small lamp (``scenes/glass_sphere.toml``:
+caustics) and the tabletop under the sun (``scenes/tabletop.toml``: glass, metal, plastic), at
+480 × 320 px (their defaults), camera film (6 channels). Each estimator sees the same 8 passes of 8 spp (64 spp,
+the default): the plain mean (unbiased), the median of the 8 pass means (MoN, Buisine et al.
+2021's estimator without adaptation), and the adaptive rule at Gini thresholds 0.25, 0.4 (ours)
+and 0.6. The reference is the mean of 1024 spp (16× the samples, its own seed).
+
+Per estimator: the firefly share (:func:`spectral_cam.metrics.realism.firefly_share` on the
+luminance), the bias of the frame's mean luminance against the reference (light lost), the
+mean |Δ| over 4 × 4 blocks against the reference (noise + bias), and the share of pixels that
+took the median. Cost: the render time with ``render.estimator = "amon"`` against ``"mean"`` at
+64 spp (median of 3, interleaved, after a warm-up).
+
+Writes ``OUT/fireflies.csv`` and ``OUT/fireflies.png``.
+
+Usage::
+
+    python benchmarks/bench_fireflies.py docs/bench [--size 480x320]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+SCENES = {"glass_sphere": "scenes/glass_sphere.toml", "tabletop": "scenes/tabletop.toml"}
+PASSES, PASS_SPP, REFERENCE_SPP = 8, 8, 1024
+RULES = {"mean": np.inf, "MoN (median of 8 means)": 0.0, "adaptive, G > 0.25": 0.25,
+         "adaptive, G > 0.4 (default)": 0.4, "adaptive, G > 0.6": 0.6}
+
+
+def config(path: str, width: int, height: int, spp: int, seed: int, estimator: str = "mean"):
+    from spectral_cam import load_scene
+
+    return load_scene(path, overrides={"sensor.width_px": width, "sensor.height_px": height, "render.spp": spp,
+                                       "render.seed": seed, "render.estimator": estimator, "render.bands": "camera",
+                                       "render.spectral_output": False, "render.diffraction": "off"})
+
+
+def radiance(cfg) -> tuple[np.ndarray, float]:
+    from spectral_cam import render
+
+    started = time.perf_counter()
+    image = render(cfg, with_depth=False)
+    return np.asarray(image.data, np.float32), time.perf_counter() - started
+
+
+def blocks(image: np.ndarray, side: int = 4) -> np.ndarray:
+    h, w = (image.shape[0] // side) * side, (image.shape[1] // side) * side
+    return image[:h, :w].reshape(h // side, side, w // side, side).mean(axis=(1, 3))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("output")
+    parser.add_argument("--size", default="480x320")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+
+    from spectral_cam.apps.bench.common import write_rows
+    from spectral_cam.metrics.realism import firefly_share
+    from spectral_cam.render.robust import adaptive_median_of_means
+    from spectral_cam.viz import figure, save_png
+
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    width, height = (int(v) for v in args.size.split("x"))
+    rows = []
+    for name, path in SCENES.items():
+        reference, _ = radiance(config(path, width, height, REFERENCE_SPP, seed=99))
+        ref_lum = reference[..., 4]  # the camera film's Y channel
+        passes = np.stack([radiance(config(path, width, height, PASS_SPP, seed=1000 + k))[0] for k in range(PASSES)])
+        for label, threshold in RULES.items():
+            if np.isinf(threshold):
+                estimate, share = passes.mean(axis=0), 0.0
+            else:
+                estimate, share = adaptive_median_of_means(passes, threshold=threshold)
+            lum = estimate[..., 4]
+            rows.append({"scene": name, "estimator": label, "gini_threshold": threshold, "spp": PASSES * PASS_SPP,
+                         "firefly_share": firefly_share(lum), "median_share": share,
+                         "bias_of_mean": float(lum.mean() / ref_lum.mean() - 1.0),
+                         "block_error": float(np.mean(np.abs(blocks(lum) - blocks(ref_lum))) / ref_lum.mean()),
+                         "reference_firefly_share": firefly_share(ref_lum)})
+            print(rows[-1], file=sys.stderr)
+        radiance(config(path, width, height, 8, seed=0, estimator="amon"))  # warm-up
+        seconds = {"mean": [], "amon": []}
+        for repeat in range(args.repeats):
+            for estimator in (("mean", "amon") if repeat % 2 == 0 else ("amon", "mean")):
+                seconds[estimator].append(radiance(config(path, width, height, 64, repeat, estimator))[1])
+        ratio = float(np.median(seconds["amon"]) / np.median(seconds["mean"]))
+        for row in rows:
+            if row["scene"] == name:
+                row["render_s_mean"] = float(np.median(seconds["mean"]))
+                row["render_s_amon"] = float(np.median(seconds["amon"]))
+                row["amon_time_ratio"] = ratio
+    write_rows(rows, out / "fireflies.csv")
+
+    fig = figure(10, 3.8)
+    left, right = fig.subplots(1, 2)
+    for name in SCENES:
+        mine = [r for r in rows if r["scene"] == name]
+        marker = "o" if name == "glass_sphere" else "s"
+        for r in mine:
+            left.scatter(100 * abs(r["bias_of_mean"]) + 1e-3, 100 * r["firefly_share"] + 1e-4, marker=marker)
+            left.annotate(r["estimator"].split(" (")[0], (100 * abs(r["bias_of_mean"]) + 1e-3,
+                                                         100 * r["firefly_share"] + 1e-4), fontsize=6)
+        ordered = sorted(mine, key=lambda r: min(r["gini_threshold"], 1.0))
+        right.plot([min(r["gini_threshold"], 1.0) for r in ordered], [100 * r["block_error"] for r in ordered],
+                   marker + "-", label=f"{name} (amon ×{mine[0]['amon_time_ratio']:.2f} the mean's time)")
+    left.set_xscale("log"), left.set_yscale("log")
+    left.set_xlabel("|bias| of the frame's mean vs 1024 spp (%)"), left.set_ylabel("firefly share (%)")
+    left.set_title("○ glass_sphere  □ tabletop, 64 spp", fontsize=8)
+    right.set_xlabel("Gini threshold (0 = MoN everywhere, 1 = the mean)")
+    right.set_ylabel("mean |Δ| of 4×4 blocks vs 1024 spp (%)"), right.legend(fontsize=7)
+    fig.suptitle("Firefly removal: adaptive median of 8 pass means against the mean", fontsize=10)
+    save_png(fig, out / "fireflies.png")
+
+
+if __name__ == "__main__":
+    main()
