@@ -30,8 +30,10 @@ def develop_twice(size=(96, 64)):
     with the first gains) of a ColorChecker."""
     from spectral_cam import develop, expose, render, scene_from_dict
 
-    config = scene_from_dict({"scene": {"preset": "colorchecker"}, "illuminant": {"spd": "D65"},
+    config = scene_from_dict({"scene": {"preset": "colorchecker", "surround": 0}, "illuminant": {"spd": "D65"},
                               "sensor": {"width_px": size[0], "height_px": size[1]}, "render": {"spp": 16},
+                              # exposed for the white patch, as a chart is shot for measurement
+                              "exposure": {"metering": "etr", "iso_definition": "saturation"},
                               "isp": {"tone": "linear", "white_balance": "as_shot", "demosaic": "bilinear"}})
     radiance = render(config, with_depth=False)
     raw = expose(radiance, config, frame_seed=1)

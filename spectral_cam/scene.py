@@ -111,7 +111,9 @@ class SceneSection:
     ``slanted_edge``; ``depths_m`` the plane depths of ``dof_targets`` and the source depths
     of ``point_sources``; ``checker_px`` the in-focus checker square size of ``dof_targets``
     (pixels). ``fill`` is the fraction of the frame width the chart covers and
-    ``gap`` the fraction of each patch pitch left as dark border. ``reflectance`` is the
+    ``gap`` the fraction of each patch pitch left as dark border; ``surround`` the reflectance of
+    the card the chart lies on (an 18 % grey by default, as charts are photographed; 0: nothing
+    behind the chart). ``reflectance`` is the
     flat-field target (a number in [0, 1], a ColorChecker patch name or a CSV path).
     ``leaf_*`` shape ``dead_leaves``: disc radii on the sensor (pixels, power law between the
     two), the expected fraction of the view covered, the reflectance set the discs draw from
@@ -137,6 +139,7 @@ class SceneSection:
     fill: float = 0.8
     gap: float = 0.15
     reflectance: float | str = 0.18
+    surround: float | str = 0.18
     edge_angle_deg: float = 5.0
     source_radius_m: float = 0.002
     checker_px: float = 16.0
@@ -205,6 +208,7 @@ class SceneSection:
                       "(wavelength_nm, one column per sample)")
         self._check_outdoor_keys()
         spectra.validate_reflectance(self.reflectance)
+        spectra.validate_reflectance(self.surround)
 
     def _check_outdoor_keys(self) -> None:
         if self.light not in SCENE_LIGHTS:

@@ -48,7 +48,8 @@ def test_the_design_lists_the_physical_ranges_the_code_enforces():
     assert f"1..{MAX_SPP}" in text
 
 
-@pytest.mark.parametrize("script, table", [("bench_develop", "bench_develop.csv"), ("bench_render", "render.csv")])
+@pytest.mark.parametrize("script, table", [("bench_develop", "bench_develop.csv"), ("bench_render", "render.csv"),
+                                           ("bench_fireflies", "fireflies.csv"), ("bench_realism", "realism.csv")])
 def test_the_readme_speed_blocks_come_from_the_committed_csvs(script, table):
     """README numbers come from committed CSVs: each benchmark's README block is what its script
     writes from its CSV in docs/bench/."""

@@ -69,8 +69,8 @@ def white_reference_mask(config: SceneConfig, lens: ThinLens | None = None) -> n
     return mask if mask.any() else None
 
 
-@PRESETS.register("colorchecker", options=("distance_m", "fill", "gap"),
-                  description="the 24-patch ColorChecker (BabelColor spectra) facing the camera")
+@PRESETS.register("colorchecker", options=("distance_m", "fill", "gap", "surround"),
+                  description="the 24-patch ColorChecker (BabelColor spectra) facing the camera, on a grey card")
 def colorchecker(config: SceneConfig, lens: ThinLens, mi) -> dict:
     s = config.scene
     half_w, _ = field_half_size(lens, s.distance_m)
@@ -86,6 +86,13 @@ def colorchecker(config: SceneConfig, lens: ThinLens, mi) -> dict:
         objects["chart_frame"] = facing_rectangle(
             mi, (0.0, 0.0, s.distance_m + 1e-3), 3.25 * pitch, 2.25 * pitch, diffuse(CHART_FRAME_REFLECTANCE)
         )
+    if s.surround != 0:
+        # the card the chart lies on, 2 mm behind it and wider than the view, so that a camera's
+        # meter reads a scene and not a chart floating in a void (issue 23)
+        half_w, half_h = field_half_size(lens, s.distance_m)
+        surround = spectra.reflectance(s.surround) if isinstance(s.surround, str) else s.surround
+        objects["surround"] = facing_rectangle(mi, (0.0, 0.0, s.distance_m + 2e-3), 1.5 * half_w, 1.5 * half_h,
+                                               diffuse(surround))
     objects["light"] = sun(config)
     return objects
 
