@@ -61,7 +61,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         for index, (title, table) in enumerate(PANELS):
             spp = 1024 if table["scene"]["preset"] == "point_sources" else 128  # small sources: few hits
-            config = scene_from_dict({**table, "sensor": SENSOR, "render": {"spp": spp}})
+            # bokeh is shot metering the highlights (an average meter on a black frame blows the discs out)
+            exposure = {"metering": "highlight"} if table["scene"]["preset"] == "point_sources" else {}
+            config = scene_from_dict({**table, "sensor": SENSOR, "render": {"spp": spp}, "exposure": exposure})
             out = Path(folder) / f"panel{index}"
             run_render_job(config, out, spectral_output=False)
             image = cv2.imread(str(out / "image.png"))

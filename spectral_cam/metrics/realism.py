@@ -12,7 +12,8 @@ display sRGB), and on RAWs as fractions of full scale:
   8-bit level (σ < 1/255): texture-free area, which renders of flat primitives are full of;
 - :func:`colourfulness`: Hasler & Süsstrunk's M = σ_rgyb + 0.3·μ_rgyb on 8-bit RGB;
 - :func:`firefly_share`: share of pixels brighter than 4× the median of their 5 × 5
-  neighbourhood and than the frame's median (isolated bright outliers; dark noise excluded);
+  neighbourhood, than the frame's median and than twice each of their 8 neighbours (isolated
+  bright outliers; dark noise and the corners of bright areas excluded);
 - :func:`raw_levels`: median and 99th percentile of a RAW, (DN − black)/(white − black).
 
 References
@@ -105,8 +106,10 @@ def colourfulness(image: np.ndarray) -> float:
 
 
 def firefly_share(luminance: np.ndarray) -> float:
-    """Share of pixels above 4× the median of their 5 × 5 neighbourhood and above the frame's
-    median: isolated bright outliers (a firefly), not the noise of dark areas.
+    """Share of pixels above 4× the median of their 5 × 5 neighbourhood, above the frame's
+    median and above twice the brightest of their 8 neighbours: isolated bright outliers (a
+    firefly), not the noise of dark areas nor the corner of a bright patch or lamp (whose
+    5 × 5 median is dark too, but whose neighbours are as bright).
 
     Parameters
     ----------
@@ -123,9 +126,12 @@ def firefly_share(luminance: np.ndarray) -> float:
     """
     import cv2
 
-    lum = np.asarray(luminance, dtype=np.float32)
+    lum = np.ascontiguousarray(luminance, dtype=np.float32)
     local = cv2.medianBlur(lum, 5)
-    return float(np.mean((lum > 4 * local) & (lum > np.median(lum))))
+    ring = np.ones((3, 3), np.uint8)
+    ring[1, 1] = 0
+    neighbours = cv2.dilate(lum, ring, borderType=cv2.BORDER_REFLECT)  # the brightest of the 8 around
+    return float(np.mean((lum > 4 * local) & (lum > np.median(lum)) & (lum > 2 * neighbours)))
 
 
 def raw_levels(mosaic: np.ndarray, black, white: float) -> tuple[float, float]:

@@ -50,6 +50,14 @@ def test_an_18_percent_grey_field_develops_to_118_of_255_for_every_camera(model)
     assert raw.meta["exposure_index"]["iso_definition"] == "sos"
 
 
+@pytest.mark.parametrize("illuminant", ["A", "FL11", "LED-B1"])
+def test_the_grey_card_develops_to_118_under_other_lights(illuminant):
+    """The meter reads white-balanced luminance, so a tungsten, fluorescent or LED light meters
+    the grey card as daylight does (the channel with gain 1 carries it)."""
+    scene, raw = _grey_field("nikon_d850", illuminant=illuminant)
+    assert np.round(develop(raw, scene.isp).image * 255).mean() == pytest.approx(SOS_GREY, abs=6)
+
+
 def test_the_rendered_flat_field_scene_at_its_defaults_develops_to_118():
     """The bundled flat-field scene, path-traced (vignetting included), through the whole chain."""
     scene = sc.load_scene("scenes/flat_field.toml", overrides={"sensor.width_px": 64, "sensor.height_px": 48,

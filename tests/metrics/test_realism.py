@@ -44,11 +44,12 @@ def test_flat_grey_and_saturated_images_read_as_they_are():
     assert clipped_share(red) == 1.0 and colourfulness(red) == pytest.approx(0.3 * np.hypot(255, 127.5))
 
 
-def test_a_lone_bright_pixel_is_a_firefly_and_dark_noise_is_not():
+def test_a_lone_bright_pixel_is_a_firefly_and_dark_noise_and_corners_are_not():
     rng = np.random.default_rng(2)
     frame = np.full((50, 50), 1.0) + 0.01 * rng.standard_normal((50, 50))
     frame[:10] = np.abs(0.001 * rng.standard_normal((10, 50)))  # dark and noisy: far above its median
     frame[30, 30] = 20.0
+    frame[40:, 40:] = 30.0  # a bright lamp in a corner: its corner pixel's 5×5 median is dark, not a firefly
     assert firefly_share(frame) == pytest.approx(1 / 2500)
 
 
