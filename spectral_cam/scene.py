@@ -128,8 +128,10 @@ class SceneSection:
     ``layout_seed`` draws the layout of ``tabletop`` and ``vegetation``; ``view_pitch_deg``
     tilts their camera (< 0 looks down) at the ground point ``distance_m`` away.
     ``vegetation`` reads ``object_count`` and ``object_size`` for its plants, whose leaves take
-    ``plant_reflectances`` (its ``dry_*`` samples for ``dry_fraction`` of the plants) on a soil
-    of ``soil_reflectances``.
+    ``plant_reflectances``: ``"prospect"`` (PROSPECT-D reflectance and transmittance, each plant's
+    biochemistry drawn by health: ``dry_fraction`` dry, ``stressed_fraction`` stressed, the rest
+    healthy) or a reflectance set (its ``dry_*`` samples for ``dry_fraction`` of the plants), on a
+    soil of ``soil_reflectances``.
     """
 
     preset: str = "colorchecker"
@@ -156,9 +158,10 @@ class SceneSection:
     object_reflectances: str = "cie2017"
     layout_seed: int = 0
     view_pitch_deg: float = -25.0
-    plant_reflectances: str = "usgs_vegetation"
+    plant_reflectances: str = "prospect"
     soil_reflectances: str = "usgs_soils"
     dry_fraction: float = 0.1
+    stressed_fraction: float = 0.2
 
     def __post_init__(self) -> None:
         if not self.mitsuba_xml and self.preset not in PRESETS:
@@ -203,6 +206,8 @@ class SceneSection:
                 _fail(f"scene.{key}", value, "must be a whole number >= 0")
         for key in ("leaf_reflectances", "object_reflectances", "plant_reflectances", "soil_reflectances"):
             value = getattr(self, key)
+            if key == "plant_reflectances" and value == "prospect":
+                continue
             if value not in spectra.REFLECTANCE_SET_NAMES and not str(value).lower().endswith(".csv"):
                 _fail(f"scene.{key}", value, f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV "
                       "(wavelength_nm, one column per sample)")
@@ -226,6 +231,10 @@ class SceneSection:
             _fail("scene.object_materials", list(self.object_materials), f"give one or more of {', '.join(OBJECT_MATERIALS)}")
         if not (isinstance(self.dry_fraction, float) and 0.0 <= self.dry_fraction <= 1.0):
             _fail("scene.dry_fraction", self.dry_fraction, "must lie in [0, 1]: the fraction of plants with dry leaves")
+        if not (isinstance(self.stressed_fraction, float) and 0.0 <= self.stressed_fraction <= 1.0
+                and self.dry_fraction + self.stressed_fraction <= 1.0):
+            _fail("scene.stressed_fraction", self.stressed_fraction, "must lie in [0, 1 − dry_fraction]: the fraction "
+                  "of plants with stressed (chlorotic) leaves")
         if not (isinstance(self.view_pitch_deg, float) and -89.0 <= self.view_pitch_deg <= -1.0):
             _fail("scene.view_pitch_deg", self.view_pitch_deg, "must lie in [-89, -1] degrees (the camera looks "
                   "down at the ground point distance_m away)")

@@ -4,11 +4,15 @@ the scene of outdoor and agricultural imaging (crop monitoring, plant health).
 Each plant is one triangle mesh of 6–11 leaves set round its stem by the golden angle
 (137.5°, the phyllotaxis of most broad-leaved plants), each leaf a lanceolate blade whose width
 follows sin(πs)^0.7 along its length, rising at 25–65° and drooping under its own weight, with
-a slight V-fold along the midrib. A plant's leaves share one reflectance drawn from
-``scene.plant_reflectances``: from its ``dry_*`` samples for a fraction ``scene.dry_fraction`` of
-the plants, else from the others (the USGS set's green leaves and grass). Leaves are two-sided
-Lambertian reflectors: the library gives reflectance only, so the light leaves transmit (about
-as much as they reflect in the near infrared) is not modelled. The soil is one sample of
+a slight V-fold along the midrib. With ``scene.plant_reflectances = "prospect"`` (the
+default) a plant's leaves reflect *and transmit* as PROSPECT-D gives for its own biochemistry
+(:mod:`spectral_cam.leaves`), drawn per plant by health state — ``dry`` for ``scene.dry_fraction``
+of the plants, ``stressed`` for ``scene.stressed_fraction``, else ``healthy`` (:func:`plant_health`,
+the datasets' health label) — through the two-sided translucent leaf BSDF
+(``render/leaf_bsdf.py``): in the near infrared a leaf transmits about as much as it reflects,
+which makes plants glow against the sun. With a reflectance set (e.g. ``usgs_vegetation``), the
+leaves share one measured reflectance (its ``dry_*`` samples for ``dry_fraction``) and are
+two-sided Lambertian reflectors that transmit nothing. The soil is one sample of
 ``scene.soil_reflectances`` drawn by ``scene.layout_seed``.
 
 Plants stand where rays through the middle 90 % of the frame meet the ground, no nearer to
@@ -19,6 +23,7 @@ References
 ----------
 .. [1] Kokaly, R. F., et al. (2017). USGS Spectral Library Version 7, USGS Data Series 1035
    (the bundled leaf and soil spectra, ``spectral_cam/data/usgs_splib07``).
+.. [3] Féret, J.-B., et al. (2017). PROSPECT-D. Remote Sensing of Environment 193, 204–215.
 .. [2] Douady, S., & Couder, Y. (1992). Phyllotaxis as a physical self-organized growth process.
    Physical Review Letters 68(13), 2098 (the golden-angle leaf arrangement).
 """
@@ -31,14 +36,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import outdoor
-from .common import PRESETS, diffuse
+from .common import PRESETS, diffuse, leaf_bsdf
 from .meshes import mitsuba_mesh
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
     from ..scene import SceneConfig
 
-__all__ = ["plant_mesh", "vegetation_layout", "GOLDEN_ANGLE_DEG"]
+__all__ = ["plant_mesh", "vegetation_layout", "plant_health", "GOLDEN_ANGLE_DEG"]
 
 GOLDEN_ANGLE_DEG = 137.50776
 #: Samples along and across each leaf blade.
@@ -100,6 +105,28 @@ def vegetation_layout(config: "SceneConfig", lens: "ThinLens"):
                                           noun="plants"))
 
 
+def plant_health(config: "SceneConfig", count: int) -> list[dict]:
+    """Each plant's health state and PROSPECT-D biochemistry, drawn by ``layout_seed``: ``dry``
+    for ``scene.dry_fraction`` of them, ``stressed`` for ``scene.stressed_fraction``, else
+    ``healthy`` (:data:`spectral_cam.leaves.HEALTH_STATES`); the health label of datasets.
+
+    Returns
+    -------
+    list of dict
+        ``{"plant": "plant_<n>", "state": ..., "traits": {n, cab, car, ant, brown, cw, cm}}``.
+    """
+    from ..leaves import draw_traits
+
+    s = config.scene
+    rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x4EA1]))
+    plants = []
+    for n in range(count):
+        u = rng.random()
+        state = "dry" if u < s.dry_fraction else "stressed" if u < s.dry_fraction + s.stressed_fraction else "healthy"
+        plants.append({"plant": f"plant_{n}", "state": state, "traits": draw_traits(rng, state).to_dict()})
+    return plants
+
+
 def _split_dry(samples) -> tuple[list, list]:
     dry = [sd for name, sd in zip(samples.names, samples.sds) if name.startswith("dry")]
     green = [sd for name, sd in zip(samples.names, samples.sds) if not name.startswith("dry")]
@@ -107,21 +134,30 @@ def _split_dry(samples) -> tuple[list, list]:
 
 
 @PRESETS.register("vegetation", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
-                                         "plant_reflectances", "soil_reflectances", "dry_fraction", "layout_seed"),
-                  description="plants of measured leaf spectra on measured soil under the sun and sky")
+                                         "plant_reflectances", "soil_reflectances", "dry_fraction",
+                                         "stressed_fraction", "layout_seed"),
+                  description="plants of PROSPECT-D leaves (or measured leaf spectra) on measured soil under the sun "
+                              "and sky")
 def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     """The soil, the plants of :func:`vegetation_layout` and the light."""
+    from ..leaves import LeafTraits
     from ..reflectance_sets import reflectance_set
 
     s = config.scene
     rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x5011]))
-    green, dry = _split_dry(reflectance_set(s.plant_reflectances))
+    prospect = s.plant_reflectances == "prospect"
+    green, dry = ([], []) if prospect else _split_dry(reflectance_set(s.plant_reflectances))
     soils = reflectance_set(s.soil_reflectances)
     view = outdoor.GroundView.from_config(config)
     objects = {"ground": outdoor.ground(view, mi, diffuse(soils.sds[rng.integers(len(soils))]))}
-    for n, (east, north, size) in enumerate(vegetation_layout(config, lens)):
-        pool = dry if rng.random() < s.dry_fraction else green
-        leaf = {"type": "twosided", "bsdf": diffuse(pool[rng.integers(len(pool))])}
+    layout = vegetation_layout(config, lens)
+    health = plant_health(config, len(layout)) if prospect else None
+    for n, (east, north, size) in enumerate(layout):
+        if prospect:  # reflects and transmits (PROSPECT-D), the plant's own biochemistry
+            leaf = leaf_bsdf(LeafTraits(**health[n]["traits"]))
+        else:  # a measured reflectance only: two-sided Lambertian, no transmission
+            pool = dry if rng.random() < s.dry_fraction else green
+            leaf = {"type": "twosided", "bsdf": diffuse(pool[rng.integers(len(pool))])}
         vertices, faces = plant_mesh(rng, size)
         place = mi.ScalarTransform4f().translate([east, north, 0.0])
         objects[f"plant_{n}"] = mitsuba_mesh(mi, f"plant_{n}", vertices, faces, leaf, view.transform(mi, place))

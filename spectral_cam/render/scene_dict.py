@@ -167,7 +167,9 @@ def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrato
     Mitsuba XML scene keeps its shapes, emitters and its first sensor's pose, while our
     camera (lens, film, sampler) and integrator replace its own."""
     from ..presets import build_objects
+    from .leaf_bsdf import register as register_leaf
 
+    register_leaf(mi)  # before any load: presets name it
     if not config.scene.mitsuba_xml:
         scene = {"type": "scene", "integrator": integrator, "sensor": camera}
         scene.update(build_objects(config, lens.layout_lens, mi))  # laid out for the frame
