@@ -33,7 +33,25 @@ from .memory import check_render_memory
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, check_tiling, trace
 from .variants import choose_variant, choose_variant_record
 
-__all__ = ["render", "render_layered", "choose_variant", "SpectralImage", "LANES_PER_PASS", "SCALAR_LANES_PER_PASS"]
+__all__ = ["render", "render_layered", "render_shape_map", "choose_variant", "SpectralImage", "LANES_PER_PASS",
+           "SCALAR_LANES_PER_PASS"]
+
+
+def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None) -> tuple["np.ndarray", list[str]]:
+    """Which shape each pixel sees (:func:`.depth.render_shape_index`): (H, W) int32 indices,
+    −1 for none, and the shapes' names. The lens is the frame's (default: built from the config).
+
+    References
+    ----------
+    .. [1] Jakob, W., et al. (2022). Mitsuba 3, plugin ``aov``.
+    """
+    import mitsuba as mi
+
+    from .depth import render_shape_index
+
+    mi.set_variant(choose_variant(config.render.variant))
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    return render_shape_index(mi, config, lens)
 
 
 def _most_channels(config: SceneConfig) -> int:

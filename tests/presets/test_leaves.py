@@ -106,3 +106,34 @@ def test_health_states_order_chlorophyll_and_refuse_unknown_states():
         draw_traits(rng, "sick")
     with pytest.raises(sc.errors.ConfigError, match="stressed_fraction"):
         sc.scene_from_dict({"scene": {"preset": "vegetation", "dry_fraction": 0.6, "stressed_fraction": 0.6}})
+
+
+def test_the_health_label_marks_each_plants_pixels_and_health_shows_in_the_image(tmp_path):
+    """The dataset's health map: its plant pixels are the pixels nearer than the analytic ground
+    plane (the depth label, independently), each plant's chlorophyll is its drawn trait, and the
+    developed image shows it: healthy leaves greener (excess green 2g − r − b) than stressed ones."""
+    import OpenEXR
+
+    from spectral_cam.apps.dataset.labels import HEALTH_CODES, write_item
+    from spectral_cam.apps.sequence.drift import plant_mask
+
+    config = sc.load_scene("scenes/vegetation.toml", overrides={"sensor.width_px": 160, "sensor.height_px": 108,
+                                                               "render.spp": 16, "scene.stressed_fraction": 0.4})
+    meta = write_item(config, tmp_path / "item", outputs=["image", "depth", "health"])
+    channels = OpenEXR.File(str(tmp_path / "item" / "health.exr")).channels()
+    state, cab = channels["state"].pixels, channels["cab"].pixels
+    depth = OpenEXR.File(str(tmp_path / "item" / "depth.exr")).channels()
+    depth = next(iter(depth.values())).pixels
+    plants = plant_mask(config, depth)
+    assert np.mean((state > 0) == plants) > 0.95  # one sample per pixel each: edges may differ (97.7 % agree)
+    for plant in meta["health"]["plants"]:
+        if plant["pixels"]:
+            assert np.any(np.isclose(cab, plant["traits"]["cab"]))
+    import cv2
+
+    image = cv2.imread(str(tmp_path / "item" / "image.png"))[..., ::-1].astype(float)
+    chroma = image / np.maximum(image.sum(axis=-1, keepdims=True), 1)
+    exg = 2 * chroma[..., 1] - chroma[..., 0] - chroma[..., 2]
+    healthy, stressed = state == HEALTH_CODES["healthy"], state == HEALTH_CODES["stressed"]
+    assert healthy.sum() > 50 and stressed.sum() > 50
+    assert exg[healthy].mean() > exg[stressed].mean() + 0.03

@@ -193,6 +193,44 @@ def _undistortion(item: Item, folder: Path) -> list[Path]:
     return [path]
 
 
+#: Codes of the health map's ``state`` channel (0: no plant at the pixel).
+HEALTH_CODES = {"healthy": 1, "stressed": 2, "dry": 3}
+
+
+@LABELS.register("health", options=("health",),
+                 description="health.exr: per pixel, the chlorophyll (µg/cm², channel cab) and health state "
+                             "(channel state: 0 none, 1 healthy, 2 stressed, 3 dry) of the plant seen there; "
+                             "meta.json lists each plant's state and PROSPECT-D traits (vegetation with "
+                             "plant_reflectances = 'prospect')")
+def _health(item: Item, folder: Path) -> list[Path]:
+    from ...presets.vegetation import plant_health, vegetation_layout
+    from ...render import render_shape_map
+
+    config = item.config
+    if config.scene.preset != "vegetation" or config.scene.mitsuba_xml or config.scene.plant_reflectances != "prospect":
+        item.records["health"] = {"plants": [], "note": "no plants with a leaf model in this scene"}
+        return []
+    t0 = time.perf_counter()
+    plants = plant_health(config, len(vegetation_layout(config, item.sim.lens)))
+    index, names = render_shape_map(config, lens=item.sim.lens)
+    cab = np.zeros(index.shape, np.float32)
+    state = np.zeros(index.shape, np.float32)
+    for plant in plants:
+        if plant["plant"] in names:
+            here = index == names.index(plant["plant"])
+            cab[here], state[here] = plant["traits"]["cab"], HEALTH_CODES[plant["state"]]
+            plant["pixels"] = int(here.sum())
+        else:
+            plant["pixels"] = 0
+    path = write_exr_channels({"cab": cab, "state": state}, folder / "health.exr",
+                              {"spectral_cam_units": "cab: chlorophyll a+b, ug/cm2; state: 0 none, 1 healthy, "
+                                                     "2 stressed, 3 dry"})
+    item.records["health"] = {"file": "health.exr", "channels": ["cab", "state"], "codes": HEALTH_CODES,
+                              "model": "PROSPECT-D (Feret et al. 2017) via prosail", "plants": plants}
+    item.timings["health"] = time.perf_counter() - t0
+    return [path]
+
+
 #: Outputs of an item unless the spec's ``[dataset] outputs`` says otherwise (the spectral
 #: cube, 31 float32 channels, is opt-in).
 DEFAULT_OUTPUTS = ("raw", "image", "depth", "defocus", "all_in_focus", "clean_rgb")
