@@ -37,7 +37,7 @@ __all__ = ["render", "render_layered", "render_shape_map", "choose_variant", "Sp
            "SCALAR_LANES_PER_PASS"]
 
 
-def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None) -> tuple["np.ndarray", list[str]]:
+def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None) -> tuple:
     """Which shape each pixel sees (:func:`.depth.render_shape_index`): (H, W) int32 indices,
     −1 for none, and the shapes' names. The lens is the frame's (default: built from the config).
 
