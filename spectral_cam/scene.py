@@ -61,6 +61,8 @@ SPECTRAL_BANDS_DEFAULT = "400:700:10"
 SCENE_LIGHTS = ("auto", "sunsky", "illuminant")
 #: scene.object_materials of ``tabletop``: Lambert, rough plastic, rough measured metal, glass.
 OBJECT_MATERIALS = ("diffuse", "plastic", "conductor", "glass")
+#: scene.ground of the outdoor presets.
+GROUND_KINDS = ("textured", "checker", "flat")
 
 
 def _fail(key: str, value: Any, rule: str) -> None:
@@ -159,6 +161,7 @@ class SceneSection:
     layout_seed: int = 0
     view_pitch_deg: float = -25.0
     plant_reflectances: str = "prospect"
+    ground: str = "textured"
     soil_reflectances: str = "usgs_soils"
     dry_fraction: float = 0.1
     stressed_fraction: float = 0.2
@@ -211,6 +214,10 @@ class SceneSection:
             if value not in spectra.REFLECTANCE_SET_NAMES and not str(value).lower().endswith(".csv"):
                 _fail(f"scene.{key}", value, f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV "
                       "(wavelength_nm, one column per sample)")
+        if self.ground not in GROUND_KINDS:
+            _fail("scene.ground", self.ground, f"valid: {', '.join(GROUND_KINDS)} (textured: measured soils and litter "
+                  "mixed in fractal patches with relief; checker: the tabletop's 10 %/40 % checkerboard; flat: one "
+                  "soil sample)")
         self._check_outdoor_keys()
         spectra.validate_reflectance(self.reflectance)
         spectra.validate_reflectance(self.surround)

@@ -188,6 +188,46 @@ def light(config: "SceneConfig", view: GroundView, mi) -> dict:
     return {"lamp": overhead_lamp(config, view, mi, black)}
 
 
+#: Texels on a side of a textured ground, the share of it covered by leaf litter (dry grass and
+#: leaves), and its relief (bump-map scale).
+GROUND_TEXELS, GROUND_LITTER_COVER, GROUND_RELIEF, GROUND_RELIEF_PERIODS = 1024, 0.15, 0.02, 16
+#: A textured ground spans this many view widths around the look point (mirrored beyond).
+GROUND_TEXTURE_VIEWS = 3.0
+
+
+def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
+    """The ground as a mixture of measured spectra: the samples of ``scene.soil_reflectances``
+    and leaf litter (the USGS dry grass and dry oak leaf) in patches and grains of fractal
+    noise (:func:`spectral_cam.textures.abundance_maps`), with relief; drawn by ``layout_seed``.
+    The texture spans :data:`GROUND_TEXTURE_VIEWS` view widths around the look point, 1024
+    texels on a side (about a pixel each at the look point), mirrored beyond.
+
+    References
+    ----------
+    .. [1] Keshava, N., & Mustard, J. F. (2002). IEEE Signal Processing Magazine 19(1), 44–57.
+    """
+    from ..reflectance_sets import reflectance_set
+    from ..textures import abundance_maps, height_field
+    from .common import mixed_bsdf
+
+    soils = list(reflectance_set(config.scene.soil_reflectances).sds)
+    litter = [sd for name, sd in zip(*_named(reflectance_set("usgs_vegetation"))) if name.startswith("dry")]
+    endmembers = soils + litter
+    covers = [(1 - GROUND_LITTER_COVER) / len(soils)] * len(soils) + [GROUND_LITTER_COVER / len(litter)] * len(litter)
+    seed = int(config.scene.layout_seed)
+    abundances = abundance_maps(GROUND_TEXELS, covers, period_px=GROUND_TEXELS / 4, seed=seed)
+    height = height_field(GROUND_TEXELS, period_px=GROUND_TEXELS / GROUND_RELIEF_PERIODS, seed=seed)
+    extent = GROUND_TEXTURE_VIEWS * view_width_m(config, lens)
+    scale = GROUND_SIZE_M / extent
+    to_uv = (mi.ScalarTransform4f().translate([0.5, 0.5, 0.0]).scale([scale, scale, 1.0])
+             .translate([-0.5, -0.5, 0.0]))
+    return mixed_bsdf(mi, endmembers, abundances, to_uv=to_uv, height=height, bump_scale=GROUND_RELIEF)
+
+
+def _named(samples):
+    return samples.names, samples.sds
+
+
 def ground(view: GroundView, mi, bsdf: dict) -> dict:
     """The ground plane (z = 0 in the ground frame), :data:`GROUND_SIZE_M` on a side."""
     half = GROUND_SIZE_M / 2

@@ -119,8 +119,10 @@ def _shape(mi, view: outdoor.GroundView, item: TabletopObject, bsdf: dict, name:
 
 
 @PRESETS.register("tabletop", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
-                                       "object_materials", "object_reflectances", "layout_seed"),
-                  description="objects on a checkered ground (plastic, metal, glass, meshes) under the sun and sky")
+                                       "object_materials", "object_reflectances", "layout_seed", "ground",
+                                       "soil_reflectances"),
+                  description="objects (plastic, metal, glass, meshes) on a textured or checkered ground under the "
+                              "sun and sky")
 def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     """The ground, the objects of :func:`tabletop_layout` and the light
     (:func:`spectral_cam.presets.outdoor.light`)."""
@@ -131,9 +133,15 @@ def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     square = outdoor.view_width_m(config, lens) / GROUND_SQUARES_PER_VIEW
     dark, light = GROUND_REFLECTANCES
     half = outdoor.GROUND_SIZE_M / 2
-    ground_bsdf = {"type": "diffuse", "reflectance": {
-        "type": "checkerboard", "color0": {"type": "uniform", "value": dark}, "color1": {"type": "uniform", "value": light},
-        "to_uv": mi.ScalarTransform4f().scale([half / square, half / square, 1.0])}}
+    if config.scene.ground == "checker":
+        ground_bsdf = {"type": "diffuse", "reflectance": {
+            "type": "checkerboard", "color0": {"type": "uniform", "value": dark},
+            "color1": {"type": "uniform", "value": light},
+            "to_uv": mi.ScalarTransform4f().scale([half / square, half / square, 1.0])}}
+    elif config.scene.ground == "flat":
+        ground_bsdf = diffuse(reflectance_set(config.scene.soil_reflectances).sds[0])
+    else:
+        ground_bsdf = outdoor.textured_ground_bsdf(config, lens, mi)
     objects = {"ground": outdoor.ground(view, mi, ground_bsdf)}
     for n, item in enumerate(tabletop_layout(config, lens, len(samples))):
         objects.update(_shape(mi, view, item, _bsdf(item, samples), f"object_{n}"))

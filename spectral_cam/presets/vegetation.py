@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import outdoor
+from ..errors import ConfigError
 from .common import PRESETS, diffuse, leaf_bsdf
 from .meshes import mitsuba_mesh
 
@@ -135,7 +136,7 @@ def _split_dry(samples) -> tuple[list, list]:
 
 @PRESETS.register("vegetation", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
                                          "plant_reflectances", "soil_reflectances", "dry_fraction",
-                                         "stressed_fraction", "layout_seed"),
+                                         "stressed_fraction", "layout_seed", "ground"),
                   description="plants of PROSPECT-D leaves (or measured leaf spectra) on measured soil under the sun "
                               "and sky")
 def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
@@ -149,7 +150,15 @@ def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     green, dry = ([], []) if prospect else _split_dry(reflectance_set(s.plant_reflectances))
     soils = reflectance_set(s.soil_reflectances)
     view = outdoor.GroundView.from_config(config)
-    objects = {"ground": outdoor.ground(view, mi, diffuse(soils.sds[rng.integers(len(soils))]))}
+    soil = soils.sds[rng.integers(len(soils))]  # drawn whatever the ground: the layout's draws stay the same
+    if s.ground == "textured":
+        ground_bsdf = outdoor.textured_ground_bsdf(config, lens, mi)
+    elif s.ground == "checker":
+        raise ConfigError("scene.ground = 'checker' is the tabletop's; vegetation stands on 'textured' (default) "
+                          "or 'flat' (one soil sample) ground")
+    else:
+        ground_bsdf = diffuse(soil)
+    objects = {"ground": outdoor.ground(view, mi, ground_bsdf)}
     layout = vegetation_layout(config, lens)
     health = plant_health(config, len(layout)) if prospect else None
     for n, (east, north, size) in enumerate(layout):
