@@ -58,7 +58,7 @@ BAND_MODES = ("auto", "camera")
 SPECTRAL_BANDS_DEFAULT = "400:700:10"
 #: scene.light: "auto" is each preset's own light ("sunsky" for the outdoor presets, else
 #: "illuminant"); "sunsky" is Mitsuba's sun and sky per [sky] (presets that declare "light").
-SCENE_LIGHTS = ("auto", "sunsky", "illuminant")
+SCENE_LIGHTS = ("auto", "sunsky", "illuminant", "overcast")
 #: scene.object_materials of ``tabletop``: Lambert, rough plastic, rough measured metal, glass.
 OBJECT_MATERIALS = ("diffuse", "plastic", "conductor", "glass")
 #: scene.ground of the outdoor presets.
@@ -225,7 +225,7 @@ class SceneSection:
     def _check_outdoor_keys(self) -> None:
         if self.light not in SCENE_LIGHTS:
             _fail("scene.light", self.light, f"valid: {', '.join(SCENE_LIGHTS)}")
-        if self.light == "sunsky" and (self.mitsuba_xml or "light" not in PRESETS[self.preset].options):
+        if self.light in ("sunsky", "overcast") and (self.mitsuba_xml or "light" not in PRESETS[self.preset].options):
             outdoor = [name for name in PRESETS if "light" in PRESETS[name].options]
             _fail("scene.light", self.light, f"the sun and sky light the outdoor presets ({', '.join(outdoor)}); "
                   f"{self.mitsuba_xml or self.preset!r} brings its own light")

@@ -140,7 +140,7 @@ def lit_by_sky(config: "SceneConfig") -> bool:
     """Whether ``config`` is a preset lit by Mitsuba's sun and sky (its light is read from the
     render like an XML scene's emitters, :mod:`spectral_cam.render.lights`)."""
     return (not config.scene.mitsuba_xml and "light" in PRESETS[config.scene.preset].options
-            and light_kind(config) == "sunsky")
+            and light_kind(config) in ("sunsky", "overcast"))
 
 
 def sunsky(config: "SceneConfig", view: GroundView, mi) -> dict:
@@ -180,10 +180,51 @@ def overhead_lamp(config: "SceneConfig", view: GroundView, mi, bsdf: dict) -> di
             "emitter": {"type": "area", "radiance": spectrum_dict((wavelengths, radiance))}}
 
 
+#: Rows of the overcast sky's latitude–longitude map (twice as many columns).
+OVERCAST_ROWS = 256
+
+
+def overcast_radiance(zenith_deg) -> np.ndarray:
+    """The CIE standard overcast sky's relative radiance L(θ)/L_z = (1 + 2·cos θ)/3 (0 below
+    the horizon); its horizontal irradiance is (7π/9)·L_z.
+
+    References
+    ----------
+    .. [1] Moon, P., & Spencer, D. E. (1942). Illumination from a non-uniform sky. Illuminating
+       Engineering 37, 707–726; CIE S 011/E:2003, type 1 (CIE standard overcast sky).
+    """
+    cos = np.cos(np.radians(np.asarray(zenith_deg, dtype=float)))
+    return np.where(cos > 0, (1.0 + 2.0 * cos) / 3.0, 0.0)
+
+
+def overcast_sky(config: "SceneConfig", view: GroundView, mi) -> dict:
+    """The CIE standard overcast sky, no sun, D65 in spectrum, as an ``envmap`` whose zenith
+    radiance gives ``illuminant.illuminance_lux`` on the ground: L_z(λ) = 9·E(λ)/(7π), E the
+    D65 irradiance of that illuminance (the map's rows are zenith angles; its +y is up)."""
+    from .. import spectra
+
+    rows = OVERCAST_ROWS
+    zenith = (np.arange(rows) + 0.5) * 180.0 / rows
+    wl, irradiance = spectra.absolute_irradiance("D65", config.illuminant.illuminance_lux)
+    d65 = float(spectra.sample(spectra.illuminant("D65"), np.array([560.0]))[0])
+    e560 = float(np.interp(560.0, wl, irradiance))
+    # a grey RGB emitter in a spectral variant is CIE D65 × MI_CIE_D65_NORMALIZATION (1/99) × its value
+    value = 9.0 * e560 / (7.0 * np.pi) / (float(mi.MI_CIE_D65_NORMALIZATION) * d65)
+    grid = np.repeat((value * overcast_radiance(zenith))[:, None], 2 * rows, axis=1)
+    bitmap = np.repeat(grid[..., None], 3, axis=-1).astype(np.float32)
+    up = view.rotation @ np.array([0.0, 0.0, 1.0])
+    east = view.rotation @ np.array([1.0, 0.0, 0.0])
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2] = east, up, np.cross(east, up)  # the map's +y is up
+    return {"type": "envmap", "bitmap": mi.Bitmap(bitmap), "to_world": mi.ScalarTransform4f(frame)}
+
+
 def light(config: "SceneConfig", view: GroundView, mi) -> dict:
     """The preset's light as scene-dict entries."""
     if light_kind(config) == "sunsky":
         return {"sky": sunsky(config, view, mi)}
+    if light_kind(config) == "overcast":
+        return {"sky": overcast_sky(config, view, mi)}
     black = {"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}}
     return {"lamp": overhead_lamp(config, view, mi, black)}
 
@@ -233,3 +274,23 @@ def ground(view: GroundView, mi, bsdf: dict) -> dict:
     half = GROUND_SIZE_M / 2
     return {"type": "rectangle", "to_world": view.transform(mi, mi.ScalarTransform4f().scale([half, half, 1.0])),
             "bsdf": bsdf}
+
+
+#: The far ground reaches this far (m): to the horizon of any view (a ray 0.003° below it).
+FAR_GROUND_M = 20000.0
+
+
+def far_ground(view: GroundView, mi, bsdf: dict) -> dict:
+    """Four strips on z = 0 around the ground square, out to :data:`FAR_GROUND_M`: the ground to
+    the horizon (the square ends 200 m out, which left a black band under the horizon), in the
+    same plane without overlapping it (no z-fighting), kept apart from the textured square
+    whose texture coordinates need its small extent for float precision."""
+    near, far = GROUND_SIZE_M / 2, FAR_GROUND_M
+    strips = {"north": ((0.0, (near + far) / 2), (far, (far - near) / 2)),
+              "south": ((0.0, -(near + far) / 2), (far, (far - near) / 2)),
+              "east": (((near + far) / 2, 0.0), ((far - near) / 2, near)),
+              "west": ((-(near + far) / 2, 0.0), ((far - near) / 2, near))}
+    return {f"ground_far_{side}": {
+        "type": "rectangle", "bsdf": bsdf,
+        "to_world": view.transform(mi, mi.ScalarTransform4f().translate([cx, cy, 0.0]).scale([hx, hy, 1.0]))}
+        for side, ((cx, cy), (hx, hy)) in strips.items()}

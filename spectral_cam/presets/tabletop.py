@@ -142,7 +142,9 @@ def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
         ground_bsdf = diffuse(reflectance_set(config.scene.soil_reflectances).sds[0])
     else:
         ground_bsdf = outdoor.textured_ground_bsdf(config, lens, mi)
-    objects = {"ground": outdoor.ground(view, mi, ground_bsdf)}
+    far = (diffuse(sum(GROUND_REFLECTANCES) / 2) if config.scene.ground == "checker"
+           else diffuse(reflectance_set(config.scene.soil_reflectances).sds[0]))
+    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far)}
     for n, item in enumerate(tabletop_layout(config, lens, len(samples))):
         objects.update(_shape(mi, view, item, _bsdf(item, samples), f"object_{n}"))
     objects.update(outdoor.light(config, view, mi))

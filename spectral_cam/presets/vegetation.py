@@ -158,7 +158,7 @@ def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
                           "or 'flat' (one soil sample) ground")
     else:
         ground_bsdf = diffuse(soil)
-    objects = {"ground": outdoor.ground(view, mi, ground_bsdf)}
+    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, diffuse(soil))}
     layout = vegetation_layout(config, lens)
     health = plant_health(config, len(layout)) if prospect else None
     for n, (east, north, size) in enumerate(layout):
