@@ -4,7 +4,7 @@ the scene of outdoor and agricultural imaging (crop monitoring, plant health).
 Each plant is one triangle mesh of 6–11 leaves set round its stem by the golden angle
 (137.5°, the phyllotaxis of most broad-leaved plants), each leaf a lanceolate blade whose width
 follows sin(πs)^0.7 along its length, rising at 25–65° and drooping under its own weight, with
-a slight V-fold along the midrib. With ``scene.plant_reflectances = "prospect"`` (the
+a slight V-fold along the midrib, cupped or rolled across (curl), each of its own length. With ``scene.plant_reflectances = "prospect"`` (the
 default) a plant's leaves reflect *and transmit* as PROSPECT-D gives for its own biochemistry
 (:mod:`spectral_cam.leaves`), drawn per plant by health state — ``dry`` for ``scene.dry_fraction``
 of the plants, ``stressed`` for ``scene.stressed_fraction``, else ``healthy`` (:func:`plant_health`,
@@ -51,15 +51,17 @@ GOLDEN_ANGLE_DEG = 137.50776
 LEAF_STEPS, LEAF_SIDES = 10, 2
 
 
-def _leaf(base, azimuth: float, length: float, rise: float, droop: float, fold: float):
-    """Vertices of one blade, (LEAF_STEPS + 1) × (2·LEAF_SIDES + 1), rows along its length."""
+def _leaf(base, azimuth: float, length: float, rise: float, droop: float, fold: float, curl: float = 0.0):
+    """Vertices of one blade, (LEAF_STEPS + 1) × (2·LEAF_SIDES + 1), rows along its length; ``curl``
+    cups the blade across (its edges rise by curl × half-width, more towards the tip)."""
     s = np.linspace(0.0, 1.0, LEAF_STEPS + 1)[:, None]
     t = np.linspace(-1.0, 1.0, 2 * LEAF_SIDES + 1)[None, :]
     width = 0.18 * length * np.sin(np.pi * s) ** 0.7
     along = np.array([math.cos(azimuth), math.sin(azimuth), 0.0])
     across = np.array([-math.sin(azimuth), math.cos(azimuth), 0.0])
     reach = s * length * math.cos(rise)
-    height = s * length * math.sin(rise) - droop * length * s ** 2 + fold * width * np.abs(t)
+    height = (s * length * math.sin(rise) - droop * length * s ** 2 + fold * width * np.abs(t)
+              + curl * width * t ** 2 * (0.5 + s))
     points = (base + reach[..., None] * along + (width * t)[..., None] * across
               + height[..., None] * np.array([0.0, 0.0, 1.0]))
     return points.reshape(-1, 3)
@@ -86,7 +88,7 @@ def plant_mesh(rng, height_m: float) -> tuple[np.ndarray, np.ndarray]:
         azimuth = math.radians(start + k * GOLDEN_ANGLE_DEG + rng.normal(0, 8))
         length = height_m * rng.uniform(0.45, 0.7) * (1.0 - 0.3 * level)
         blade = _leaf(base, azimuth, length, math.radians(rng.uniform(25, 65)), rng.uniform(0.3, 0.7),
-                      rng.uniform(0.05, 0.2))
+                      rng.uniform(0.05, 0.2), curl=rng.uniform(-0.2, 0.5))
         faces.append(_grid_faces(LEAF_STEPS + 1, 2 * LEAF_SIDES + 1, sum(len(v) for v in vertices)))
         vertices.append(blade)
     return np.concatenate(vertices), np.concatenate(faces)
