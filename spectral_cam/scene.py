@@ -162,6 +162,7 @@ class SceneSection:
     view_pitch_deg: float = -25.0
     plant_reflectances: str = "prospect"
     ground: str = "textured"
+    layout: str = "scatter"
     soil_reflectances: str = "usgs_soils"
     dry_fraction: float = 0.1
     stressed_fraction: float = 0.2
@@ -214,6 +215,9 @@ class SceneSection:
             if value not in spectra.REFLECTANCE_SET_NAMES and not str(value).lower().endswith(".csv"):
                 _fail(f"scene.{key}", value, f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV "
                       "(wavelength_nm, one column per sample)")
+        if self.layout not in ("scatter", "rows"):
+            _fail("scene.layout", self.layout, "valid: scatter (plants drawn over the view), rows (a crop field: "
+                  "rows 0.75 m apart, a plant every 0.3 m, weeds between)")
         if self.ground not in GROUND_KINDS:
             _fail("scene.ground", self.ground, f"valid: {', '.join(GROUND_KINDS)} (textured: measured soils and litter "
                   "mixed in fractal patches with relief; checker: the tabletop's 10 %/40 % checkerboard; flat: one "

@@ -94,15 +94,73 @@ def plant_mesh(rng, height_m: float) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(vertices), np.concatenate(faces)
 
 
+#: A crop-row field: the rows' spacing and the plants' along a row (m), the most rows and plants,
+#: the weeds between the rows per crop plant and their size against a crop plant's.
+ROW_SPACING_M, PLANT_SPACING_M, MAX_FIELD_PLANTS = 0.75, 0.3, 400
+WEEDS_PER_PLANT, WEED_SIZE = 0.3, 0.35
+
+
+def _ground_footprint(config: "SceneConfig", lens: "ThinLens") -> tuple[float, float, float, float]:
+    """(east_min, east_max, north_min, north_max) of the ground the frame sees, no farther than
+    6·``distance_m`` (rays above the horizon are cut there)."""
+    view = outdoor.GroundView.from_config(config)
+    half_x, half_y = lens.sensor_width_m / (2 * lens.image_distance_m), lens.sensor_height_m / (2 * lens.image_distance_m)
+    reach = 6.0 * config.scene.distance_m
+    points = []
+    for x in np.linspace(-half_x, half_x, 9):
+        for y in np.linspace(-half_y, half_y, 9):
+            d = view.rotation.T @ np.array([x, y, 1.0])
+            t = -view.camera_m[2] / d[2] if d[2] < 0 else np.inf
+            p = view.camera_m + min(t, reach / np.linalg.norm(d)) * d
+            points.append(p[:2])
+    points = np.array(points)
+    return float(points[:, 0].min()), float(points[:, 0].max()), float(points[:, 1].min()), float(points[:, 1].max())
+
+
+def field_layout(config: "SceneConfig", lens: "ThinLens") -> list[tuple[str, float, float, float]]:
+    """A crop field: rows running north every :data:`ROW_SPACING_M`, a crop plant every
+    :data:`PLANT_SPACING_M` along them (jittered by a tenth, a few missing), weeds scattered
+    between the rows; over the ground the frame sees. Sizes are ``scene.object_size`` of
+    :data:`ROW_SPACING_M` (crop) and :data:`WEED_SIZE` of that (weeds).
+
+    Returns
+    -------
+    list of (name, east, north, size)
+        ``plant_<n>`` for the crop, ``weed_<n>`` for the weeds.
+    """
+    rng = np.random.default_rng(np.random.SeedSequence([config.scene.layout_seed, 0xF1E1D]))
+    e0, e1, n0, n1 = _ground_footprint(config, lens)
+    items, plants = [], 0
+    first_row = math.floor(e0 / ROW_SPACING_M)
+    for row in range(first_row, math.ceil(e1 / ROW_SPACING_M) + 1):
+        for k in range(math.floor(n0 / PLANT_SPACING_M), math.ceil(n1 / PLANT_SPACING_M) + 1):
+            if rng.random() < 0.05 or plants >= MAX_FIELD_PLANTS:
+                continue  # a gap in the row
+            size = ROW_SPACING_M * rng.uniform(*config.scene.object_size) * 4
+            east = row * ROW_SPACING_M + rng.normal(0, 0.03)
+            north = k * PLANT_SPACING_M + rng.normal(0, 0.1 * PLANT_SPACING_M)
+            items.append((f"plant_{plants}", east, north, size))
+            plants += 1
+    for w in range(int(WEEDS_PER_PLANT * plants)):
+        row = rng.integers(first_row, math.ceil(e1 / ROW_SPACING_M) + 1)
+        east = (row + rng.uniform(0.3, 0.7)) * ROW_SPACING_M
+        size = ROW_SPACING_M * rng.uniform(*config.scene.object_size) * 4 * WEED_SIZE
+        items.append((f"weed_{w}", east, rng.uniform(n0, n1), size))
+    return items
+
+
 def vegetation_layout(config: "SceneConfig", lens: "ThinLens"):
     """(east, north, size) of each plant in the ground frame (m), drawn by ``layout_seed``
-    (:func:`spectral_cam.presets.outdoor.scatter_on_ground`).
+    (:func:`spectral_cam.presets.outdoor.scatter_on_ground`), or the crop plants of
+    :func:`field_layout` for ``scene.layout = "rows"``.
 
     Raises
     ------
     ConfigError
         When ``scene.object_count`` plants of ``scene.object_size`` do not fit in the view.
     """
+    if config.scene.layout == "rows":
+        return [(e, n, z) for name, e, n, z in field_layout(config, lens) if name.startswith("plant_")]
     rng = np.random.default_rng(np.random.SeedSequence([config.scene.layout_seed, 0x1EAF5]))
     return list(outdoor.scatter_on_ground(config, lens, rng, margin=0.9, spacing=0.4, centre_height=0.0,
                                           noun="plants"))
@@ -138,12 +196,12 @@ def _split_dry(samples) -> tuple[list, list]:
 
 @PRESETS.register("vegetation", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
                                          "plant_reflectances", "soil_reflectances", "dry_fraction",
-                                         "stressed_fraction", "layout_seed", "ground"),
+                                         "stressed_fraction", "layout_seed", "ground", "layout"),
                   description="plants of PROSPECT-D leaves (or measured leaf spectra) on measured soil under the sun "
                               "and sky")
 def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     """The soil, the plants of :func:`vegetation_layout` and the light."""
-    from ..leaves import LeafTraits
+    from ..leaves import LeafTraits, draw_traits
     from ..reflectance_sets import reflectance_set
 
     s = config.scene
@@ -163,6 +221,14 @@ def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, diffuse(soil))}
     layout = vegetation_layout(config, lens)
     health = plant_health(config, len(layout)) if prospect else None
+    if s.layout == "rows":  # the weeds between the rows: healthy leaves of their own
+        weed_rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x3EED]))
+        for name, east, north, size in field_layout(config, lens):
+            if name.startswith("weed_"):
+                vertices, faces = plant_mesh(weed_rng, size)
+                leaf = leaf_bsdf(draw_traits(weed_rng, "healthy")) if prospect else diffuse(green[0])
+                place = mi.ScalarTransform4f().translate([east, north, 0.0])
+                objects[name] = mitsuba_mesh(mi, name, vertices, faces, leaf, view.transform(mi, place))
     for n, (east, north, size) in enumerate(layout):
         if prospect:  # reflects and transmits (PROSPECT-D), the plant's own biochemistry
             leaf = leaf_bsdf(LeafTraits(**health[n]["traits"]))

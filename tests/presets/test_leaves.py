@@ -137,3 +137,25 @@ def test_the_health_label_marks_each_plants_pixels_and_health_shows_in_the_image
     healthy, stressed = state == HEALTH_CODES["healthy"], state == HEALTH_CODES["stressed"]
     assert healthy.sum() > 50 and stressed.sum() > 50
     assert exg[healthy].mean() > exg[stressed].mean() + 0.03
+
+
+def test_a_crop_field_has_rows_of_plants_and_weeds_between_them():
+    """``scene.layout = "rows"``: crop plants 0.75 m apart across the rows (jittered by 3 cm) and
+    0.3 m along them, weeds between the rows, all on the ground the frame sees; the health map
+    tells weeds from crop."""
+    from spectral_cam.presets.vegetation import PLANT_SPACING_M, ROW_SPACING_M, field_layout
+    from spectral_cam.optics import ThinLens
+
+    config = sc.load_scene("scenes/field.toml")
+    lens = ThinLens.from_config(config.lens, config.sensor)
+    items = field_layout(config, lens)
+    crop = np.array([(e, n) for name, e, n, _ in items if name.startswith("plant_")])
+    weeds = np.array([(e, n) for name, e, n, _ in items if name.startswith("weed_")])
+    assert len(crop) > 50 and len(weeds) > 10
+    offset = crop[:, 0] / ROW_SPACING_M - np.round(crop[:, 0] / ROW_SPACING_M)
+    assert np.abs(offset).max() * ROW_SPACING_M < 0.15
+    weed_offset = weeds[:, 0] / ROW_SPACING_M - np.floor(weeds[:, 0] / ROW_SPACING_M)
+    assert np.all((weed_offset > 0.25) & (weed_offset < 0.75))  # between the rows
+    row = crop[np.round(crop[:, 0] / ROW_SPACING_M) == np.round(crop[0, 0] / ROW_SPACING_M)]
+    gaps = np.diff(np.sort(row[:, 1]))
+    assert np.median(gaps) == pytest.approx(PLANT_SPACING_M, rel=0.15)

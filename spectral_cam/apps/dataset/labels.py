@@ -194,12 +194,13 @@ def _undistortion(item: Item, folder: Path) -> list[Path]:
 
 
 #: Codes of the health map's ``state`` channel (0: no plant at the pixel).
-HEALTH_CODES = {"healthy": 1, "stressed": 2, "dry": 3}
+HEALTH_CODES = {"healthy": 1, "stressed": 2, "dry": 3, "weed": 4}
 
 
 @LABELS.register("health", options=("health",),
                  description="health.exr: per pixel, the chlorophyll (µg/cm², channel cab) and health state "
-                             "(channel state: 0 none, 1 healthy, 2 stressed, 3 dry) of the plant seen there; "
+                             "(channel state: 0 none, 1 healthy, 2 stressed, 3 dry, 4 a weed) of the plant seen "
+                             "there; "
                              "meta.json lists each plant's state and PROSPECT-D traits (vegetation with "
                              "plant_reflectances = 'prospect')")
 def _health(item: Item, folder: Path) -> list[Path]:
@@ -222,9 +223,11 @@ def _health(item: Item, folder: Path) -> list[Path]:
             plant["pixels"] = int(here.sum())
         else:
             plant["pixels"] = 0
+    weeds = [k for k, name in enumerate(names) if name.startswith("weed_")]
+    state[np.isin(index, weeds)] = HEALTH_CODES["weed"]
     path = write_exr_channels({"cab": cab, "state": state}, folder / "health.exr",
                               {"spectral_cam_units": "cab: chlorophyll a+b, ug/cm2; state: 0 none, 1 healthy, "
-                                                     "2 stressed, 3 dry"})
+                                                     "2 stressed, 3 dry, 4 weed"})
     item.records["health"] = {"file": "health.exr", "channels": ["cab", "state"], "codes": HEALTH_CODES,
                               "model": "PROSPECT-D (Feret et al. 2017) via prosail", "plants": plants}
     item.timings["health"] = time.perf_counter() - t0
