@@ -71,6 +71,7 @@ def drift_metrics(output: str | Path, modes: Sequence[str], noon_frame: int | No
     for folder in frames:
         config = load_scene(folder / "scene.toml")
         masks.append(plant_mask(config, np.load(folder / "radiance.npz")["depth"]))
+    truth = plant_truth(load_scene(frames[0] / "scene.toml"))
     noon = len(frames) // 2 if noon_frame is None else noon_frame
     result = {}
     for mode in modes:
@@ -90,6 +91,17 @@ def drift_metrics(output: str | Path, modes: Sequence[str], noon_frame: int | No
             cells.append(mask[:2 * h, :2 * w].reshape(h, 2, w, 2).all(axis=(1, 3)))
         threshold = np.percentile(_exg(images[noon], masks[noon]), FLAG_PERCENTILE)
         raw_threshold = np.percentile(_exg(raws[noon], cells[noon]), FLAG_PERCENTILE)
+        health = None
+        if truth is not None:  # per plant: ExG on the developed image and on the RAW cells
+            owner, plants = truth
+            unhealthy = np.array([p["state"] != "healthy" for p in plants])
+            h, w = raws[0].shape[:2]
+            owner_cells = owner[:2 * h:2, :2 * w:2]
+            exg_dev = [_plant_exg(image, owner, len(plants)) for image in images]
+            exg_raw = [_plant_exg(raw, owner_cells, len(plants)) for raw in raws]
+            fit = min(HEALTH_FIT_FRAME, len(frames) - 1)
+            health = (unhealthy, exg_dev, exg_raw, fit_threshold(exg_dev[fit], unhealthy),
+                      fit_threshold(exg_raw[fit], unhealthy))
         rows = []
         for k, (image, mask, row) in enumerate(zip(images, masks, camera_rows)):
             chroma = _chromaticities(image[mask])
@@ -103,8 +115,76 @@ def drift_metrics(output: str | Path, modes: Sequence[str], noon_frame: int | No
                          "flagged_raw_percent": float(100.0 * np.mean(exg_raw < raw_threshold)),
                          "exposure_s": float(row["exposure_s"]), "iso": float(row["iso"]),
                          "white_r": float(row["white_r"]), "white_b": float(row["white_b"])})
+            if health is not None:
+                unhealthy, exg_dev, exg_raw, t_dev, t_raw = health
+                flagged, accuracy = _classify(exg_dev[k], unhealthy, t_dev)
+                flagged_raw, accuracy_raw = _classify(exg_raw[k], unhealthy, t_raw)
+                rows[-1].update({"health_flagged_percent": flagged, "health_accuracy_percent": accuracy,
+                                 "health_flagged_raw_percent": flagged_raw,
+                                 "health_accuracy_raw_percent": accuracy_raw,
+                                 "unhealthy_percent": float(100.0 * unhealthy[np.isfinite(exg_dev[k])].mean())})
         result[mode] = rows
     return result
+
+
+#: The frame the health classifier is fitted on: the morning (the second frame of the day).
+HEALTH_FIT_FRAME = 2
+#: Plants smaller than this in the frame are not classified.
+HEALTH_MIN_PIXELS = 6
+
+
+def plant_truth(config) -> tuple[np.ndarray, list[dict]] | None:
+    """Which plant each pixel shows (indices into the returned plants, −1 none) and each plant's
+    health record, for a vegetation scene of PROSPECT-D plants (None otherwise): the dataset's
+    health label (:func:`spectral_cam.presets.vegetation.plant_health`), the camera being still."""
+    from ...optics import ThinLens
+    from ...presets.vegetation import plant_health, vegetation_layout
+    from ...render import render_shape_map
+
+    if config.scene.preset != "vegetation" or config.scene.plant_reflectances != "prospect":
+        return None
+    lens = ThinLens.from_config(config.lens, config.sensor)
+    plants = plant_health(config, len(vegetation_layout(config, lens)))
+    index, names = render_shape_map(config, lens=lens)
+    owner = np.full(index.shape, -1, np.int32)
+    for k, plant in enumerate(plants):
+        if plant["plant"] in names:
+            owner[index == names.index(plant["plant"])] = k
+    return owner, plants
+
+
+def _plant_exg(image, owner, count) -> np.ndarray:
+    """Mean ExG of each plant's pixels (NaN where a plant has too few)."""
+    values = np.full(count, np.nan)
+    chroma = _chromaticities(image)
+    exg = 2 * chroma[..., 1] - chroma[..., 0] - chroma[..., 2]
+    for k in range(count):
+        here = owner == k
+        if here.sum() >= HEALTH_MIN_PIXELS:
+            values[k] = exg[here].mean()
+    return values
+
+
+def fit_threshold(exg: np.ndarray, unhealthy: np.ndarray) -> float:
+    """The ExG threshold (unhealthy below it) with the best balanced accuracy on one frame: the
+    simplest vegetation-index classifier, fitted on labelled plants."""
+    valid = np.isfinite(exg)
+    values, truth = exg[valid], unhealthy[valid]
+    best, best_score = float(np.median(values)), -1.0
+    for t in np.unique(values):
+        flagged = values <= t
+        score = 0.5 * (np.mean(flagged[truth]) if truth.any() else 1.0) + \
+            0.5 * (np.mean(~flagged[~truth]) if (~truth).any() else 1.0)
+        if score > best_score:
+            best, best_score = float(t), score
+    return best
+
+
+def _classify(exg, unhealthy, threshold) -> tuple[float, float]:
+    """(flagged share %, accuracy %) of the plants with a value."""
+    valid = np.isfinite(exg)
+    flagged = exg[valid] <= threshold
+    return float(100.0 * flagged.mean()), float(100.0 * np.mean(flagged == unhealthy[valid]))
 
 
 def _exg(image, mask):
@@ -126,10 +206,23 @@ def write_drift(result: dict, output: str | Path) -> list[str]:
                       "flagged_raw_percent_min": min(r["flagged_raw_percent"] for r in table),
                       "flagged_raw_percent_max": max(r["flagged_raw_percent"] for r in table),
                       "delta_e_vs_noon_max": max(r["delta_e_vs_noon"] for r in table),
-                      "exg_range": max(r["exg"] for r in table) - min(r["exg"] for r in table)}
+                      "exg_range": max(r["exg"] for r in table) - min(r["exg"] for r in table),
+                      **_health_summary(table)}
                for mode, table in result.items()}
     (output / "drift_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     return ["drift.csv", "drift_summary.json"]
+
+
+def _health_summary(table: list[dict]) -> dict:
+    """The spread of the health classifier's flagged share and accuracy over the day."""
+    if "health_accuracy_percent" not in table[0]:
+        return {}
+    out = {"unhealthy_percent": table[0]["unhealthy_percent"]}
+    for key in ("health_flagged_percent", "health_accuracy_percent", "health_flagged_raw_percent",
+                "health_accuracy_raw_percent"):
+        out[f"{key}_min"] = min(r[key] for r in table)
+        out[f"{key}_max"] = max(r[key] for r in table)
+    return out
 
 
 def plot_drift(result: dict, output: str | Path, *, strip_every: int = 1) -> list[str]:

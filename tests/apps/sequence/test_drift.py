@@ -58,6 +58,8 @@ def test_the_drift_command_measures_auto_and_locked_frames(tmp_path):
     assert len({r["exposure_s"] for r in locked}) == 1 and len({r["white_b"] for r in locked}) == 1
     summary = json.loads((out / "drift_summary.json").read_text())
     assert set(summary) == {"auto", "locked"} and summary["auto"]["flagged_percent_max"] >= 5.0 - 1.5
+    # the health study (PROSPECT-D plants): a classifier fitted on one frame, scored against the labels
+    assert 0.0 <= summary["auto"]["health_accuracy_percent_min"] <= summary["auto"]["health_accuracy_percent_max"] <= 100
 
 
 def test_plants_are_the_pixels_in_front_of_the_ground(make_scene):
@@ -73,3 +75,28 @@ def test_plants_are_the_pixels_in_front_of_the_ground(make_scene):
     planted = bare.replace(**{"scene.object_count": 6, "scene.object_size": [0.2, 0.3]})
     mask = plant_mask(planted, render(planted).depth_m)
     assert 0.02 < mask.mean() < 0.8 and np.isfinite(render(planted).depth_m[mask]).all()
+
+
+def test_the_health_threshold_is_the_best_split_of_the_labelled_plants():
+    """On labelled values the fitted ExG threshold separates separable classes perfectly, and
+    on overlapping ones reaches the balanced accuracy of the best split found by brute force."""
+    import numpy as np
+
+    from spectral_cam.apps.sequence.drift import _classify, fit_threshold
+
+    rng = np.random.default_rng(0)
+    healthy, sick = rng.normal(0.4, 0.02, 40), rng.normal(0.2, 0.02, 20)
+    exg = np.concatenate([healthy, sick, [np.nan]])
+    unhealthy = np.concatenate([np.zeros(40, bool), np.ones(20, bool), [True]])
+    t = fit_threshold(exg, unhealthy)
+    assert _classify(exg, unhealthy, t) == (pytest.approx(100 * 20 / 60), pytest.approx(100.0))
+    sick = rng.normal(0.35, 0.05, 20)
+    exg = np.concatenate([healthy, sick])
+    unhealthy = np.concatenate([np.zeros(40, bool), np.ones(20, bool)])
+    t = fit_threshold(exg, unhealthy)
+
+    def balanced(threshold):
+        flagged = exg <= threshold
+        return 0.5 * flagged[unhealthy].mean() + 0.5 * (~flagged[~unhealthy]).mean()
+
+    assert balanced(t) == pytest.approx(max(balanced(v) for v in exg))
