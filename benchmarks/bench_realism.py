@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENES = ("colorchecker", "dof", "dead_leaves", "slanted_edge", "cornell_box", "tabletop", "vegetation", "meadow",
+SCENES = ("colorchecker", "dof", "dead_leaves", "slanted_edge", "cornell_box", "tabletop", "vegetation", "meadow", "field",
           "glass_sphere")
 PHOTOGRAPHS = ("astronaut", "coffee", "chelsea", "rocket")
 BEGIN, END = "<!-- realism:begin -->", "<!-- realism:end -->"

@@ -118,6 +118,17 @@ def _shape(mi, view: outdoor.GroundView, item: TabletopObject, bsdf: dict, name:
     return {name: mitsuba_mesh(mi, name, vertices, faces, bsdf, view.transform(mi, place))}
 
 
+def checker_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
+    """The 10 %/40 % Lambertian checkerboard, :data:`GROUND_SQUARES_PER_VIEW` squares across the view."""
+    square = outdoor.view_width_m(config, lens) / GROUND_SQUARES_PER_VIEW
+    dark, light = GROUND_REFLECTANCES
+    half = outdoor.GROUND_SIZE_M / 2
+    return {"type": "diffuse", "reflectance": {
+        "type": "checkerboard", "color0": {"type": "uniform", "value": dark},
+        "color1": {"type": "uniform", "value": light},
+        "to_uv": mi.ScalarTransform4f().scale([half / square, half / square, 1.0])}}
+
+
 @PRESETS.register("tabletop", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
                                        "object_materials", "object_reflectances", "layout_seed", "ground",
                                        "soil_reflectances"),
@@ -130,14 +141,8 @@ def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
 
     samples = reflectance_set(config.scene.object_reflectances)
     view = outdoor.GroundView.from_config(config)
-    square = outdoor.view_width_m(config, lens) / GROUND_SQUARES_PER_VIEW
-    dark, light = GROUND_REFLECTANCES
-    half = outdoor.GROUND_SIZE_M / 2
     if config.scene.ground == "checker":
-        ground_bsdf = {"type": "diffuse", "reflectance": {
-            "type": "checkerboard", "color0": {"type": "uniform", "value": dark},
-            "color1": {"type": "uniform", "value": light},
-            "to_uv": mi.ScalarTransform4f().scale([half / square, half / square, 1.0])}}
+        ground_bsdf = checker_ground_bsdf(config, lens, mi)
     elif config.scene.ground == "flat":
         ground_bsdf = diffuse(reflectance_set(config.scene.soil_reflectances).sds[0])
     else:

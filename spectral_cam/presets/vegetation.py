@@ -36,7 +36,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import outdoor
-from ..errors import ConfigError
 from .common import PRESETS, diffuse, leaf_bsdf
 from .meshes import mitsuba_mesh
 
@@ -214,11 +213,13 @@ def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     if s.ground == "textured":
         ground_bsdf = outdoor.textured_ground_bsdf(config, lens, mi)
     elif s.ground == "checker":
-        raise ConfigError("scene.ground = 'checker' is the tabletop's; vegetation stands on 'textured' (default) "
-                          "or 'flat' (one soil sample) ground")
+        from .tabletop import checker_ground_bsdf
+
+        ground_bsdf = checker_ground_bsdf(config, lens, mi)
     else:
         ground_bsdf = diffuse(soil)
-    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, diffuse(soil))}
+    far = diffuse(0.25) if s.ground == "checker" else diffuse(soil)
+    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far)}
     layout = vegetation_layout(config, lens)
     health = plant_health(config, len(layout)) if prospect else None
     if s.layout == "rows":  # the weeds between the rows: healthy leaves of their own
