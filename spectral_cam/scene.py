@@ -163,6 +163,7 @@ class SceneSection:
     plant_reflectances: str = "prospect"
     ground: str = "textured"
     layout: str = "scatter"
+    chart: bool = False
     soil_reflectances: str = "usgs_soils"
     dry_fraction: float = 0.1
     stressed_fraction: float = 0.2
@@ -215,6 +216,8 @@ class SceneSection:
             if value not in spectra.REFLECTANCE_SET_NAMES and not str(value).lower().endswith(".csv"):
                 _fail(f"scene.{key}", value, f"valid: {', '.join(spectra.REFLECTANCE_SET_NAMES)} or a CSV "
                       "(wavelength_nm, one column per sample)")
+        if not isinstance(self.chart, bool):
+            _fail("scene.chart", self.chart, "true places a ColorChecker in the tabletop, false none")
         if self.layout not in ("scatter", "rows"):
             _fail("scene.layout", self.layout, "valid: scatter (plants drawn over the view), rows (a crop field: "
                   "rows 0.75 m apart, a plant every 0.3 m, weeds between)")

@@ -96,7 +96,7 @@ def ground_point_in_frame(view: GroundView, lens: "ThinLens", rng, height_m: flo
 
 
 def scatter_on_ground(config: "SceneConfig", lens: "ThinLens", rng, *, margin: float, spacing: float,
-                      centre_height: float, noun: str):
+                      centre_height: float, noun: str, reserved=()):
     """Yield (east, north, size) of ``scene.object_count`` things on the ground, one at a time
     (the caller may draw more from ``rng`` between them): each size a fraction
     ``scene.object_size`` of the view's width, each centre (``centre_height`` × size above the
@@ -114,7 +114,7 @@ def scatter_on_ground(config: "SceneConfig", lens: "ThinLens", rng, *, margin: f
     s = config.scene
     view = GroundView.from_config(config)
     width = view_width_m(config, lens)
-    placed: list[tuple[float, float, float]] = []
+    placed: list[tuple[float, float, float]] = [tuple(r) for r in reserved]  # kept clear (a chart)
     for n in range(s.object_count):
         size = width * rng.uniform(*s.object_size)
         for _ in range(1000):

@@ -77,14 +77,58 @@ def tabletop_layout(config: "SceneConfig", lens: "ThinLens", reflectance_count: 
     s = config.scene
     rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x7AB1E]))
     objects: list[TabletopObject] = []
+    reserved = [(0.0, 0.0, chart_width_m(config, lens))] if s.chart else []
     for east, north, size in outdoor.scatter_on_ground(config, lens, rng, margin=FRAME_MARGIN, spacing=0.66,
-                                                       centre_height=0.5, noun="objects (without overlapping)"):
+                                                       centre_height=0.5, noun="objects (without overlapping)",
+                                                       reserved=reserved):
         material = s.object_materials[rng.integers(len(s.object_materials))]
         objects.append(TabletopObject(
             shape=SHAPES[rng.integers(len(SHAPES))], east_m=east, north_m=north, size_m=size,
             turn_deg=float(rng.uniform(0, 360)), material=material,
             reflectance=int(rng.integers(reflectance_count)) if material in ("diffuse", "plastic") else -1,
             conductor=CONDUCTORS[rng.integers(len(CONDUCTORS))], roughness=float(rng.uniform(0.05, 0.3))))
+    return objects
+
+
+#: A ColorChecker in the scene (``scene.chart``): its width as a fraction of the view's, and the
+#: board's slope (it leans back, facing the camera, at the look point).
+CHART_VIEW_FRACTION, CHART_TILT_DEG = 0.3, 60.0
+
+
+def chart_width_m(config: "SceneConfig", lens: "ThinLens") -> float:
+    """Width of the board of a ColorChecker placed in the tabletop (m)."""
+    return CHART_VIEW_FRACTION * outdoor.view_width_m(config, lens)
+
+
+def colorchecker_board(config: "SceneConfig", lens: "ThinLens", mi, view: outdoor.GroundView) -> dict:
+    """A ColorChecker (the 24 BabelColor patches on a black board, the classic 6 × 4 layout, brown
+    top left as the camera sees it) standing at the look point, leaning back
+    :data:`CHART_TILT_DEG` from the ground and facing the camera's heading: a colour reference
+    inside the scene, lit by the scene's own light."""
+    from .. import spectra
+    from .common import CHART_FRAME_REFLECTANCE
+
+    width = chart_width_m(config, lens)
+    pitch = width / 6.4
+    height = 4.4 * pitch
+    h, t = np.radians(config.sky.heading_deg), np.radians(CHART_TILT_DEG)
+    right = np.array([np.cos(h), -np.sin(h), 0.0])
+    up = np.array([np.sin(h) * np.cos(t), np.cos(h) * np.cos(t), np.sin(t)])
+    normal = np.cross(right, up)
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2] = right, up, normal
+    frame[:3, 3] = up * height / 2 + np.array([0.0, 0.0, 0.002])  # its bottom edge on the ground
+    board = mi.ScalarTransform4f(frame)
+    objects = {"chart_board": {"type": "rectangle", "bsdf": diffuse(CHART_FRAME_REFLECTANCE),
+                               "to_world": view.transform(mi, board @ mi.ScalarTransform4f().scale(
+                                   [width / 2, height / 2, 1.0]))}}
+    half = 0.85 * pitch / 2
+    for index, (name, sd) in enumerate(spectra.colorchecker_reflectances().items()):
+        row, col = divmod(index, 6)
+        local = mi.ScalarTransform4f().translate([(col - 2.5) * pitch, (1.5 - row) * pitch, 1e-3]).scale(
+            [half, half, 1.0])
+        objects[f"chart_patch_{index:02d}"] = {"type": "rectangle", "bsdf": diffuse(sd),
+                                               "to_world": view.transform(mi, board @ local)}
     return objects
 
 
@@ -131,7 +175,7 @@ def checker_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
 
 @PRESETS.register("tabletop", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
                                        "object_materials", "object_reflectances", "layout_seed", "ground",
-                                       "soil_reflectances"),
+                                       "soil_reflectances", "chart"),
                   description="objects (plastic, metal, glass, meshes) on a textured or checkered ground under the "
                               "sun and sky")
 def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
@@ -150,6 +194,8 @@ def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     far = (diffuse(sum(GROUND_REFLECTANCES) / 2) if config.scene.ground == "checker"
            else diffuse(reflectance_set(config.scene.soil_reflectances).sds[0]))
     objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far)}
+    if config.scene.chart:
+        objects.update(colorchecker_board(config, lens, mi, view))
     for n, item in enumerate(tabletop_layout(config, lens, len(samples))):
         objects.update(_shape(mi, view, item, _bsdf(item, samples), f"object_{n}"))
     objects.update(outdoor.light(config, view, mi))

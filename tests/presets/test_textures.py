@@ -116,3 +116,24 @@ def test_the_overcast_sky_gives_its_illuminance_as_the_cie_overcast_distribution
     assert factor == pytest.approx(7 * np.pi / 9, rel=1e-6)
     _, zenith = _overcast_render(look_up=True)
     np.testing.assert_allclose(zenith, band_e / factor, rtol=0.02)
+
+
+def test_a_colorchecker_stands_in_the_tabletop_as_the_camera_reads_a_chart():
+    """``scene.chart = true``: the 24 patches face the camera at the look point, in the classic
+    layout as the camera sees it (patch 0, dark skin, top left; patch 23, black, bottom right),
+    and no object stands on it."""
+    import spectral_cam as sc
+    from spectral_cam.render import render_shape_map
+
+    config = sc.load_scene("scenes/tabletop.toml", overrides={"scene.chart": True, "sensor.width_px": 240,
+                                                             "sensor.height_px": 160})
+    index, names = render_shape_map(config)
+    centres = {}
+    for k in range(24):
+        name = f"chart_patch_{k:02d}"
+        assert name in names, name
+        rows, cols = np.nonzero(index == names.index(name))
+        assert rows.size > 10, name  # every patch in view, unhidden
+        centres[k] = (rows.mean(), cols.mean())
+    assert centres[0][1] < centres[5][1] and centres[0][0] < centres[18][0]  # left to right, top to bottom
+    assert centres[23][1] > centres[18][1] and centres[23][0] > centres[5][0]
