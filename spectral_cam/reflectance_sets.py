@@ -118,6 +118,10 @@ REFLECTANCE_SETS: dict[str, tuple[str, Callable]] = {
                         functools.partial(_usgs, ("green_", "dry_"))),
     "usgs_soils": ("3 soils (dry sand, wet sand, dry playa mud), 350-1000 nm, USGS splib07 (Kokaly et al. 2017)",
                    functools.partial(_usgs, ("soil_",))),
+    "usgs_wood": ("2 pine woods (a 2x4 beam, plywood), 350-1000 nm, USGS splib07 (Kokaly et al. 2017)",
+                  functools.partial(_usgs, ("wood_",))),
+    "usgs_stone": ("3 stones (limestone, weathered basalt, road concrete), 350-1000 nm, USGS splib07 "
+                   "(Kokaly et al. 2017)", functools.partial(_usgs, ("stone_",))),
 }
 
 

@@ -62,7 +62,7 @@ SCENE_LIGHTS = ("auto", "sunsky", "illuminant", "overcast")
 #: scene.object_materials of ``tabletop``: Lambert, rough plastic, rough measured metal, glass.
 OBJECT_MATERIALS = ("diffuse", "plastic", "conductor", "glass")
 #: scene.ground of the outdoor presets.
-GROUND_KINDS = ("textured", "checker", "flat")
+GROUND_KINDS = ("textured", "checker", "flat", "table")
 
 
 def _fail(key: str, value: Any, rule: str) -> None:
@@ -224,7 +224,7 @@ class SceneSection:
         if self.ground not in GROUND_KINDS:
             _fail("scene.ground", self.ground, f"valid: {', '.join(GROUND_KINDS)} (textured: measured soils and litter "
                   "mixed in fractal patches with relief; checker: the tabletop's 10 %/40 % checkerboard; flat: one "
-                  "soil sample)")
+                  "soil sample; table: a wooden table top before a stone wall)")
         self._check_outdoor_keys()
         spectra.validate_reflectance(self.reflectance)
         spectra.validate_reflectance(self.surround)

@@ -372,7 +372,8 @@ def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, 
 #: Names of the built-in reflectance sets (:data:`spectral_cam.reflectance_sets.REFLECTANCE_SETS`, which
 #: loads them), here so that validating a scene loads none; tests/test_charts.py
 #: keeps the two equal.
-REFLECTANCE_SET_NAMES = ("colorchecker", "rawtoaces", "cie2017", "cri", "cqs", "usgs_vegetation", "usgs_soils")
+REFLECTANCE_SET_NAMES = ("colorchecker", "rawtoaces", "cie2017", "cri", "cqs", "usgs_vegetation", "usgs_soils",
+                         "usgs_wood", "usgs_stone")
 
 COLORCHECKER_PATCH_NAMES = (
     "dark skin", "light skin", "blue sky", "foliage", "blue flower", "bluish green", "orange",

@@ -24,7 +24,7 @@ import functools
 
 import numpy as np
 
-__all__ = ["fbm", "abundance_maps", "height_field"]
+__all__ = ["fbm", "abundance_maps", "grain_maps", "height_field"]
 
 
 @functools.lru_cache(maxsize=32)
@@ -103,6 +103,20 @@ def _abundances_cached(size: int, covers: tuple, period_px: float, seed: int, co
     maps = (weights / weights.sum(axis=0, keepdims=True)).astype(np.float32)
     maps.setflags(write=False)
     return maps
+
+
+def grain_maps(size: int, covers, *, period_px: float, stretch: float, seed: int = 0,
+               contrast: float = 2.5) -> np.ndarray:
+    """Abundances like :func:`abundance_maps`, stretched ``stretch`` times along the rows: the
+    long streaks of wood grain (the fields drawn on size/stretch rows, resampled bilinearly)."""
+    import cv2
+
+    short = max(2, int(round(size / stretch)))
+    maps = abundance_maps(size, covers, period_px=period_px, seed=seed, contrast=contrast)
+    out = np.stack([cv2.resize(np.ascontiguousarray(m[:short]), (size, size), interpolation=cv2.INTER_LINEAR)
+                    for m in maps])
+    out /= out.sum(axis=0, keepdims=True)
+    return out.astype(np.float32)
 
 
 def height_field(size: int, *, period_px: float, seed: int = 0) -> np.ndarray:

@@ -21,7 +21,7 @@ from spectral_cam.errors import ConfigError
 def test_reflectance_sets_and_csv_sets(tmp_path):
     sizes = {name: len(reflectance_set(name)) for name in REFLECTANCE_SETS}
     assert sizes == {"colorchecker": 24, "rawtoaces": 190, "cie2017": 99, "cri": 14, "cqs": 15, "usgs_vegetation": 6,
-                     "usgs_soils": 3}
+                     "usgs_soils": 3, "usgs_wood": 2, "usgs_stone": 3}
     path = tmp_path / "mine.csv"
     path.write_text("wavelength_nm,grey,ramp\n380,0.5,0.1\n780,0.5,0.9\n")
     mine = reflectance_set("mine.csv", base_dir=tmp_path)

@@ -265,6 +265,47 @@ def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     return mixed_bsdf(mi, endmembers, abundances, to_uv=to_uv, height=height, bump_scale=GROUND_RELIEF)
 
 
+def table_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
+    """A wooden table top: the USGS pine woods mixed in long streaks of grain along the view's
+    width (:func:`spectral_cam.textures.grain_maps`), spanning :data:`GROUND_TEXTURE_VIEWS`
+    view widths, mirrored beyond."""
+    from ..reflectance_sets import reflectance_set
+    from ..textures import grain_maps
+    from .common import mixed_bsdf
+
+    woods = list(reflectance_set("usgs_wood").sds)
+    maps = grain_maps(GROUND_TEXELS, [1.0] * len(woods), period_px=GROUND_TEXELS / 8, stretch=12.0,
+                      seed=int(config.scene.layout_seed))
+    scale = GROUND_SIZE_M / (GROUND_TEXTURE_VIEWS * view_width_m(config, lens))
+    to_uv = (mi.ScalarTransform4f().translate([0.5, 0.5, 0.0]).rotate([0, 0, 1], -config.sky.heading_deg)
+             .scale([scale, scale, 1.0]).translate([-0.5, -0.5, 0.0]))
+    return mixed_bsdf(mi, woods, maps, to_uv=to_uv)
+
+
+def backdrop(config: "SceneConfig", lens: "ThinLens", mi, view: GroundView) -> dict:
+    """A wall behind the table: a vertical plane 1.5 view widths beyond the look point, across
+    the view and as high as the view reaches there, of the USGS stones (limestone, basalt,
+    concrete) in fractal patches: a room's wall instead of a void."""
+    from ..reflectance_sets import reflectance_set
+    from ..textures import abundance_maps
+    from .common import mixed_bsdf
+
+    width = view_width_m(config, lens)
+    h = math.radians(config.sky.heading_deg)
+    ahead = np.array([math.sin(h), math.cos(h), 0.0])
+    right = np.array([math.cos(h), -math.sin(h), 0.0])
+    centre = 1.5 * width * ahead
+    half_w, half_h = 4.0 * width, 4.0 * width
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2] = right * half_w, np.array([0.0, 0.0, half_h]), -ahead
+    frame[:3, 3] = centre + np.array([0.0, 0.0, half_h])
+    stones = list(reflectance_set("usgs_stone").sds)
+    maps = abundance_maps(GROUND_TEXELS // 2, [1.0] * len(stones), period_px=GROUND_TEXELS / 8,
+                          seed=int(config.scene.layout_seed) + 17)
+    return {"backdrop": {"type": "rectangle", "bsdf": mixed_bsdf(mi, stones, maps),
+                         "to_world": view.transform(mi, mi.ScalarTransform4f(frame))}}
+
+
 def _named(samples):
     return samples.names, samples.sds
 

@@ -189,11 +189,15 @@ def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
         ground_bsdf = checker_ground_bsdf(config, lens, mi)
     elif config.scene.ground == "flat":
         ground_bsdf = diffuse(reflectance_set(config.scene.soil_reflectances).sds[0])
+    elif config.scene.ground == "table":
+        ground_bsdf = outdoor.table_bsdf(config, lens, mi)
     else:
         ground_bsdf = outdoor.textured_ground_bsdf(config, lens, mi)
     far = (diffuse(sum(GROUND_REFLECTANCES) / 2) if config.scene.ground == "checker"
            else diffuse(reflectance_set(config.scene.soil_reflectances).sds[0]))
     objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far)}
+    if config.scene.ground == "table":  # a room: the table stands before a wall
+        objects.update(outdoor.backdrop(config, lens, mi, view))
     if config.scene.chart:
         objects.update(colorchecker_board(config, lens, mi, view))
     for n, item in enumerate(tabletop_layout(config, lens, len(samples))):

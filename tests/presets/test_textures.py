@@ -137,3 +137,17 @@ def test_a_colorchecker_stands_in_the_tabletop_as_the_camera_reads_a_chart():
         centres[k] = (rows.mean(), cols.mean())
     assert centres[0][1] < centres[5][1] and centres[0][0] < centres[18][0]  # left to right, top to bottom
     assert centres[23][1] > centres[18][1] and centres[23][0] > centres[5][0]
+
+
+def test_a_table_stands_before_a_wall_not_a_void():
+    """``scene.ground = "table"``: wood under the objects and a stone wall behind them, so a view
+    that reaches past the table ends on the wall: no ray of the upper frame escapes."""
+    import spectral_cam as sc
+    from spectral_cam.render import render_shape_map
+
+    config = sc.load_scene("scenes/tabletop.toml", overrides={"scene.ground": "table", "scene.light": "illuminant",
+                                                             "scene.view_pitch_deg": -15.0, "sensor.width_px": 96,
+                                                             "sensor.height_px": 64, "sensor.pixel_pitch_um": 30.0})
+    index, names = render_shape_map(config)
+    assert np.all(index[:4] >= 0)  # the top rows see something
+    assert "backdrop" in names and np.any(index[:4] == names.index("backdrop"))
