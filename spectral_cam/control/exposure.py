@@ -115,6 +115,18 @@ class AutoExposure:
 
     def __post_init__(self) -> None:
         METERING.check(self.metering, key="metering")
+        numbers = {"compensation_ev": (-10.0, 10.0), "damping": (0.0, 1.0), "dead_band_ev": (0.0, 10.0),
+                   "base_iso": (1.0, 1e7), "max_iso": (1.0, 1e7), "min_shutter_s": (1e-9, 1e4),
+                   "max_shutter_s": (1e-9, 1e4), "highlight_target": (0.0, 1.0)}
+        for key, (low, high) in numbers.items():  # refused before any frame renders (issue 25 #9, #10)
+            value = getattr(self, key)
+            if key == "damping" and isinstance(value, (int, float)) and not isinstance(value, bool) \
+                    and value == value:
+                continue  # a number: its range is checked below, with why
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high \
+                    or (key in ("damping", "highlight_target") and value == 0):
+                span = f"({low:g}, {high:g}]" if key in ("damping", "highlight_target") else f"[{low:g}, {high:g}]"
+                raise ConfigError(f"[camera] {key} = {value!r}: give a number in {span}")
         if self.program not in ("program", "shutter_priority", "iso_priority"):
             raise ConfigError(f"exposure program {self.program!r}: valid: program, shutter_priority, iso_priority")
         if not 0 < self.damping <= 1:

@@ -159,7 +159,12 @@ class AutoWhiteBalance:
 
     def __post_init__(self) -> None:
         AWB_METHODS.check(self.method, key="method")
-        if not 0 <= self.smoothing < 1:
+        white = tuple(self.manual_white)
+        if len(white) != 3 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                      and np.isfinite(v) and v > 0 for v in white):
+            raise ConfigError(f"[camera] wb_white = {list(white)!r}: give the white's camera R, G, B, three positive "
+                              "numbers (G = 1), e.g. [0.5, 1.0, 0.7]")
+        if not (isinstance(self.smoothing, (int, float)) and 0 <= self.smoothing < 1):
             raise ConfigError(f"AWB smoothing = {self.smoothing}: must lie in [0, 1)")
         if self.mode not in ("auto", "locked", "manual"):
             raise ConfigError(f"AWB mode {self.mode!r}: valid: auto, locked, manual")

@@ -86,3 +86,24 @@ def test_metering_modes_weigh_the_frame_as_their_names_say():
         meter(frame, "matrix")
     with pytest.raises(ConfigError, match="overshoot"):
         AutoExposure(damping=1.5)
+
+
+@pytest.mark.parametrize("key, value", [("compensation_ev", 1e9), ("compensation_ev", -1e9),
+                                        ("compensation_ev", float("nan")), ("highlight_target", 0.0),
+                                        ("highlight_target", -1.0), ("damping", "0.5"), ("max_iso", float("inf"))])
+def test_controller_settings_are_refused_with_their_range_before_anything_renders(key, value):
+    """Issue 25 #9–#10: each was a traceback or a wrong result after every frame had rendered."""
+    with pytest.raises(ConfigError, match=rf"\[camera\] {key} = .*give a number in"):
+        AutoExposure(**{key: value})
+
+
+def test_white_balance_and_sequence_hours_are_refused_with_what_is_valid():
+    from spectral_cam.apps.sequence.spec import sequence_from_dict
+    from spectral_cam.control import AutoWhiteBalance
+
+    with pytest.raises(ConfigError, match=r"wb_white = \[0, 1, 1\]: give the white's camera R, G, B"):
+        AutoWhiteBalance(mode="manual", manual_white=(0, 1, 1))
+    with pytest.raises(ConfigError, match=r"start_hour = 'abc': give a local clock time in hours, 0..24"):
+        sequence_from_dict({"scene": {"preset": "vegetation"}, "sequence": {"frames": 2, "start_hour": "abc"}})
+    with pytest.raises(ConfigError, match=r"end_hour = inf"):
+        sequence_from_dict({"scene": {"preset": "vegetation"}, "sequence": {"frames": 2, "end_hour": float("inf")}})

@@ -128,7 +128,11 @@ def sequence_from_dict(data: Mapping[str, Any], *, base_dir: str | Path = ".") -
     frames = table.get("frames")
     if not isinstance(frames, int) or isinstance(frames, bool) or not 1 <= frames <= 10000:
         raise ConfigError(f"[sequence] frames = {frames!r}: give the number of frames, 1..10000")
-    start, end = float(table.get("start_hour", 12.0)), float(table.get("end_hour", table.get("start_hour", 12.0)))
+    start, end = table.get("start_hour", 12.0), table.get("end_hour", table.get("start_hour", 12.0))
+    for key, value in (("start_hour", start), ("end_hour", end)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 24.0:
+            raise ConfigError(f"[sequence] {key} = {value!r}: give a local clock time in hours, 0..24")
+    start, end = float(start), float(end)
     hours = tuple(float(h) for h in (np.linspace(start, end, frames) if frames > 1 else [start]))
     vary = {}
     for key, value in dict(table.get("vary", {}) or {}).items():
