@@ -87,18 +87,23 @@ _TIFF_BYTE, _TIFF_ASCII, _TIFF_SHORT, _TIFF_LONG, _TIFF_RATIONAL, _TIFF_SRATIONA
 _TIFF_FLOAT = 11
 
 
-_RATIONAL_DENOMINATOR = 1_000_000
-
-
 # ----------------------------------------------------------------------------- writing
 def _rationals(values, *, signed: bool) -> list[int]:
+    """(numerator, denominator) pairs: each value's best rational approximation whose terms fit
+    the TIFF (S)RATIONAL's 32 bits (a fixed denominator of 10⁶ wrote 1.35·10⁻⁸ s as 0 and refused
+    times above 4294.97 s; issue 25 #3)."""
+    from fractions import Fraction
+
+    limit = 2 ** 31 - 1 if signed else 2 ** 32 - 1
     out = []
     for value in np.ravel(np.asarray(values, dtype=float)):
-        numerator = int(round(value * _RATIONAL_DENOMINATOR))
-        limit = 2 ** 31 - 1 if signed else 2 ** 32 - 1
-        if not (-limit if signed else 0) <= numerator <= limit:
-            raise RawFormatError(f"value {value!r} does not fit a TIFF {'S' if signed else ''}RATIONAL")
-        out += [numerator, _RATIONAL_DENOMINATOR]
+        if not np.isfinite(value) or abs(value) > limit or (value < 0 and not signed):
+            raise RawFormatError(f"value {value!r} does not fit a TIFF {'S' if signed else ''}RATIONAL "
+                                 f"(a finite number within {'±' if signed else '0..'}{limit})")
+        fraction = Fraction(float(value)).limit_denominator(limit)
+        while abs(fraction.numerator) > limit:  # a large value: coarser denominators until it fits
+            fraction = Fraction(float(value)).limit_denominator(max(1, fraction.denominator // 2))
+        out += [fraction.numerator, fraction.denominator]
     return out
 
 

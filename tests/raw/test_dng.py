@@ -189,3 +189,19 @@ def test_per_site_black_levels_round_trip_through_libraw_and_normalise_per_site(
     assert np.array_equal(np.asarray(raw.black_level), black)
     normalised = normalise(raw.mosaic, black_level=raw.black_level, white_level=raw.white_level)
     assert np.allclose(normalised, level, atol=0.5 / (white - black.max()))
+
+
+@pytest.mark.parametrize("exposure_s, focal_mm", [(1.35e-8, 8.0), (1e-9, 0.1), (10000.0, 10000.0), (1 / 122, 35.0)])
+def test_capture_numbers_survive_the_dng_rationals(tmp_path, exposure_s, focal_mm):
+    """Issue 25 #3: a fixed denominator of 10⁶ wrote exposure times under 5·10⁻⁷ s as 0 and refused
+    times or focal lengths above 4294.97 after the render; best rational approximations keep every
+    documented value to 10⁻⁶ (read back by tifffile)."""
+    raw = RawImage(np.full((32, 32), 300, np.uint16), "RGGB", 64.0, 4095, as_shot_neutral=np.ones(3),
+                   meta={"exposure_s": exposure_s, "iso": 100, "f_number": 2.8, "focal_length_mm": focal_mm})
+    path = write_dng(raw, tmp_path / "capture.dng")
+    with tifffile.TiffFile(path) as tif:
+        exif = tif.pages[0].tags["ExifTag"].value
+    numerator, denominator = exif["ExposureTime"]
+    assert numerator / denominator == pytest.approx(exposure_s, rel=1e-6)
+    numerator, denominator = exif["FocalLength"]
+    assert numerator / denominator == pytest.approx(focal_mm, rel=1e-6)
