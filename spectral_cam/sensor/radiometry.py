@@ -292,13 +292,14 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
             block = block.astype(np.float32)
         if not block.min() >= 0:  # also catches NaN
             raise SensorError(_bad_value_message(block, r0))
-        if layout is None:
-            np.matmul(block, vectors[0], out=rate[r0:r1])
-        else:
-            for a in (0, 1):
-                for b in (0, 1):
-                    np.matmul(block[a::2, b::2], vectors[layout[a][b]], out=rate[r0 + a:r1:2, b::2])
-        if not np.isfinite(rate[r0:r1]).all():  # an infinity (Inf·w = Inf, Inf·0 = NaN)
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow becomes inf: refused just below
+            if layout is None:
+                np.matmul(block, vectors[0], out=rate[r0:r1])
+            else:
+                for a in (0, 1):
+                    for b in (0, 1):
+                        np.matmul(block[a::2, b::2], vectors[layout[a][b]], out=rate[r0 + a:r1:2, b::2])
+        if not np.isfinite(rate[r0:r1]).all():  # an infinity (Inf·w = Inf, Inf·0 = NaN, float32 overflow)
             raise SensorError(_bad_value_message(block, r0))
         if cos4 is not None:
             rate[r0:r1] *= cos4[r0:r1]

@@ -97,3 +97,16 @@ def test_any_single_radiance_value_gives_a_frame_or_a_sensor_error(value, row, c
         return
     assert math.isfinite(value) and value >= 0
     assert raw.mosaic.dtype == np.uint16 and raw.mosaic.shape == (8, 8) and raw.mosaic.max() <= raw.white_level
+
+
+def test_overflowing_radiance_is_refused_without_a_numpy_warning():
+    """Issue 25 #24: 1e33 W·m⁻²·sr⁻¹ overflows float32 in the camera equation; the overflow is
+    the refusal's reason, not a RuntimeWarning printed by NumPy."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        try:
+            S.expose(_image(np.full((16, 16, 31), 1e33, np.float32)), _sensor_config())
+        except SensorError as exc:
+            assert "radiance" in str(exc)
