@@ -177,6 +177,7 @@ class _Ifd(NamedTuple):
     pixels: int
     data_end: int  # where its last strip or tile ends, bytes
     data_bytes: int
+    cfa_pattern: tuple = ()  # CFAPattern's colour codes (0 red, 1 green, 2 blue, …)
 
 
 def _tiff_ifds(path: Path) -> list[_Ifd]:
@@ -206,7 +207,8 @@ def _tiff_ifds(path: Path) -> list[_Ifd]:
                     compression=compression.value if compression is not None else None,
                     pixels=int(np.prod(shape[:2])) if len(shape) >= 2 else 0,
                     data_end=max((int(o) + int(c) for o, c in zip(offsets, counts)), default=0),
-                    data_bytes=int(sum(int(c) for c in counts))))
+                    data_bytes=int(sum(int(c) for c in counts)),
+                    cfa_pattern=_pattern_codes(page.tags.get(33422))))
     except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
         return []
     return found
@@ -247,13 +249,28 @@ def _check_data_in_file(path: Path, ifds: list[_Ifd]) -> None:
                                  f"{ifd.pixels / 1e6:.1f} MP, under a bit per pixel): the file is cut down or truncated")
 
 
+def _pattern_codes(tag) -> tuple:
+    if tag is None:
+        return ()
+    try:
+        value = tag.value
+        return tuple(int(v) for v in (value if isinstance(value, (tuple, list, bytes, np.ndarray)) else [value]))
+    except (TypeError, ValueError):
+        return ()
+
+
 def _check_tiff_cfa(path: Path, ifds: list[_Ifd]) -> None:
     """Refuse a CFA image (PhotometricInterpretation 32803) without CFARepeatPatternDim or
-    CFAPattern: LibRaw would decode it with a stale pattern left from the previous file."""
+    CFAPattern (LibRaw would decode it with a stale pattern left from the previous file), or
+    whose CFAPattern lacks one of red, green and blue (0 0 0 0 read as a monochrome, grey image;
+    Adobe's SDK rejects it; issue 25 #7)."""
     for ifd in ifds:
         if ifd.top_level and ifd.photometric == 32803 and not ifd.has_cfa_tags:
             raise RawFormatError(f"{path}: a CFA raw image needs the CFARepeatPatternDim (33421) and "
                                  "CFAPattern (33422) tags; this one lacks them")
+        if ifd.photometric == 32803 and ifd.cfa_pattern and not {0, 1, 2} <= set(ifd.cfa_pattern):
+            raise RawFormatError(f"{path}: CFAPattern {list(ifd.cfa_pattern)} lacks one of red (0), green (1) "
+                                 "and blue (2); a Bayer pattern such as RGGB is [0, 1, 1, 2]: the file is corrupt")
 
 
 #: TIFF Compression codes of raw images LibRaw does not decode (DNG 1.7.1.0 §6, JPEG XL).

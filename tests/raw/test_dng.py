@@ -205,3 +205,16 @@ def test_capture_numbers_survive_the_dng_rationals(tmp_path, exposure_s, focal_m
     assert numerator / denominator == pytest.approx(exposure_s, rel=1e-6)
     numerator, denominator = exif["FocalLength"]
     assert numerator / denominator == pytest.approx(focal_mm, rel=1e-6)
+
+
+@pytest.mark.parametrize("pattern", [(0, 0, 0, 0), (0, 1, 1, 1), (3, 3, 3, 3)])
+def test_a_cfa_pattern_without_red_green_and_blue_is_refused(tmp_path, pattern):
+    """Issue 25 #7: CFAPattern 0 0 0 0 read as a monochrome image and developed grey (exit 0)."""
+    from spectral_cam.errors import RawFormatError
+
+    raw = RawImage(np.full((64, 64), 500, np.uint16), "RGGB", 64.0, 4095, as_shot_neutral=np.ones(3))
+    path = write_dng(raw, tmp_path / "cfa.dng")
+    with tifffile.TiffFile(path, mode="r+b") as tif:
+        tif.pages[0].tags[33422].overwrite(pattern)
+    with pytest.raises(RawFormatError, match=r"CFAPattern .* lacks one of red \(0\), green \(1\) and blue \(2\)"):
+        read_raw(path)
