@@ -66,9 +66,12 @@ DNG_TAGS = {
     "LensInfo": 50736,
     "ExifIFD": 34665,
     "ExifVersion": 36864,
+    "FocalPlaneXResolution": 41486,
+    "FocalPlaneYResolution": 41487,
+    "FocalPlaneResolutionUnit": 41488,
 }
 #: The EXIF tags that belong in the Exif IFD (not IFD 0), by EXIF 2.32 §4.6.
-EXIF_IFD_TAGS = frozenset({33434, 33437, 34855, 36864, 36867, 37386, 42036})
+EXIF_IFD_TAGS = frozenset({33434, 33437, 34855, 36864, 36867, 37386, 42036, 41486, 41487, 41488})
 
 
 #: PhotometricInterpretation values.
@@ -193,6 +196,11 @@ def _capture_tags(meta: dict) -> list[tuple]:
         tags.append((DNG_TAGS["FNumber"], _TIFF_RATIONAL, 1, _rationals([f_number], signed=False), True))
     if focal:
         tags.append((DNG_TAGS["FocalLength"], _TIFF_RATIONAL, 1, _rationals([focal], signed=False), True))
+    if meta.get("pixel_area_m2"):  # pixels per centimetre: readers derive the sensor size (35 mm equivalent)
+        per_cm = 0.01 / float(np.sqrt(meta["pixel_area_m2"]))
+        tags += [(DNG_TAGS["FocalPlaneXResolution"], _TIFF_RATIONAL, 1, _rationals([per_cm], signed=False), True),
+                 (DNG_TAGS["FocalPlaneYResolution"], _TIFF_RATIONAL, 1, _rationals([per_cm], signed=False), True),
+                 (DNG_TAGS["FocalPlaneResolutionUnit"], _TIFF_SHORT, 1, (3,), True)]
     if f_number and focal:
         lens = f"spectral_cam thin lens {focal:g} mm f/{f_number:g}"
         tags += [(DNG_TAGS["LensModel"], _TIFF_ASCII, 0, _ascii(lens), True),

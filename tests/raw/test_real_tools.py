@@ -234,3 +234,22 @@ def test_the_readme_table_of_real_tools_is_the_committed_csv():
         assert shown["version"] == row["version"] and shown["settings"] == f"`{row['settings']}`", row["tool"]
         mean, worst = float(row["delta_e_mean"]), float(row["delta_e_max"])
         assert shown[row["illuminant"]] == f"{mean:.2f} (max {worst:.1f})", (row["tool"], row["illuminant"])
+
+
+def test_exiftool_gives_the_35mm_equivalent_focal_length_of_our_sensor(tmp_path):
+    """Issue 25 #18: with FocalPlaneX/YResolution (pixels per cm) exiftool derives the sensor's
+    size: a 480 × 320 sensor of 6 µm pixels (2.88 × 1.92 mm, diagonal 3.46 mm) is 12.5× smaller
+    than 35 mm film (43.27 mm), so an 8 mm lens is a 100 mm equivalent (it said 8 mm)."""
+    import numpy as np
+
+    from spectral_cam.raw import RawImage
+
+    raw = RawImage(np.full((320, 480), 500, np.uint16), "RGGB", 64.0, 4095, as_shot_neutral=np.ones(3),
+                   meta={"exposure_s": 0.01, "iso": 100, "f_number": 2.8, "focal_length_mm": 8.0,
+                         "pixel_area_m2": (6e-6) ** 2})
+    path = write_dng(raw, tmp_path / "size.dng")
+    out = subprocess.run([_tool("exiftool"), "-n", "-s3", "-FocalLength35efl", "-ScaleFactor35efl", str(path)],
+                         capture_output=True, text=True, check=True).stdout.split()
+    expected = 43.2666 / np.hypot(2.88, 1.92)
+    assert float(out[-1]) == pytest.approx(expected, rel=0.01)
+    assert float(out[0]) == pytest.approx(8.0 * expected, rel=0.01)
