@@ -348,9 +348,11 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
         ((DNG_TAGS["BlackLevel"], _TIFF_LONG, len(black_values), tuple(int(v) for v in black_values), True)
          if integral else
          (DNG_TAGS["BlackLevel"], _TIFF_RATIONAL, len(black_values), _rationals(black_values, signed=False), True)),
-        (DNG_TAGS["WhiteLevel"], _TIFF_LONG, 1, (int(raw.white_level),), True),
     ]
     monochrome, linear = raw.cfa == "none", raw.cfa == LINEAR
+    # one WhiteLevel per sample (DNG 1.7.1.0 ch. 4): a Linear Raw DNG has three (issue 25 #17)
+    samples = 3 if linear else 1
+    tags.append((DNG_TAGS["WhiteLevel"], _TIFF_LONG, samples, (int(raw.white_level),) * samples, True))
     if not monochrome:
         if not linear:
             tags += [

@@ -65,3 +65,23 @@ def test_we_develop_a_linear_raw_dng_as_libraw_does(tmp_path):
     white = [chart.patches[chart.white_index]]
     ratio = (patch_means(ours, white)[0] @ y) / (patch_means(libraw, white)[0] @ y)
     assert ratio == pytest.approx(4095 / (4095 - 64), rel=2e-3)
+
+
+def test_adobes_sdk_reads_a_linear_raw_dng_without_a_warning(tmp_path):
+    """Issue 25 #17: WhiteLevel with one value for three samples made Adobe's SDK warn; one per
+    sample (DNG 1.7.1.0 ch. 4) reads clean (the SDK prints each departure it notices)."""
+    import subprocess
+    import sys
+
+    import tifffile
+
+    pytest.importorskip("dngpy", reason="dngpy (Adobe's DNG SDK) is a test extra")
+    _, _, path = _linear_chart_dng(tmp_path)
+    with tifffile.TiffFile(path) as tif:
+        assert len(np.atleast_1d(tif.pages[0].tags[50717].value)) == 3
+    script = ("import sys, dngpy\n"
+              "dng = dngpy.Dng(sys.argv[1])\n"
+              "dng.raw_pixels, dng.metadata, dng.color_info\n")
+    run = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    assert "WhiteLevel" not in run.stdout + run.stderr, run.stdout + run.stderr
