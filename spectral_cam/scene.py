@@ -718,8 +718,9 @@ def scene_from_dict(
             )
         merged.setdefault(section, {})[key] = value
     sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS if name != "lens"}
-    lens_table = _lens_for_prescription(_lens_for_xml_camera(dict(merged.get("lens", {})), sections["scene"],
-                                                             sections["sensor"]))
+    # the prescription first: it sees what the user gave, not a default filled in for an XML camera
+    lens_table = _lens_for_xml_camera(_lens_for_prescription(dict(merged.get("lens", {}))), sections["scene"],
+                                      sections["sensor"])
     sections["lens"] = section_from_table("lens", lens_table, base_dir)
     if sections["motion"].moving:
         if sections["exposure"].time_s == "auto":
@@ -739,6 +740,18 @@ def _lens_for_prescription(lens: dict[str, Any]) -> dict[str, Any]:
     from .lenses.prescription import focal_length_and_f_number
 
     focal_m, f_number = focal_length_and_f_number(str(lens.get("prescription", "dgauss_50mm")))
+    replaced = [f"lens.{key} = {lens[key]!r} by its {value:.4g}" for key, value in
+                (("focal_length_mm", focal_m * 1e3), ("f_number", f_number))
+                if isinstance(lens.get(key), (int, float)) and not isinstance(lens.get(key), bool)
+                and abs(lens[key] - value) > 1e-6 * value]
+    if replaced:  # a prescription is a real lens: said, not done silently (issue 25 #15)
+        import warnings
+
+        from .errors import SceneWarning
+
+        warnings.warn(f"lens.prescription {lens.get('prescription', 'dgauss_50mm')!r} replaces "
+                      f"{' and '.join(replaced)} (a prescription's focal length and f-number are its own); "
+                      "leave them unset", SceneWarning, stacklevel=4)
     return dict(lens, focal_length_mm=focal_m * 1e3, f_number=f_number)
 
 

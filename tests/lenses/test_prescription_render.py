@@ -174,3 +174,18 @@ def test_blades_in_the_stop_pass_the_openings_area(blades, rounding):
     polygon = math.cos(math.pi / blades) / np.cos(np.mod(phi, sector) - sector / 2)
     area = float(np.mean(((1 - rounding) * polygon + rounding) ** 2))
     assert centre(blades=blades, blade_rounding=rounding) / centre() == pytest.approx(area, rel=0.02)
+
+
+def test_a_prescription_says_which_scene_values_it_replaces():
+    """Issue 25 #15: scenes/dof.toml's 25 mm f/1.4 became 50.36 mm f/2.02 without a word."""
+    import warnings
+
+    from spectral_cam import load_scene
+    from spectral_cam.errors import SceneWarning
+
+    with pytest.warns(SceneWarning, match=r"replaces lens.focal_length_mm = 25.* by its 50.36 and lens.f_number"):
+        config = load_scene("scenes/dof.toml", overrides={"lens.model": "prescription"})
+    assert config.lens.focal_length_mm == pytest.approx(50.36, abs=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SceneWarning)  # its own values again: nothing to say
+        config.replace(**{"lens.focus_distance_m": 3.0})
