@@ -401,6 +401,8 @@ def read_raw(path) -> RawImage:
     path = Path(path)
     if not path.is_file():
         raise RawFormatError(f"raw file {str(path)!r} does not exist")
+    if path.stat().st_size == 0:  # LibRaw said "Input/output error" (issue 25 #16)
+        raise RawFormatError(f"{path} is empty (0 bytes): not a raw file; give a DNG or a camera raw")
     ifds = _tiff_ifds(path)  # the file's structure, read once for both checks
     _check_tiff_cfa(path, ifds)
     _check_data_in_file(path, ifds)

@@ -218,3 +218,12 @@ def test_a_cfa_pattern_without_red_green_and_blue_is_refused(tmp_path, pattern):
         tif.pages[0].tags[33422].overwrite(pattern)
     with pytest.raises(RawFormatError, match=r"CFAPattern .* lacks one of red \(0\), green \(1\) and blue \(2\)"):
         read_raw(path)
+
+
+def test_an_empty_file_is_called_empty(tmp_path):
+    """Issue 25 #16: a 0-byte file reported LibRaw's "Input/output error"."""
+    from spectral_cam.errors import RawFormatError
+
+    (tmp_path / "empty.dng").write_bytes(b"")
+    with pytest.raises(RawFormatError, match=r"is empty \(0 bytes\): not a raw file"):
+        read_raw(tmp_path / "empty.dng")
