@@ -71,6 +71,12 @@ def drift_metrics(output: str | Path, modes: Sequence[str], noon_frame: int | No
     for folder in frames:
         config = load_scene(folder / "scene.toml")
         masks.append(plant_mask(config, np.load(folder / "radiance.npz")["depth"]))
+    plants_in_view = config.scene.preset == "vegetation" and not config.scene.mitsuba_xml
+    if not plants_in_view or not any(mask.any() for mask in masks):  # issue 25 #6: 4.5–6.25 % of nothing
+        from ...errors import ConfigError
+
+        raise ConfigError(f"--drift measures plants, and no frame of this sequence shows one (scene.preset = "
+                          f"{config.scene.preset!r}): use the vegetation preset with scene.object_count > 0")
     truth = plant_truth(load_scene(frames[0] / "scene.toml"))
     noon = len(frames) // 2 if noon_frame is None else noon_frame
     result = {}

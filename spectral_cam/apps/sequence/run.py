@@ -129,6 +129,9 @@ def bayer_stats(raw) -> np.ndarray:
 
     mosaic = (raw.mosaic.astype(np.float64) - raw.black_level) / (raw.white_level - raw.black_level)
     h, w = (mosaic.shape[0] // 2) * 2, (mosaic.shape[1] // 2) * 2
+    if raw.cfa == "none":  # a monochrome sensor: each cell's mean in all three (issue 25 #11)
+        cells = mosaic[:h, :w].reshape(h // 2, 2, w // 2, 2).mean(axis=(1, 3))
+        return np.repeat(cells[..., None], 3, axis=-1)
     layout = tile_layout(raw.cfa)
     planes = {0: [], 1: [], 2: []}
     for a in (0, 1):

@@ -69,3 +69,26 @@ def test_a_bad_spec_is_refused_with_what_would_be_valid():
         _spec({}, 2, {"shutter": 0.01})
     with pytest.raises(ConfigError, match="frames"):
         sequence_from_dict({"sequence": {"frames": 0}})
+
+
+def test_a_monochrome_sensor_runs_a_sequence(tmp_path):
+    """Issue 25 #11: the documented monochrome sensor (``model = "ideal"``, ``cfa = "none"``)
+    raised TypeError in bayer_stats; its cells are now read as grey, and the auto exposure meters
+    them as it meters colour (the flat 18 % field lands at the same grey level each frame)."""
+    spec = sequence_from_dict({
+        "scene": {"preset": "flat_field", "reflectance": 0.18},
+        "sensor": {"width_px": 32, "height_px": 24, "model": "ideal", "cfa": "none"},
+        "render": {"spp": 4}, "sequence": {"frames": 2, "vary": {}}, "camera": {}})
+    run_sequence(spec, tmp_path, modes=("auto",), scheduler="inline")
+    means = _raw_means(tmp_path, "auto", 2)
+    assert np.allclose(means[:, 0], means[:, 1]) and np.allclose(means[:, 1], means[:, 2])
+    assert means[0, 0] == pytest.approx(10 / 78, rel=0.1)
+
+
+def test_drift_refuses_a_sequence_without_plants(tmp_path):
+    """Issue 25 #6: --drift on a flat field reported 4.5–6.25 % of "plant pixels flagged"."""
+    from spectral_cam.apps.sequence.drift import drift_metrics
+
+    run_sequence(_spec({}, 2), tmp_path, modes=("auto",), scheduler="inline")
+    with pytest.raises(ConfigError, match="no frame of this sequence shows one"):
+        drift_metrics(tmp_path, ["auto"])
