@@ -444,6 +444,20 @@ def _refract(d, normal, mu):
 
 
 # ----------------------------------------------------------------------------- files
+def _header_number(path: Path, info: dict, key: str, scale: float) -> float | None:
+    """A number from a prescription's header (``# key: value``), None when absent; a value that
+    is no positive number is refused naming the line (issue 25 #12: it raised ValueError)."""
+    if key not in info:
+        return None
+    try:
+        value = float(info[key])
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(f"lens prescription {path}: header line '# {key}: {info[key]}' needs a positive number")
+    return value * scale
+
+
 def _header(lines: list[str]) -> dict:
     info = {"title": lines[0].lstrip("# ").strip() if lines else ""}
     for line in lines:
@@ -527,7 +541,11 @@ def load_prescription(name: str) -> Prescription:
         non-positive semi-diameter.
     """
     path = _prescription_path(name)
-    lines = path.read_text(encoding="utf-8").splitlines()
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except UnicodeDecodeError as exc:  # issue 25 #12
+        raise ConfigError(f"lens prescription {path}: not UTF-8 text ({exc.reason} at byte {exc.start}); save the "
+                          "CSV as UTF-8") from None
     comments = [line for line in lines if line.startswith("#")]
     body = [line for line in lines if line.strip() and not line.startswith("#")]
     surfaces = []
@@ -556,7 +574,7 @@ def load_prescription(name: str) -> Prescription:
     if not surfaces or sum(s.stop for s in surfaces) != 1 or any(s.semi_diameter_m <= 0 for s in surfaces):
         raise ConfigError(f"lens prescription {path}: needs surfaces with positive semi-diameters and exactly one "
                           "STOP row")
-    focal = float(info["stated_focal_length_mm"]) * 1e-3 if "stated_focal_length_mm" in info else None
-    f_number = float(info["stated_f_number"]) if "stated_f_number" in info else None
+    focal = _header_number(path, info, "stated_focal_length_mm", 1e-3)
+    f_number = _header_number(path, info, "stated_f_number", 1.0)
     return Prescription(path.stem, info["title"], info.get("source", str(path)), tuple(surfaces), focal, f_number)
 

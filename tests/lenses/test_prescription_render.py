@@ -189,3 +189,22 @@ def test_a_prescription_says_which_scene_values_it_replaces():
     with warnings.catch_warnings():
         warnings.simplefilter("error", SceneWarning)  # its own values again: nothing to say
         config.replace(**{"lens.focus_distance_m": 3.0})
+
+
+@pytest.mark.parametrize("header, content, message", [
+    ("# stated_focal_length_mm: abc\n", None, r"header line '# stated_focal_length_mm: abc' needs a positive number"),
+    ("", b"\xff\xfe radius_mm", r"not UTF-8 text"),
+])
+def test_a_broken_prescription_file_is_refused_naming_what_to_fix(tmp_path, header, content, message):
+    """Issue 25 #12: a non-numeric header value raised ValueError, non-UTF-8 bytes UnicodeDecodeError."""
+    from spectral_cam.errors import ConfigError
+    from spectral_cam.lenses.prescription import load_prescription
+
+    path = tmp_path / "lens.csv"
+    if content is None:
+        path.write_text(header + "radius_mm,thickness_mm,nd,vd,glass,semi_diameter_mm\n"
+                        "50,5,1.5,60,,10\ninf,1,1,,STOP,8\n-50,40,1,,,10\n")
+    else:
+        path.write_bytes(content)
+    with pytest.raises(ConfigError, match=message):
+        load_prescription(str(path))
