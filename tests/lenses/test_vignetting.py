@@ -57,3 +57,7 @@ def test_the_stress_study_says_where_the_thin_lens_holds(tmp_path):
     spots = np.asarray(result["data"]["dgauss_50mm"]["spot_px"])[:, 0]
     assert spots[0] > 1.0 and spots[-1] < 1.0 and np.all(np.diff(spots[:4]) < 0)
     assert (tmp_path / plot_lenses(result, tmp_path)[0]).stat().st_size > 10_000
+    import csv  # the README cites docs/stress/lenses.csv: the study writes it (issue 25 #19)
+
+    with open(tmp_path / "lenses.csv", newline="") as handle:
+        assert {row["case"] for row in csv.DictReader(handle)} == cases

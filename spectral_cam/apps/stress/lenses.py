@@ -89,4 +89,9 @@ def plot_lenses(result: dict, directory: Path) -> list[str]:
         right.set_ylabel("pupil area / axial")
         right.set_title(f"{name}: cat's-eye vignetting")
         right.legend(fontsize=7)
-    return [save_png(fig, Path(directory) / "lenses_thin_vs_prescription.png").name]
+    from ...records import write_csv
+    from .summary import SUMMARY_FIELDS
+
+    # the study's rows on their own (README: docs/stress/lenses.csv; issue 25 #19 found it unwritten)
+    write_csv(result["rows"], Path(directory) / "lenses.csv", SUMMARY_FIELDS)
+    return [save_png(fig, Path(directory) / "lenses_thin_vs_prescription.png").name, "lenses.csv"]
