@@ -34,7 +34,7 @@ from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT
 from .decisions import decide_diffraction
 from .depth import render_depth
-from .trace import trace
+from .trace import frame_optics, trace
 from .variants import choose_variant
 
 __all__ = ["render_layered", "defocus_layers", "disc_kernel", "nearest_depth", "aperture_fraction"]
@@ -327,7 +327,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     }
     decisions["diffraction"] = diffraction
     meta.update({"lens_model": "layered", "model_decisions": decisions,
-                 "optics": lens.describe(),
+                 "optics": frame_optics(lens),
                  "timings_s": {**meta.get("timings_s", {}), **timings, "total": time.perf_counter() - started}})
     return SpectralImage(np.ascontiguousarray(data[crop], dtype=np.float32), blurred.wavelengths_nm,
                          blurred.band_edges_nm, blurred.depth_m[crop], meta, blurred.channels, lens)

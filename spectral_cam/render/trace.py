@@ -128,6 +128,17 @@ def _report(progress, done: int, total: int, seconds: float, tile: int, tiles: i
         progress(done, total, seconds, tile=(tile + (done >= total), tiles))
 
 
+def frame_optics(lens: ThinLens) -> dict:
+    """``meta.optics``: the frame's lens (its field of view, sensor size), and the rendered margin
+    around it separately (issue 25 #5: a widened film's field of view was recorded 16.7 % too wide)."""
+    frame = lens.layout_lens
+    optics = frame.describe()
+    if frame is not lens:
+        optics["rendered_margin_px"] = int(round((lens.width_px - frame.width_px) / 2))
+        optics["rendered_size_px"] = [int(lens.width_px), int(lens.height_px)]
+    return optics
+
+
 def check_tiling(config: SceneConfig, lens: ThinLens) -> None:
     """Refuse, before any rendering, what a frame rendered in tiles cannot do:
     ``render.spp = "auto"`` (it judges the whole frame between passes).
@@ -321,7 +332,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         "bands": "camera" if use_camera else spectral_spec,
         "bands_nm": list(wavelengths),
         "channels": list(channels) if channels else None,
-        "optics": lens.describe(),
+        "optics": frame_optics(lens),
         "model_decisions": decisions,
         "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s,
                       "diffraction": diffraction_s},

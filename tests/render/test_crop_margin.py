@@ -48,3 +48,19 @@ def test_the_job_raw_carries_the_margin_and_every_other_output_is_the_frame(make
     assert sim.radiance.data.shape[:2] == (height, width) and sim.radiance.depth_m.shape == (height, width)
     assert sim.developed.image.shape == (height, width, 3)
     assert sim.lens.width_px == width  # the frame's lens, as every label and metric expects
+
+
+def test_meta_optics_describe_the_frame_and_the_margin_apart():
+    """Issue 25 #5: with a crop margin, ``meta.optics.fov_x_deg`` read the widened film's field
+    (112 px for a 96 px frame: 16.7 % too wide); it is the frame's, 2·atan(w·p/(2v))."""
+    import math
+
+    import spectral_cam as sc
+
+    config = sc.scene_from_dict({"sensor": {"width_px": 96, "height_px": 64}, "render": {"spp": 1}})
+    optics = sc.render(config, with_margin=True, with_depth=False).meta["optics"]
+    lens = sc.optics.ThinLens.from_config(config.lens, config.sensor)
+    expected = math.degrees(2 * math.atan(96 * 6e-6 / (2 * lens.image_distance_m)))
+    assert optics["fov_x_deg"] == pytest.approx(expected, rel=1e-9)
+    assert optics["rendered_margin_px"] == config.sensor.crop_margin_px
+    assert optics["rendered_size_px"] == [96 + 2 * config.sensor.crop_margin_px, 64 + 2 * config.sensor.crop_margin_px]
