@@ -151,3 +151,13 @@ def test_a_table_stands_before_a_wall_not_a_void():
     index, names = render_shape_map(config)
     assert np.all(index[:4] >= 0)  # the top rows see something
     assert "backdrop" in names and np.any(index[:4] == names.index("backdrop"))
+
+
+def test_the_cornell_box_fills_its_frame():
+    """Issue 25 #22: at 2.7 mm the view was wider than the box's opening (5963 pixels saw the
+    void, a 3–4 px black border); the scene's lens frames the box, every pixel meets a wall."""
+    import spectral_cam as sc
+    from spectral_cam.render import render_shape_map
+
+    index, _ = render_shape_map(sc.load_scene("scenes/cornell_box.toml"))
+    assert (index >= 0).all()
