@@ -92,13 +92,18 @@ def xml_field_of_view(path: str | Path) -> XmlFieldOfView | None:
     >>> xml_field_of_view(path).fov_x_deg
     45.0
     """
-    try:
-        root = ET.parse(path).getroot()
-    except (ET.ParseError, OSError):
+    found = _first_camera(Path(path), {}, 0)
+    if found is None:
         return None
-    defaults = _defaults(root)
-    sensor = next((n for n in root.iter("sensor") if n.get("type") in ("perspective", "thinlens")), None)
-    if sensor is None:
+    sensor, defaults, where = found
+    if sensor.get("type") not in ("perspective", "thinlens"):  # issue 25 #4: it fell back silently
+        import warnings
+
+        from .errors import SceneWarning
+
+        warnings.warn(f"{where}: the camera is {sensor.get('type')!r}, which has no field of view; spectral_cam "
+                      "renders through its own perspective lens from the camera's pose (lens.focal_length_mm, "
+                      "default 8 mm): set lens.focal_length_mm for the view you want", SceneWarning, stacklevel=3)
         return None
     width, height = _film_size(sensor, defaults)
     axis = (_value(_child(sensor, "string", "fov_axis"), defaults) or "x").lower()
@@ -114,10 +119,40 @@ def xml_field_of_view(path: str | Path) -> XmlFieldOfView | None:
             axis, source = "diagonal", f"focal_length = {focal} (35 mm equivalent, diagonal)"
         fov_x = 2 * math.degrees(math.atan(_half_tan_x(half_tan, axis, width, height)))
     except ValueError:
+        fov_x = math.nan
+    if not 0 < fov_x < 180:  # NaN included (issue 25 #4: it rendered through the default 8 mm lens)
+        from .errors import ConfigError
+
+        raise ConfigError(f"{where}: the camera's field of view ({source}) is not one: give fov in (0, 180) degrees "
+                          "or a positive focal_length")
+    return XmlFieldOfView(fov_x, source + f", film {width:g} × {height:g}" + (
+        f", in {Path(where).name}" if Path(where) != Path(path) else ""))
+
+
+def _first_camera(path: Path, inherited: dict[str, str], depth: int):
+    """(sensor element, defaults, file) of the first ``<sensor>`` in ``path``, following
+    ``<include filename=…>`` (relative to the including file, 8 levels at most) in document
+    order; None when there is none or the file cannot be read."""
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
         return None
-    if not 0 < fov_x < 180:
-        return None
-    return XmlFieldOfView(fov_x, source + f", film {width:g} × {height:g}")
+    defaults = {**inherited, **_defaults(root)}
+    for node in root.iter():
+        if node.tag == "sensor":
+            return node, defaults, str(path)
+        if node.tag == "include" and node.get("filename") and depth < 8:
+            found = _first_camera(path.parent / _substitute(node.get("filename"), defaults), defaults, depth + 1)
+            if found is not None:
+                return found
+    return None
+
+
+def _substitute(text: str, defaults: dict[str, str]) -> str:
+    """``$name`` parameters of an XML attribute replaced by their defaults."""
+    for name, value in sorted(defaults.items(), key=lambda item: -len(item[0])):
+        text = text.replace("$" + name, value)
+    return text
 
 
 def focal_length_for_fov(fov_x_deg: float, sensor_width_m: float, focus_distance_m: float) -> float:

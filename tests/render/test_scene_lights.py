@@ -187,3 +187,33 @@ def test_the_cli_says_a_scene_warning_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     lines = [line for line in err.splitlines() if "warning" in line]
     assert len(lines) == 1 and lines[0].startswith("spectral-cam: warning: illuminant.spd = 'D65' does not light")
+
+
+SHAPES = ('<shape type="rectangle"><bsdf type="diffuse"/></shape>'
+          '<emitter type="constant"><rgb name="radiance" value="1"/></emitter>')
+
+
+def test_an_xml_camera_is_read_through_includes_and_refused_or_explained(tmp_path):
+    """Issue 25 #4: a camera with fov = nan, an orthographic camera, or one in an <include>
+    rendered through the default 8 mm lens (≈ 2° instead of 40°) without a word."""
+    import pytest
+
+    from spectral_cam import scene_from_dict
+    from spectral_cam.errors import ConfigError, SceneWarning
+    from spectral_cam.optics import ThinLens
+
+    sensor = '<sensor type="perspective"><float name="fov" value="40"/></sensor>'
+    (tmp_path / "camera.xml").write_text(f'<scene version="3.0.0">{sensor}</scene>')
+    (tmp_path / "main.xml").write_text(f'<scene version="3.0.0"><include filename="camera.xml"/>{SHAPES}</scene>')
+    config = scene_from_dict({"scene": {"mitsuba_xml": str(tmp_path / "main.xml")},
+                              "sensor": {"width_px": 64, "height_px": 48}})
+    assert ThinLens.from_config(config.lens, config.sensor).fov_x_deg == pytest.approx(40.0, rel=1e-6)
+
+    (tmp_path / "nan.xml").write_text('<scene version="3.0.0"><sensor type="perspective">'
+                                      f'<float name="fov" value="nan"/></sensor>{SHAPES}</scene>')
+    with pytest.raises(ConfigError, match=r"nan.xml: the camera's field of view .* is not one: give fov in \(0, 180\)"):
+        scene_from_dict({"scene": {"mitsuba_xml": str(tmp_path / "nan.xml")}})
+
+    (tmp_path / "ortho.xml").write_text(f'<scene version="3.0.0"><sensor type="orthographic"/>{SHAPES}</scene>')
+    with pytest.warns(SceneWarning, match=r"the camera is 'orthographic', which has no field of view"):
+        scene_from_dict({"scene": {"mitsuba_xml": str(tmp_path / "ortho.xml")}})
