@@ -527,7 +527,35 @@ def focal_length_and_f_number(name: str) -> tuple[float, float]:
 @functools.lru_cache(maxsize=32)
 def _optics(path: str, _version: int) -> tuple[float, float]:
     design = load_prescription(path)
-    return design.focal_length_m(), design.traced_f_number()
+    with np.errstate(all="ignore"):
+        focal, f_number = design.focal_length_m(), design.traced_f_number()
+    if not (math.isfinite(focal) and focal > 0):  # issue 25 #13: it said "lens.focal_length_mm = …"
+        raise ConfigError(f"lens prescription {path}: its paraxial focal length is {focal * 1e3:.4g} mm: "
+                          "a lens forming a real image needs a positive, finite one (a diverging or afocal "
+                          "design cannot be a camera lens)")
+    if not (math.isfinite(f_number) and f_number > 0):
+        raise ConfigError(f"lens prescription {path}: no ray of the axial bundle passes every surface (traced "
+                          "f-number not finite): check the semi_diameter_mm and thickness_mm columns")
+    return focal, f_number
+
+
+def _check_rows(path: Path, surfaces: list) -> None:
+    """Each surface's numbers where they can mean something, refused naming the row and the column
+    (issue 25 #13: a negative thickness, an infinite semi-diameter, nd = 0 or a NaN radius surfaced as
+    an f-number or a focal length the user never set)."""
+    for row, s in enumerate(surfaces, start=1):
+        problems = []
+        if math.isnan(s.radius_m):
+            problems.append(f"radius_mm = {s.radius_m * 1e3:g} (give a curvature radius, or 0 for a plane)")
+        if not math.isfinite(s.thickness_m) or s.thickness_m < 0:
+            problems.append(f"thickness_mm = {s.thickness_m * 1e3:g} (the distance to the next surface: >= 0)")
+        index = getattr(s.medium, "nd", None)
+        if index is not None and not (math.isfinite(index) and index >= 1.0):
+            problems.append(f"nd = {index:g} (a refractive index >= 1)")
+        if not math.isnan(s.semi_diameter_m) and not (math.isfinite(s.semi_diameter_m) and s.semi_diameter_m > 0):
+            problems.append(f"semi_diameter_mm = {s.semi_diameter_m * 1e3:g} (a positive, finite clear radius)")
+        if problems:
+            raise ConfigError(f"lens prescription {path}, surface {row}: " + "; ".join(problems))
 
 
 def load_prescription(name: str) -> Prescription:
@@ -568,6 +596,7 @@ def load_prescription(name: str) -> Prescription:
     except (KeyError, ValueError, TypeError) as exc:
         raise ConfigError(f"lens prescription {path}: cannot read its rows ({exc}); columns: radius_mm, "
                           "thickness_mm, nd, vd, glass, semi_diameter_mm") from None
+    _check_rows(path, surfaces)
     info = _header(comments)
     if any(math.isnan(s.semi_diameter_m) for s in surfaces):
         surfaces = _clear_apertures(path, surfaces, info)

@@ -208,3 +208,25 @@ def test_a_broken_prescription_file_is_refused_naming_what_to_fix(tmp_path, head
         path.write_bytes(content)
     with pytest.raises(ConfigError, match=message):
         load_prescription(str(path))
+
+
+GOOD = "radius_mm,thickness_mm,nd,vd,glass,semi_diameter_mm\n50,5,1.5,60,,10\ninf,1,1,,STOP,8\n-50,40,1,,,10\n"
+
+
+@pytest.mark.parametrize("table, message", [
+    (GOOD.replace("50,5,1.5", "50,-2,1.5"), r"surface 1: thickness_mm = -2"),
+    (GOOD.replace("1.5,60,,10", "1.5,60,,inf"), r"surface 1: semi_diameter_mm = inf"),
+    (GOOD.replace("50,5,1.5", "50,5,0"), r"surface 1: nd = 0"),
+    (GOOD.replace("50,5,1.5", "nan,5,1.5"), r"surface 1: radius_mm = nan"),
+    (GOOD.replace("50,5,1.5", "-50,5,1.5").replace("-50,40", "50,40"), r"paraxial focal length is -"),
+])
+def test_impossible_surfaces_are_refused_naming_the_surface_and_column(tmp_path, table, message):
+    """Issue 25 #13: these reported "lens.f_number = inf" or "lens.focal_length_mm = …", keys the
+    user never set."""
+    from spectral_cam import scene_from_dict
+    from spectral_cam.errors import ConfigError
+
+    path = tmp_path / "lens.csv"
+    path.write_text(table)
+    with pytest.raises(ConfigError, match=message):
+        scene_from_dict({"lens": {"model": "prescription", "prescription": str(path)}})
