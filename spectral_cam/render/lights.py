@@ -188,6 +188,10 @@ def _shares(mi, scene, sensor, integrator, emitters) -> list[float] | None:
         for key, value in original.items():
             params[key] = value
         params.update()
+    for (_, name, _), value in zip(emitters, totals):
+        if not np.isfinite(value):  # issue 25 #14: a NaN or overflowing strength read as "give each an id"
+            raise ConfigError(f"emitter {name!r} sends the camera a light that is not finite (its radiance, "
+                              "intensity or irradiance is NaN or too large for float32): give it a finite strength")
     total = sum(totals)
     return [t / total for t in totals] if total > 0 else None
 
@@ -232,6 +236,9 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[
     for emitter, name, prefix in found:
         spectrum = _irradiance_spectrum(mi, dr, scene, emitter, point, normal)
         peak = spectrum.max()
+        if not np.all(np.isfinite(spectrum)):  # NaN or infinite strength: named, not divided (issue 25 #14)
+            raise ConfigError(f"emitter {name!r} sends the camera a light that is not finite (its radiance, "
+                              "intensity or irradiance is NaN or too large for float32): give it a finite strength")
         emitters.append(SceneEmitter(name, str(emitter).split("[")[0].strip(),
                                      spectrum / peak if peak > 0 else spectrum, _temperature(params, prefix)))
     if measure_shares and len(found) > 1:
@@ -297,8 +304,8 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
         return config, {"choice": spd, "reason": "illuminant.spd set for a scene its emitters light (warned)"}
     emitters = scene_emitters(config)
     if not emitters:
-        raise ConfigError(f"the XML scene {where} has no emitter, so nothing lights it; "
-                          "add one, or set illuminant.spd to the light its ground truth should assume")
+        raise ConfigError(f"the XML scene {where} has no emitter, so nothing lights it: add one (an XML scene is "
+                          "lit by its own emitters; illuminant.spd only names the light its ground truth assumes)")
     names = [e.name for e in emitters]
     if chosen_name:
         if chosen_name not in names:

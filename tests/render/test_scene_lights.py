@@ -217,3 +217,22 @@ def test_an_xml_camera_is_read_through_includes_and_refused_or_explained(tmp_pat
     (tmp_path / "ortho.xml").write_text(f'<scene version="3.0.0"><sensor type="orthographic"/>{SHAPES}</scene>')
     with pytest.warns(SceneWarning, match=r"the camera is 'orthographic', which has no field of view"):
         scene_from_dict({"scene": {"mitsuba_xml": str(tmp_path / "ortho.xml")}})
+
+
+@pytest.mark.parametrize("strength", ["nan", "inf"])
+def test_an_emitter_of_no_finite_strength_is_named(tmp_path, strength):
+    """Issue 25 #14: two emitters with ids, one of NaN (or infinite) strength, reported "give each an id"."""
+    from spectral_cam import render, scene_from_dict
+    from spectral_cam.errors import ConfigError
+
+    xml = ('<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/></sensor>'
+           '<shape type="rectangle"><transform name="to_world"><translate value="0, 0, 3"/></transform>'
+           '<bsdf type="diffuse"/></shape>'
+           '<emitter type="point" id="lamp"><point name="position" value="0, 1, 1"/>'
+           f'<spectrum name="intensity" value="{strength}"/></emitter>'
+           '<emitter type="constant" id="sky"><spectrum name="radiance" value="0.1"/></emitter></scene>')
+    (tmp_path / "two.xml").write_text(xml)
+    config = scene_from_dict({"scene": {"mitsuba_xml": str(tmp_path / "two.xml")},
+                              "sensor": {"width_px": 32, "height_px": 24}, "render": {"spp": 4}})
+    with pytest.raises(ConfigError, match=r"emitter 'lamp' sends the camera a light that is not finite"):
+        render(config)
