@@ -28,6 +28,8 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None,
                         help="Dask scheduler address, or 'inline' (default: a local cluster)")
     parser.add_argument("--workers", type=int, default=None, help="local cluster workers (default: one per core)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an output folder that holds another run (a run of the same spec resumes)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
 
 
@@ -42,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     spec = load_sequence(args.spec)
     log = None if args.quiet else (lambda line: print(line, file=sys.stderr))
     run_sequence(spec, args.output, modes=modes, scheduler=args.scheduler, workers=args.workers,
-                 lock_frame=args.lock_frame, log=log)
+                 lock_frame=args.lock_frame, log=log, force=args.force)
     written = [f"{mode}/" for mode in modes]
     if args.drift:
         from ..apps.sequence.drift import drift_metrics, plot_drift, write_drift

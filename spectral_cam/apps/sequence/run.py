@@ -242,13 +242,54 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
     return rows
 
 
-def run_sequence(spec: SequenceSpec, output: str | Path, *, modes: Sequence[str] = ("auto",), executor=None,
-                 scheduler=None, workers=None, lock_frame: int | None = None, log=None) -> dict:
-    """Render the frames (resuming), then run the camera in each of ``modes``."""
-    output = Path(output)
+def spec_fingerprint(spec: SequenceSpec) -> str:
+    """SHA-256 of what a sequence is: every frame's resolved scene and the camera table."""
+    frames = [spec.frame_config(k).to_dict() for k in range(len(spec))]
+    blob = json.dumps({"frames": frames, "camera": spec.camera}, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def _claim_output(spec: SequenceSpec, output: Path, force: bool) -> str:
+    """The output contract ``render`` and ``dataset`` have (issue 25 #1: a shorter spec deleted an
+    earlier run's frames without --force and left stale renders): an existing folder is resumed
+    only for the same spec; anything else is refused without ``force``, and with it cleared."""
+    import shutil
+
+    fingerprint = spec_fingerprint(spec)
+    if output.exists() and any(output.iterdir()):
+        record = output / "sequence.json"
+        same = False
+        if record.is_file():
+            try:
+                same = json.loads(record.read_text()).get("spec_sha256") == fingerprint
+            except (OSError, ValueError):
+                same = False
+        if not same:
+            if not force:
+                raise ConfigError(f"{output} holds another run (a different spec, or not a sequence); give --force "
+                                  "to replace it, or another -o folder (a run of the same spec resumes)")
+            for child in output.iterdir():
+                shutil.rmtree(child) if child.is_dir() else child.unlink()
     output.mkdir(parents=True, exist_ok=True)
+    return fingerprint
+
+
+def run_sequence(spec: SequenceSpec, output: str | Path, *, modes: Sequence[str] = ("auto",), executor=None,
+                 scheduler=None, workers=None, lock_frame: int | None = None, log=None, force: bool = False) -> dict:
+    """Render the frames (resuming a run of the same spec), then run the camera in each of
+    ``modes``. An output folder holding anything else is refused unless ``force``.
+
+    Raises
+    ------
+    ConfigError
+        For an output folder of another run without ``force``.
+    """
+    output = Path(output)
+    fingerprint = _claim_output(spec, output, force)
+    write_json({"spec_sha256": fingerprint, "complete": False}, output / "sequence.json")
     renders = render_frames(spec, output, executor=executor, scheduler=scheduler, workers=workers, log=log)
     cameras = {mode: run_camera(spec, output, mode, lock_frame=lock_frame) for mode in modes}
-    write_json({"hours": list(spec.hours), "vary": {k: v if v == "hour" else list(v) for k, v in spec.vary.items()},
+    write_json({"spec_sha256": fingerprint, "complete": True, "hours": list(spec.hours),
+                "vary": {k: v if v == "hour" else list(v) for k, v in spec.vary.items()},
                 "camera": spec.camera, "modes": list(modes), "renders": renders}, output / "sequence.json")
     return {"renders": renders, "cameras": cameras}

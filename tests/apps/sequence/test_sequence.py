@@ -92,3 +92,19 @@ def test_drift_refuses_a_sequence_without_plants(tmp_path):
     run_sequence(_spec({}, 2), tmp_path, modes=("auto",), scheduler="inline")
     with pytest.raises(ConfigError, match="no frame of this sequence shows one"):
         drift_metrics(tmp_path, ["auto"])
+
+
+def test_a_sequence_never_replaces_another_run_without_force(tmp_path):
+    """Issue 25 #1: a 2-frame spec run into a 4-frame run's folder deleted auto/0002–0003 without
+    --force and left stale renders (then --drift raised TypeError). Now: the same spec resumes,
+    another is refused, and --force replaces the run whole."""
+    run_sequence(_spec({"illuminant.illuminance_lux": [100, 200, 300, 400]}, 4), tmp_path, scheduler="inline")
+    before = sorted(p.name for p in (tmp_path / "auto").iterdir())
+    run_sequence(_spec({"illuminant.illuminance_lux": [100, 200, 300, 400]}, 4), tmp_path, scheduler="inline")
+    shorter = _spec({"illuminant.illuminance_lux": [100, 200]}, 2)
+    with pytest.raises(ConfigError, match="holds another run .* give --force"):
+        run_sequence(shorter, tmp_path, scheduler="inline")
+    assert sorted(p.name for p in (tmp_path / "auto").iterdir()) == before  # untouched
+    run_sequence(shorter, tmp_path, scheduler="inline", force=True)
+    assert sorted(p.name for p in (tmp_path / "render").iterdir()) == ["0000", "0001"]
+    assert sorted(p.name for p in (tmp_path / "auto").iterdir()) == ["0000", "0001", "frames.csv"]
