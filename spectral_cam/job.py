@@ -139,9 +139,26 @@ def _write_image(sim: Simulation, folder: Path, stem: str) -> list[Path]:
 
 
 def _write_scene(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    """scene.toml, the resolved scene; a light spectrum the render read from a scene's emitter
+    (kept in the user's cache folder) is copied beside it and named relatively, so the folder
+    renders again anywhere (issue 25 #2: deleting the cache broke it)."""
+    import json
+    import shutil
+
+    text, written = sim.config.to_toml(), []
+    spd = sim.config.illuminant.spd
+    if spd.lower().endswith(".csv") and Path(spd).is_file() and Path(spd).resolve().parent != folder.resolve():
+        from .render.variants import probe_cache_path
+
+        if Path(spd).resolve().is_relative_to(probe_cache_path().parent.resolve()):
+            local = folder / f"light_{Path(spd).name}"
+            with atomic_path(local) as tmp:
+                shutil.copyfile(spd, tmp)
+            text = text.replace(f"spd = {json.dumps(spd, ensure_ascii=False)}", f"spd = {json.dumps(local.name)}")
+            written.append(local)
     with atomic_path(folder / "scene.toml") as tmp:  # the resolved scene: re-render with it
-        tmp.write_text(sim.config.to_toml(), encoding="utf-8")
-    return [folder / "scene.toml"]
+        tmp.write_text(text, encoding="utf-8")
+    return written + [folder / "scene.toml"]
 
 
 _WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_raw, "image": _write_image,

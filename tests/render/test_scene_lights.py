@@ -236,3 +236,32 @@ def test_an_emitter_of_no_finite_strength_is_named(tmp_path, strength):
                               "sensor": {"width_px": 32, "height_px": 24}, "render": {"spp": 4}})
     with pytest.raises(ConfigError, match=r"emitter 'lamp' sends the camera a light that is not finite"):
         render(config)
+
+
+def test_a_result_folder_keeps_the_light_it_was_rendered_with(tmp_path, monkeypatch):
+    """Issue 25 #2: an emitter's tabulated spectrum was referenced in the user's cache folder; the
+    result folder now holds a copy, named relatively, and loads again with the cache gone."""
+    import shutil
+
+    from spectral_cam import load_scene, scene_from_dict
+    from spectral_cam.job import run_render_job
+
+    monkeypatch.setenv("SPECTRAL_CAM_CACHE_DIR", str(tmp_path / "cache"))
+    xml = ('<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/></sensor>'
+           '<shape type="rectangle"><transform name="to_world"><rotate y="1" angle="180"/>'
+           '<translate value="0, 0, 3"/></transform><bsdf type="diffuse"/></shape>'
+           '<shape type="sphere"><point name="center" value="0, 1, 1"/><float name="radius" value="0.2"/>'
+           '<emitter type="area"><spectrum name="radiance" value="400:1, 500:3, 600:2, 700:1"/></emitter>'
+           '</shape></scene>')
+    (tmp_path / "lit.xml").write_text(xml)
+    config = scene_from_dict({"scene": {"mitsuba_xml": str(tmp_path / "lit.xml")},
+                              "sensor": {"width_px": 32, "height_px": 24},
+                              "render": {"spp": 4, "spectral_output": False}})
+    run_render_job(config, tmp_path / "out")
+    text = (tmp_path / "out" / "scene.toml").read_text()
+    copies = list((tmp_path / "out").glob("light_*.csv"))
+    assert len(copies) == 1 and f'spd = "{copies[0].name}"' in text
+    shutil.rmtree(tmp_path / "cache")
+    shutil.move(tmp_path / "out", tmp_path / "moved")
+    moved = load_scene(tmp_path / "moved" / "scene.toml")
+    assert moved.illuminant.spd.endswith(copies[0].name)
