@@ -44,9 +44,27 @@ def _format(value: Any) -> str:
     return format_number(value)
 
 
+def _applies(params: Mapping[str, Any], key: str) -> bool:
+    """Whether a drawn parameter means anything for the item's preset (issue 25 #20: a dead_leaves
+    tile was labelled with the sun's hour): ``[sky]`` keys only for presets the sun lights,
+    ``[scene]`` keys only for presets that read them."""
+    from ...presets import PRESETS
+
+    preset = params.get("scene.preset")
+    if preset not in PRESETS.names():
+        return True
+    options = PRESETS[preset].options
+    if key.startswith("sky."):
+        return "light" in options and params.get("scene.light", "auto") != "illuminant"
+    if key.startswith("scene.") and key != "scene.preset":
+        return key.split(".", 1)[1] in options
+    return True
+
+
 def _label(params: Mapping[str, Any], keys: Sequence[str], *, per_line: int = 1) -> str:
-    """``key=value`` of the given parameters (short key names), ``per_line`` to a line."""
-    parts = [f"{key.split('.', 1)[1]}={_format(params.get(key))}" for key in keys]
+    """``key=value`` of the given parameters (short key names) that apply to the item,
+    ``per_line`` to a line."""
+    parts = [f"{key.split('.', 1)[1]}={_format(params.get(key))}" for key in keys if _applies(params, key)]
     return "\n".join("  ".join(parts[i:i + per_line]) for i in range(0, len(parts), per_line))
 
 

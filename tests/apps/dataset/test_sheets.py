@@ -72,3 +72,16 @@ def test_unmeasured_depths_keep_their_reason_in_the_csv_and_a_mark_on_the_chart(
         table = list(csv.DictReader(handle))
     assert [(r["depth_m"], r["measured_coc_px"], r["note"]) for r in table] == [
         ("1.0", "", "no pixels 9.1 px inside the plane"), ("2.0", "0.1", "")]
+
+
+def test_contact_sheet_labels_show_only_what_applies_to_each_item():
+    """Issue 25 #20: a dead_leaves tile was labelled with the sun's hour, which does not light it."""
+    from spectral_cam.apps.dataset.sheets import _label
+
+    keys = ["scene.preset", "sky.hour", "scene.object_count", "lens.f_number"]
+    params = {"scene.preset": "dead_leaves", "sky.hour": 9.7, "scene.object_count": 5, "lens.f_number": 2.0}
+    assert _label(params, keys) == "preset=dead_leaves\nf_number=2"
+    params["scene.preset"] = "tabletop"
+    assert _label(params, keys) == "preset=tabletop\nhour=9.7\nobject_count=5\nf_number=2"
+    params["scene.light"] = "illuminant"  # a lamp, not the sun
+    assert "hour" not in _label(params, keys)
