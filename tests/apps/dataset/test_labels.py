@@ -79,3 +79,25 @@ def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
     assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb", "undistortion", "health"}
     assert all(meta[key] is None for key in recorded - {"defocus"})
     assert json.loads((tmp_path / "item" / "meta.json").read_text())["files"] == meta["files"]
+
+
+def test_blur_beyond_the_checker_period_is_reported_as_not_measurable():
+    """Issue 25 #21: a dof_targets plane blurred past its checker period (the texture averaged
+    away) reported 51.6 px "measured" against 26.7 predicted; it is now no measurement, with why."""
+    import numpy as np
+
+    from spectral_cam import scene_from_dict
+    from spectral_cam.apps.dataset.labels import measure_scene_blur
+    from spectral_cam.optics import ThinLens
+
+    config = scene_from_dict({"scene": {"preset": "dof_targets", "depths_m": [0.5, 2.0, 8.0], "checker_px": 4},
+                              "lens": {"focal_length_mm": 25.0, "f_number": 1.4, "focus_distance_m": 2.0},
+                              "sensor": {"width_px": 96, "height_px": 64}})
+    lens = ThinLens.from_config(config.lens, config.sensor)
+    depth = np.full((64, 96), 0.5)
+    depth[:, 32:64], depth[:, 64:] = 2.0, 8.0
+    image = np.random.default_rng(0).random((64, 96))
+    rows = {r["depth_m"]: r for r in measure_scene_blur(config, depth, image, image, lens=lens)}
+    assert float(lens.coc_diameter_px(0.5)) > 8
+    assert rows[0.5]["measured_coc_px"] is None and "exceeds the checker period 8 px" in rows[0.5]["note"]
+    assert rows[2.0]["note"] is None or "exceeds" not in rows[2.0]["note"]
