@@ -241,8 +241,10 @@ def plot_drift(result: dict, output: str | Path, *, strip_every: int = 1) -> lis
     output = Path(output)
     fig = figure(12, 7)
     axes = fig.subplots(2, 3).ravel()
+    first = next(iter(result.values()))
+    reference = first[len(first) // 2]["hour"]  # the reference ("noon") frame: the middle one
     panels = [("exg", "excess green 2g − r − b (developed image)"),
-              ("delta_e_vs_noon", "ΔE2000 of the plants vs noon"),
+              ("delta_e_vs_noon", f"ΔE2000 of the plants vs the {reference:g} h frame"),
               ("flagged_percent", "plants flagged (%): developed image"),
               ("flagged_raw_percent", "plants flagged (%): RAW, linear"),
               ("exposure_s", "exposure time (s)"), ("white_b", "white B/G the ISP balanced for")]
