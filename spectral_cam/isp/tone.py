@@ -4,7 +4,7 @@
 (BaselineExposure + the user's offset, a black point at Adobe's default shadows), the ACR3
 default tone curve on linear ProPhoto RGB by Adobe's hue-preserving rule, then the sRGB
 encoding: a camera's look, with a highlight roll-off and the mid-tone lift that puts a
-metered grey at 118/255 from 9.5 % of white. ``"srgb"`` applies the sRGB OETF only
+metered grey at 118/255 from 9.9 % of white. ``"srgb"`` applies the sRGB OETF only
 (IEC 61966-2-1): a colorimetric rendition with a hard clip at white (colour accuracy is
 measured on the linear image). ``"filmic"`` first compresses highlights with Narkowicz's fit
 of the ACES reference rendering transform. ``"linear"`` shows the linear values. Every
@@ -123,10 +123,6 @@ def _narkowicz(x):
     return (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
 
 
-def _linear(linear: np.ndarray) -> np.ndarray:
-    return np.asarray(linear, dtype=_F32).copy()
-
-
 # ----------------------------------------------------------------------------- Adobe's default rendering
 #: Adobe's default "shadows" setting (dng_render: fShadows = 5): the exposure ramp's black
 #: point is 5·0.001 of white.
@@ -177,22 +173,28 @@ def adobe_exposure_ramp(linear: np.ndarray, *, ev: float = 0.0, shadows: float =
     Returns
     -------
     numpy.ndarray
-        float64 in [0, 1].
+        In [0, 1]: float32 for float32 input (the develop's fast path), else float64.
 
     References
     ----------
     .. [1] Adobe DNG SDK 1.7, ``source/dng_render.cpp`` (``dng_function_exposure_ramp``,
        ``dng_render_task::Start``).
     """
-    x = np.asarray(linear, dtype=np.float64)
+    x = np.asarray(linear)
+    real = _F32 if x.dtype == _F32 else np.float64
+    x = x.astype(real, copy=False)
     white = 2.0 ** -max(float(ev), 0.0)
     black = min(shadows * 0.001, 0.99 * white)
     slope = 1.0 / (white - black)
     radius = min(0.5 * black, (1.0 / 16.0) / slope)
-    y = np.clip((x - black) * slope, 0.0, 1.0)
-    if radius > 0:
-        toe = np.abs(x - black) < radius
-        y[toe] = slope / (4.0 * radius) * (x[toe] - (black - radius)) ** 2
+    y = x - real(black)
+    y *= real(slope)
+    np.clip(y, 0.0, 1.0, out=y)
+    if radius > 0:  # the parabolic toe joins the ramp to 0 around the black point
+        toe = np.clip(x - real(black - radius), 0.0, real(2 * radius))
+        toe *= toe
+        toe *= real(slope / (4.0 * radius))
+        np.copyto(y, toe, where=x < real(black + radius))
     return y
 
 
@@ -280,11 +282,6 @@ def srgb_prophoto_matrices() -> tuple[np.ndarray, np.ndarray]:
     return forward, np.linalg.inv(forward)
 
 
-def _adobe_curve_at(values: np.ndarray) -> np.ndarray:
-    x, y = adobe_default_curve()
-    return np.interp(values, x, y).astype(_F32)
-
-
 def adobe(linear: np.ndarray, *, ev: float = 0.0) -> np.ndarray:
     """Adobe's default rendering of scene-referred linear sRGB: linear ProPhoto RGB, Adobe's
     exposure ramp (``ev``, default shadows), the ACR3 default curve by Adobe's hue-preserving
@@ -316,7 +313,7 @@ def adobe(linear: np.ndarray, *, ev: float = 0.0) -> np.ndarray:
 
     def band(start: int) -> None:  # cache-sized row bands on threads (NumPy releases the GIL)
         part = flat[start:start + _BAND_PIXELS] @ to_prophoto
-        toned = rgb_tone(_fast_ramp(part, ev), curve)
+        toned = rgb_tone(adobe_exposure_ramp(part, ev=ev), curve)
         back = toned @ to_srgb
         np.clip(back, 0, 1, out=back)
         out[start:start + _BAND_PIXELS] = back
@@ -338,24 +335,6 @@ _BAND_PIXELS = 1 << 16
 
 #: Samples of the tone table the develop interpolates (Adobe's own table has 1025).
 _TABLE_SIZE = 4096
-
-
-def _fast_ramp(x: np.ndarray, ev: float) -> np.ndarray:
-    """:func:`adobe_exposure_ramp` in float32 (the same values to float32 rounding, several
-    times faster than the float64 reference)."""
-    white = 2.0 ** -max(float(ev), 0.0)
-    black = min(ADOBE_DEFAULT_SHADOWS * 0.001, 0.99 * white)
-    slope = 1.0 / (white - black)
-    radius = min(0.5 * black, (1.0 / 16.0) / slope)
-    y = x - _F32(black)
-    y *= _F32(slope)
-    np.clip(y, 0.0, 1.0, out=y)
-    if radius > 0:  # the parabolic toe joins the ramp to 0 around the black point
-        toe = np.clip(x - _F32(black - radius), 0.0, _F32(2 * radius))
-        toe *= toe
-        toe *= _F32(slope / (4.0 * radius))
-        np.copyto(y, toe, where=x < _F32(black + radius))
-    return y
 
 
 @functools.lru_cache(maxsize=8)
@@ -438,8 +417,9 @@ def grey_input(method: str, display: float = SOS_GREY_DISPLAY) -> float:
     on a neutral (bisection on the curve): mid grey's place for the standard output
     sensitivity.
 
-    Measured: ``adobe`` 0.0946 (Adobe's curve lifts mid-tones: 18 % grey would render at 167),
-    ``srgb`` and ``linear`` 0.18 and 0.4627, ``filmic`` 0.238.
+    Measured: ``adobe`` 0.0991 (0.0946 on the curve alone, before the black point of the
+    exposure ramp; Adobe's curve lifts mid-tones: 18 % grey would render at 167), ``srgb`` 0.18,
+    ``linear`` 0.4627, ``filmic`` 0.131.
 
     References
     ----------
