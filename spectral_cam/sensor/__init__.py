@@ -43,8 +43,6 @@ from .radiometry import (
     CAMERA_CHANNELS,
     FILM_REFERENCE_NM,
     SignalModel,
-    _illuminant_bands,
-    _illuminant_film_response,
     band_weights,
     camera_equation_irradiance,
     electron_rates,
@@ -55,6 +53,7 @@ from .radiometry import (
     quantum_efficiency,
     signal_model,
     validate_radiance,
+    white_response,
 )
 
 __all__ = [
@@ -63,6 +62,7 @@ __all__ = [
     "dark_noise_electrons", "noise_profile", "fixed_patterns", "auto_exposure_time", "simulate_frame",
     "validate_radiance", "signal_model", "SignalModel", "film_curves", "expected_electrons", "CAMERA_CHANNELS",
     "FILM_REFERENCE_NM", "SHOT_NOISE_METHODS", "HYBRID_POISSON_BELOW_E", "resolve_exposure", "exposure_index",
+    "white_response",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -194,11 +194,7 @@ def expose(
     if monochrome:
         neutral = matrix = matrix_a = None
     else:
-        if model.camera_channels:
-            response = _illuminant_film_response(config)
-        else:
-            edges = tuple(np.asarray(radiance.band_edges_nm, float).tolist())
-            response = _illuminant_bands(config.illuminant.spd, edges) @ weights
+        response = white_response(radiance, config, model)
         neutral = response / response.max() if response.max() > 0 else None
         matrix = _colour_matrix(sensor.model, trans_specs) if sensor.model != "ideal" else None
         matrix_a = _colour_matrix(sensor.model, trans_specs, "A") if matrix is not None else None

@@ -93,7 +93,7 @@ def _white_gains(radiance, config: "SceneConfig", model) -> np.ndarray:
     """White-balance gains of the frame's light (its white's camera RGB inverted, smallest 1),
     so the meter reads luminance as the develop will show it; ones where the light is unknown
     (a radiance without a resolved ``illuminant.spd = "auto"``) or for a monochrome sensor."""
-    from .radiometry import _illuminant_bands, _illuminant_film_response
+    from .radiometry import white_response
 
     n = model.weights.shape[1]
     spd = config.illuminant.spd
@@ -101,11 +101,7 @@ def _white_gains(radiance, config: "SceneConfig", model) -> np.ndarray:
         spd = (getattr(radiance, "meta", None) or {}).get("illuminant_spd")
     if n != 3 or spd is None:
         return np.ones(n)
-    if model.camera_channels:
-        white = _illuminant_film_response(config.replace(**{"illuminant.spd": spd}))
-    else:
-        white = _illuminant_bands(spd, tuple(np.asarray(radiance.band_edges_nm, float).tolist())) @ model.weights
-    white = np.asarray(white, dtype=np.float64)
+    white = np.asarray(white_response(radiance, config, model, spd), dtype=np.float64)
     if not np.all(white > 0):
         return np.ones(n)
     return white.max() / white

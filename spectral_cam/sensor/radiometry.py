@@ -466,10 +466,22 @@ def film_curves(config: "SceneConfig", wavelengths_nm) -> np.ndarray:
     return qe * (transmission * wl / FILM_REFERENCE_NM)[:, None]
 
 
-def _illuminant_film_response(config: "SceneConfig") -> np.ndarray:
-    """Film response (relative) of the three camera channels to the illuminant's white."""
-    wl, irradiance = spectra.absolute_irradiance(config.illuminant.spd, 1.0)
-    return irradiance @ film_curves(config, wl)
+def white_response(radiance: "SpectralImage", config: "SceneConfig", model: "SignalModel",
+                   spd: str | None = None) -> np.ndarray:
+    """Each channel's response (relative) to the white of the light ``spd`` (default
+    ``illuminant.spd``): through the photon-weighted film for camera-channel radiance, else the
+    light's band integrals through the signal model's weights. AsShotNeutral is it over its
+    largest; the meter balances for it.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, AsShotNeutral.
+    """
+    spd = config.illuminant.spd if spd is None else spd
+    if model.camera_channels:
+        wl, irradiance = spectra.absolute_irradiance(spd, 1.0)
+        return irradiance @ film_curves(config, wl)
+    return _illuminant_bands(spd, tuple(np.asarray(radiance.band_edges_nm, float).tolist())) @ model.weights
 
 
 def lens_of(radiance: "SpectralImage | None", config: "SceneConfig") -> "ThinLens":
