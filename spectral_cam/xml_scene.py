@@ -45,7 +45,7 @@ def _value(node: ET.Element | None, defaults: dict[str, str]) -> str | None:
     if node is None:
         return None
     value = node.get("value")
-    return None if value is None else re.sub(r"\$(\w+)", lambda m: defaults.get(m.group(1), m.group(0)), value)
+    return None if value is None else _substitute(value, defaults)
 
 
 def _child(sensor: ET.Element, tag: str, name: str) -> ET.Element | None:
@@ -149,10 +149,8 @@ def _first_camera(path: Path, inherited: dict[str, str], depth: int):
 
 
 def _substitute(text: str, defaults: dict[str, str]) -> str:
-    """``$name`` parameters of an XML attribute replaced by their defaults."""
-    for name, value in sorted(defaults.items(), key=lambda item: -len(item[0])):
-        text = text.replace("$" + name, value)
-    return text
+    """``$name`` parameters of an XML attribute replaced by their defaults (unknown ones kept)."""
+    return re.sub(r"\$(\w+)", lambda m: defaults.get(m.group(1), m.group(0)), text)
 
 
 def focal_length_for_fov(fov_x_deg: float, sensor_width_m: float, focus_distance_m: float) -> float:
