@@ -157,6 +157,12 @@ def _strength_keys(params, prefix: str) -> list[str]:
     return []
 
 
+def _not_finite(name: str) -> ConfigError:
+    """The error of an emitter whose light is NaN or infinite (issue 25 #14)."""
+    return ConfigError(f"emitter {name!r} sends the camera a light that is not finite (its radiance, intensity or "
+                       "irradiance is NaN or too large for float32): give it a finite strength")
+
+
 def _shares(mi, scene, sensor, integrator, emitters) -> list[float] | None:
     """Fraction of the camera's light from each emitter: the scene rendered with each alone
     (the others dimmed by :data:`DIM`) through a small luminance-like film; None where an
@@ -190,8 +196,7 @@ def _shares(mi, scene, sensor, integrator, emitters) -> list[float] | None:
         params.update()
     for (_, name, _), value in zip(emitters, totals):
         if not np.isfinite(value):  # issue 25 #14: a NaN or overflowing strength read as "give each an id"
-            raise ConfigError(f"emitter {name!r} sends the camera a light that is not finite (its radiance, "
-                              "intensity or irradiance is NaN or too large for float32): give it a finite strength")
+            raise _not_finite(name)
     total = sum(totals)
     return [t / total for t in totals] if total > 0 else None
 
@@ -237,8 +242,7 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[
         spectrum = _irradiance_spectrum(mi, dr, scene, emitter, point, normal)
         peak = spectrum.max()
         if not np.all(np.isfinite(spectrum)):  # NaN or infinite strength: named, not divided (issue 25 #14)
-            raise ConfigError(f"emitter {name!r} sends the camera a light that is not finite (its radiance, "
-                              "intensity or irradiance is NaN or too large for float32): give it a finite strength")
+            raise _not_finite(name)
         emitters.append(SceneEmitter(name, str(emitter).split("[")[0].strip(),
                                      spectrum / peak if peak > 0 else spectrum, _temperature(params, prefix)))
     if measure_shares and len(found) > 1:
