@@ -252,17 +252,24 @@ def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     from .common import mixed_bsdf
 
     soils = list(reflectance_set(config.scene.soil_reflectances).sds)
-    litter = [sd for name, sd in zip(*_named(reflectance_set("usgs_vegetation"))) if name.startswith("dry")]
+    plants = reflectance_set("usgs_vegetation")
+    litter = [sd for name, sd in zip(plants.names, plants.sds) if name.startswith("dry")]
     endmembers = soils + litter
     covers = [(1 - GROUND_LITTER_COVER) / len(soils)] * len(soils) + [GROUND_LITTER_COVER / len(litter)] * len(litter)
     seed = int(config.scene.layout_seed)
     abundances = abundance_maps(GROUND_TEXELS, covers, period_px=GROUND_TEXELS / 4, seed=seed)
     height = height_field(GROUND_TEXELS, period_px=GROUND_TEXELS / GROUND_RELIEF_PERIODS, seed=seed)
-    extent = GROUND_TEXTURE_VIEWS * view_width_m(config, lens)
-    scale = GROUND_SIZE_M / extent
-    to_uv = (mi.ScalarTransform4f().translate([0.5, 0.5, 0.0]).scale([scale, scale, 1.0])
-             .translate([-0.5, -0.5, 0.0]))
-    return mixed_bsdf(mi, endmembers, abundances, to_uv=to_uv, height=height, bump_scale=GROUND_RELIEF)
+    return mixed_bsdf(mi, endmembers, abundances, to_uv=_texture_uv(config, lens, mi), height=height,
+                      bump_scale=GROUND_RELIEF)
+
+
+def _texture_uv(config: "SceneConfig", lens: "ThinLens", mi, turn_deg: float = 0.0):
+    """The ground square's texture coordinates mapped onto a texture spanning
+    :data:`GROUND_TEXTURE_VIEWS` view widths around the look point (uv 0.5), turned by
+    ``turn_deg`` about it."""
+    scale = GROUND_SIZE_M / (GROUND_TEXTURE_VIEWS * view_width_m(config, lens))
+    return (mi.ScalarTransform4f().translate([0.5, 0.5, 0.0]).rotate([0, 0, 1], turn_deg)
+            .scale([scale, scale, 1.0]).translate([-0.5, -0.5, 0.0]))
 
 
 def table_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
@@ -276,10 +283,7 @@ def table_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     woods = list(reflectance_set("usgs_wood").sds)
     maps = grain_maps(GROUND_TEXELS, [1.0] * len(woods), period_px=GROUND_TEXELS / 8, stretch=12.0,
                       seed=int(config.scene.layout_seed))
-    scale = GROUND_SIZE_M / (GROUND_TEXTURE_VIEWS * view_width_m(config, lens))
-    to_uv = (mi.ScalarTransform4f().translate([0.5, 0.5, 0.0]).rotate([0, 0, 1], -config.sky.heading_deg)
-             .scale([scale, scale, 1.0]).translate([-0.5, -0.5, 0.0]))
-    return mixed_bsdf(mi, woods, maps, to_uv=to_uv)
+    return mixed_bsdf(mi, woods, maps, to_uv=_texture_uv(config, lens, mi, -config.sky.heading_deg))
 
 
 def backdrop(config: "SceneConfig", lens: "ThinLens", mi, view: GroundView) -> dict:
@@ -304,10 +308,6 @@ def backdrop(config: "SceneConfig", lens: "ThinLens", mi, view: GroundView) -> d
                           seed=int(config.scene.layout_seed) + 17)
     return {"backdrop": {"type": "rectangle", "bsdf": mixed_bsdf(mi, stones, maps),
                          "to_world": view.transform(mi, mi.ScalarTransform4f(frame))}}
-
-
-def _named(samples):
-    return samples.names, samples.sds
 
 
 def ground(view: GroundView, mi, bsdf: dict) -> dict:
