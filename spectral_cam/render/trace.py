@@ -12,6 +12,7 @@ References
 
 from __future__ import annotations
 
+import itertools
 import time
 from typing import Callable
 
@@ -155,31 +156,6 @@ def check_tiling(config: SceneConfig, lens: ThinLens) -> None:
                           f"frame of the same scene up to {TILE_PIXELS} px shows how many samples it needs)")
 
 
-def _robust_tile(mi, scene, camera, integrator, config: SceneConfig, groups: int, sampler: str, lane_cap: int,
-                 seed_key, seeds: list, rows, width: int, n_channels: int, progress, started: float, tile: int,
-                 tiles: int):
-    """One tile rendered as ``groups`` equal passes kept apart (each group its own seeds), then
-    combined by the adaptive median of means. Returns (estimate, median share, spp, passes)."""
-    share = config.render.spp // groups
-    stack = np.empty((groups, rows[1] - rows[0], width, n_channels), np.float32)
-    done = index = 0
-    for group in range(groups):
-        accumulated = _PassMean()
-        for spp in _fixed_passes(sampler, share, lane_cap):
-            seed = pass_seed(config.render.seed, index, seed_key)
-            image = np.asarray(mi.render(scene, sensor=camera, integrator=integrator, seed=seed, spp=spp),
-                               dtype=np.float32).reshape(stack.shape[1:])
-            accumulated.add(image, spp)
-            done += spp
-            index += 1
-            seeds.append(seed)
-            if progress is not None:
-                _report(progress, done, config.render.spp, time.perf_counter() - started, tile, tiles)
-        stack[group] = accumulated.mean()
-    estimate, median_share = adaptive_median_of_means(stack)
-    return estimate, median_share, done, index
-
-
 def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
           depth: np.ndarray | None = None, depth_s: float = 0.0, decisions: dict | None = None,
           progress: Callable[[int, int, float], None] | None = None) -> SpectralImage:
@@ -266,26 +242,19 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     groups, decisions["estimator"] = decide_estimator(config, config.render.spp)
     robust_shares = []
     for tile, rows, tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
-        if groups > 1:  # K equal passes kept apart, then their adaptive median of means
-            estimate, share, done, index = _robust_tile(mi, scene, tile_camera, integrator, config, groups, sampler,
-                                                        lane_cap, seed_key, seeds, rows, width, n_channels,
-                                                        progress, started, tile, len(tiles))
-            robust_shares.append(share)
-            if tiled:
-                data[rows[0]:rows[1]] = radiance_range.clear_rounding(estimate)
-            else:
-                data = radiance_range.clear_rounding(estimate)
-            continue
         accumulated = _PassMean()
         done, index = 0, 0
+        # the adaptive median of means keeps K equal groups of passes apart (no sub-frames then)
+        group_means = np.empty((groups, rows[1] - rows[0], width, n_channels), np.float32) if groups > 1 else None
+        group = 0
         for subframe in range(subframes):
             frame_camera = tile_camera if subframes == 1 else moved_sensor(
                 mi, tile_camera, camera, subframe_transform(mi, config, subframe, subframes))
             if mover is not None:
                 mover.place(subframe, subframes)
-            share = target_spp // subframes
-            passes = (_auto_passes(sampler, target_spp, lane_cap) if auto_spp
-                      else _fixed_passes(sampler, share, lane_cap))
+            share = target_spp // subframes // groups
+            passes = (_auto_passes(sampler, target_spp, lane_cap) if auto_spp else
+                      itertools.chain.from_iterable(_fixed_passes(sampler, share, lane_cap) for _ in range(groups)))
             for spp in passes:
                 seed = pass_seed(config.render.seed, index, seed_key)
                 image = np.asarray(mi.render(scene, sensor=frame_camera, integrator=integrator, seed=seed, spp=spp),
@@ -298,13 +267,21 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
                     _report(progress, done, target_spp, time.perf_counter() - started, tile, len(tiles))
                 if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
                     break
+                if group_means is not None and accumulated.spp == share:  # a group complete
+                    group_means[group] = accumulated.mean()
+                    accumulated, group = _PassMean(), group + 1
         del image
         if mover is not None:
             mover.restore()
-        if tiled:
-            data[rows[0]:rows[1]] = radiance_range.clear_rounding(accumulated.mean())
+        if group_means is not None:
+            estimate, median_share = adaptive_median_of_means(group_means)
+            robust_shares.append(median_share)
         else:
-            data = radiance_range.clear_rounding(accumulated.mean())
+            estimate = accumulated.mean()
+        if tiled:
+            data[rows[0]:rows[1]] = radiance_range.clear_rounding(estimate)
+        else:
+            data = radiance_range.clear_rounding(estimate)
     release_render_memory()
     radiance_range.check()
     if robust_shares:
