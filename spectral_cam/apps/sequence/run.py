@@ -38,6 +38,7 @@ from ...control import AutoExposure, AutoWhiteBalance, ExposureState
 from ...control.white_balance import WhiteState
 from ...errors import ConfigError
 from ...io import staged_directory
+from ...metering import bayer_luminance
 from ...records import write_json
 from ...scene import SceneConfig, scene_from_dict
 from .spec import SequenceSpec
@@ -140,12 +141,6 @@ def bayer_stats(raw) -> np.ndarray:
     return np.stack([np.mean(planes[c], axis=0) for c in range(3)], axis=-1)
 
 
-def _luminance(rgb: np.ndarray) -> np.ndarray:
-    from ...metering import bayer_luminance
-
-    return bayer_luminance(rgb)
-
-
 def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureState:
     """A one-shot exposure for the first frame: the sensor's own auto exposure (the same camera
     meter) scaled to the controller's reading of the RAW cells, so the loop starts at its goal."""
@@ -157,7 +152,7 @@ def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureS
     time_s = float(probe.meta["exposure_s"])
     from ...control.exposure import meter
 
-    metered = meter(_luminance(bayer_stats(probe)), ae.metering, highlight_target=ae.highlight_target)
+    metered = meter(bayer_luminance(bayer_stats(probe)), ae.metering, highlight_target=ae.highlight_target)
     scale = ae.target / metered if metered > 0 else 1.0
     t, iso = ae.split(math.log2(time_s * scale))
     return ExposureState(t, iso)
@@ -224,7 +219,7 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
             write_dng(raw, folder / "raw.dng")
             write_image(developed, folder / "image.png")
             _write_labels(image, folder)
-            next_state = ae.step(state, _luminance(stats))
+            next_state = ae.step(state, bayer_luminance(stats))
             next_white = awb.step(white_state, stats)
             row = {"frame": index, "hour": spec.hours[index], "exposure_s": state.time_s, "iso": state.iso,
                    "ae_error_ev": next_state.error_ev, "ae_adjusted": next_state.adjusted,
