@@ -140,23 +140,12 @@ HEALTH_MIN_PIXELS = 6
 
 
 def plant_truth(config) -> tuple[np.ndarray, list[dict]] | None:
-    """Which plant each pixel shows (indices into the returned plants, −1 none) and each plant's
-    health record, for a vegetation scene of PROSPECT-D plants (None otherwise): the dataset's
-    health label (:func:`spectral_cam.presets.vegetation.plant_health`), the camera being still."""
+    """Which plant each pixel shows and each plant's health record: the dataset's health label
+    (:func:`spectral_cam.apps.dataset.labels.plant_map`) through the sequence's still camera."""
     from ...optics import ThinLens
-    from ...presets.vegetation import plant_health, vegetation_layout
-    from ...render import render_shape_map
+    from ..dataset.labels import plant_map
 
-    if config.scene.preset != "vegetation" or config.scene.plant_reflectances != "prospect":
-        return None
-    lens = ThinLens.from_config(config.lens, config.sensor)
-    plants = plant_health(config, len(vegetation_layout(config, lens)))
-    index, names = render_shape_map(config, lens=lens)
-    owner = np.full(index.shape, -1, np.int32)
-    for k, plant in enumerate(plants):
-        if plant["plant"] in names:
-            owner[index == names.index(plant["plant"])] = k
-    return owner, plants
+    return plant_map(config, ThinLens.from_config(config.lens, config.sensor))
 
 
 def _plant_exg(image, owner, count) -> np.ndarray:
