@@ -8,6 +8,7 @@ front R·E/π), integrated over each band of the film.
 from __future__ import annotations
 
 import numpy as np
+import prosail
 import pytest
 
 import spectral_cam as sc
@@ -16,7 +17,6 @@ from spectral_cam.presets.common import leaf_bsdf
 from spectral_cam.presets.vegetation import plant_health
 
 pytestmark = pytest.mark.timeout(240)
-prosail = pytest.importorskip("prosail", reason="prosail (PROSPECT-D) is a dependency: pip install -e .")
 
 TRAITS = [LeafTraits(), LeafTraits(n=1.8, cab=20.0, car=6.0, ant=2.0, brown=0.1, cw=0.008, cm=0.005),
           LeafTraits(n=2.2, cab=2.0, car=1.0, ant=0.2, brown=1.5, cw=0.001, cm=0.008)]
