@@ -33,7 +33,8 @@ import numpy as np
 from .errors import ConfigError
 from .io import atomic_path
 
-__all__ = ["write_exr", "write_exr_channels", "EXR_COMPRESSIONS", "ZIP_ROWS", "ZIP_WORTH_IT"]
+__all__ = ["write_exr", "write_exr_channels", "EXR_COMPRESSIONS", "EXR_PIXEL_TYPES", "HALF_MAX", "ZIP_ROWS",
+           "ZIP_WORTH_IT"]
 
 #: ``compression`` values of :func:`write_exr` and their codes in the header.
 EXR_COMPRESSIONS = {"none": 0, "zip": 3}
@@ -44,8 +45,16 @@ ZIP_LEVEL = 4
 #: ``compression="auto"`` uses ZIP only when it saves at least this fraction of the bytes
 #: (estimated on a sample of rows).
 ZIP_WORTH_IT = 0.10
+#: ``pixel_type`` values of :func:`write_exr`: (code in the channel list, NumPy dtype).
+#: HALF is IEEE 754 binary16 (11 significant bits: a relative rounding error ≤ 2⁻¹¹ ≈ 0.049 %
+#: between :data:`HALF_MIN_NORMAL` and :data:`HALF_MAX`), FLOAT binary32.
+EXR_PIXEL_TYPES = {"float": (2, "<f4"), "half": (1, "<f2")}
+#: The largest finite half: anything above becomes infinity.
+HALF_MAX = 65504.0
+#: The smallest normal half (2⁻¹⁴); below it the spacing is fixed at 2⁻²⁴ and the relative
+#: error grows.
+HALF_MIN_NORMAL = 2.0 ** -14
 _MAGIC = 20000630
-_FLOAT = 2  # pixel type FLOAT: little-endian IEEE 754 binary32
 _LONG_NAMES = 0x400  # version flag: attribute or channel names longer than 31 bytes
 
 
@@ -53,8 +62,10 @@ def _attribute(name: str, kind: str, payload: bytes) -> bytes:
     return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(payload)) + payload
 
 
-def _header(names: Sequence[str], width: int, height: int, compression: str, extra: Mapping[str, str]) -> bytes:
-    channels = b"".join(name.encode() + b"\0" + struct.pack("<iB3xii", _FLOAT, 0, 1, 1) for name in names) + b"\0"
+def _header(names: Sequence[str], width: int, height: int, compression: str, extra: Mapping[str, str],
+            pixel_type: str = "float") -> bytes:
+    code = EXR_PIXEL_TYPES[pixel_type][0]
+    channels = b"".join(name.encode() + b"\0" + struct.pack("<iB3xii", code, 0, 1, 1) for name in names) + b"\0"
     window = struct.pack("<iiii", 0, 0, width - 1, height - 1)
     attributes = [
         _attribute("channels", "chlist", channels),
@@ -92,16 +103,16 @@ def _zip_chunk(raw: bytes) -> bytes:
     return packed if len(packed) < len(raw) else raw
 
 
-def _chunk_bytes(block: np.ndarray) -> bytes:
+def _chunk_bytes(block: np.ndarray, dtype: str = "<f4") -> bytes:
     """A block of rows, (rows, channels, width), as the scanline layout wants it: each row's
-    channels one after another, little-endian float32."""
-    return np.ascontiguousarray(block, dtype="<f4").tobytes()
+    channels one after another, little-endian float32 (or ``"<f2"``, half)."""
+    return np.ascontiguousarray(block, dtype=dtype).tobytes()
 
 
 def write_exr(path: str | Path, names: Sequence[str], width: int, height: int,
               rows: Callable[[int, int], np.ndarray], *, attributes: Mapping[str, str] | None = None,
-              compression: str = "none", workers: int | None = None) -> Path:
-    """Write a scanline OpenEXR of FLOAT channels, asking for a few rows at a time.
+              compression: str = "none", workers: int | None = None, pixel_type: str = "float") -> Path:
+    """Write a scanline OpenEXR of FLOAT (or HALF) channels, asking for a few rows at a time.
 
     Parameters
     ----------
@@ -122,6 +133,9 @@ def write_exr(path: str | Path, names: Sequence[str], width: int, height: int,
         Codec of every chunk.
     workers
         Threads compressing chunks (zlib releases the GIL); None: every CPU.
+    pixel_type : {"float", "half"}
+        Every channel's pixel type: FLOAT (binary32) or HALF (binary16, half the bytes;
+        values beyond :data:`HALF_MAX` become infinity, so check the range first).
 
     Returns
     -------
@@ -130,7 +144,8 @@ def write_exr(path: str | Path, names: Sequence[str], width: int, height: int,
     Raises
     ------
     ConfigError
-        For unsorted or duplicate names, an unknown compression or a non-string attribute.
+        For unsorted or duplicate names, an unknown compression or pixel type, or a non-string
+        attribute.
     OSError
         When the file cannot be written (a full disk); no partial file is left.
 
@@ -141,12 +156,15 @@ def write_exr(path: str | Path, names: Sequence[str], width: int, height: int,
     names = list(names)
     if compression not in EXR_COMPRESSIONS:
         raise ConfigError(f"EXR compression {compression!r}; valid: {', '.join(map(repr, EXR_COMPRESSIONS))}")
+    if pixel_type not in EXR_PIXEL_TYPES:
+        raise ConfigError(f"EXR pixel type {pixel_type!r}; valid: {', '.join(map(repr, EXR_PIXEL_TYPES))}")
+    dtype = EXR_PIXEL_TYPES[pixel_type][1]
     encoded = [n.encode() for n in names]
     if not names or encoded != sorted(set(encoded)) or any(not n or b"\0" in n for n in encoded):
         raise ConfigError(f"EXR channel names must be distinct, non-empty and sorted; got {names[:8]}")
     if width < 1 or height < 1:
         raise ConfigError(f"an EXR image needs at least 1 × 1 pixels; got {width} × {height}")
-    header = _header(names, width, height, compression, dict(attributes or {}))
+    header = _header(names, width, height, compression, dict(attributes or {}), pixel_type)
     lines = ZIP_ROWS if compression == "zip" else 1
     starts = list(range(0, height, lines))
     workers = workers or os.cpu_count() or 1
@@ -164,7 +182,7 @@ def write_exr(path: str | Path, names: Sequence[str], width: int, height: int,
                     if block.shape != (end - first, len(names), width):
                         raise ValueError(f"rows({first}, {end}) gave shape {block.shape}; "
                                          f"expected {(end - first, len(names), width)}")
-                    pieces = [_chunk_bytes(block[y - first:y - first + lines]) for y in range(first, end, lines)]
+                    pieces = [_chunk_bytes(block[y - first:y - first + lines], dtype) for y in range(first, end, lines)]
                     if compression == "zip":
                         pieces = list(pool.map(_zip_chunk, pieces))
                     for y, piece in zip(range(first, end, lines), pieces):
@@ -178,21 +196,23 @@ def write_exr(path: str | Path, names: Sequence[str], width: int, height: int,
     return path
 
 
-def zip_saves(rows: Callable[[int, int], np.ndarray], height: int) -> float:
+def zip_saves(rows: Callable[[int, int], np.ndarray], height: int, pixel_type: str = "float") -> float:
     """Fraction of bytes the ZIP codec saves on 16 rows spread over the image, through its own
     predictor (:func:`_predicted`): on noisy float radiance the predictor costs more than
     it gains (a 12 MP, 16-spp ColorChecker: plain zlib saves 10 %, the codec 2 %), so
     judging by plain zlib chose ZIP for 2 % at 40 s."""
-    sample = b"".join(_chunk_bytes(np.asarray(rows(y, y + 1))) for y in range(0, height, max(1, height // 16)))
+    dtype = EXR_PIXEL_TYPES[pixel_type][1]
+    sample = b"".join(_chunk_bytes(np.asarray(rows(y, y + 1)), dtype) for y in range(0, height, max(1, height // 16)))
     return 1.0 - len(zlib.compress(_predicted(sample), 1)) / max(len(sample), 1)
 
 
-def resolve_compression(compression: str, rows: Callable[[int, int], np.ndarray], height: int) -> str:
+def resolve_compression(compression: str, rows: Callable[[int, int], np.ndarray], height: int,
+                        pixel_type: str = "float") -> str:
     """``"zip"`` or ``"none"``; ``"auto"`` is ZIP when :func:`zip_saves` reaches
     :data:`ZIP_WORTH_IT`: a 16-spp, 31-band radiance at 2.5 MP shrinks by 1.5 % at a cost of
     seconds, while a smooth depth map shrinks several-fold."""
     if compression == "auto":
-        return "zip" if zip_saves(rows, height) >= ZIP_WORTH_IT else "none"
+        return "zip" if zip_saves(rows, height, pixel_type) >= ZIP_WORTH_IT else "none"
     if compression not in EXR_COMPRESSIONS:
         raise ConfigError(f"EXR compression {compression!r}; valid: 'auto', {', '.join(map(repr, EXR_COMPRESSIONS))}")
     return compression

@@ -18,7 +18,8 @@ from typing import Iterator
 
 from .errors import ConfigError
 
-__all__ = ["atomic_path", "staged_directory", "discard_in_progress", "exchange_paths", "recover_interrupted"]
+__all__ = ["atomic_path", "staged_directory", "discard_in_progress", "exchange_paths", "recover_interrupted",
+           "check_free_disk"]
 
 
 #: Staging folders and temporary files being written now: what an interrupt must remove
@@ -160,3 +161,21 @@ def recover_interrupted(target: str | Path) -> list[Path]:
             restored.append(target)
         shutil.rmtree(trash, ignore_errors=True)
     return restored
+
+
+def check_free_disk(need_bytes: float, folder: str | Path, *, what: str, remedy: str) -> None:
+    """Refuse, before any work, output that cannot fit: ``need_bytes`` (an estimate of what
+    will be written under ``folder``) against the free space of the file system that will
+    hold it (its nearest existing parent).
+
+    Raises
+    ------
+    ConfigError
+        Naming the estimate, the free space and ``remedy``.
+    """
+    folder = Path(folder).resolve()
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("/"))
+    free = shutil.disk_usage(existing).free
+    if need_bytes > free:
+        raise ConfigError(f"{what} needs about {need_bytes / 1e9:.3g} GB but {existing} has {free / 1e9:.3g} GB free; "
+                          f"{remedy}")

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from .errors import ConfigError
-from .io import atomic_path, staged_directory
+from .io import atomic_path, check_free_disk, staged_directory
 from .records import package_versions, write_json
 from .scene import SceneConfig
 
@@ -116,7 +116,8 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
 def _write_radiance(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     from .spectral_exr import write_spectral_exr
 
-    return [write_spectral_exr(sim.radiance, folder / "radiance.exr")]
+    precision = sim.config.render.radiance_precision
+    return [write_spectral_exr(sim.radiance, folder / "radiance.exr", precision=precision)]
 
 
 def _write_depth(sim: Simulation, folder: Path, stem: str) -> list[Path]:
@@ -166,6 +167,39 @@ _WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_ra
 #: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
 #: ``<stem>.<isp.outputs>`` and scene.toml.
 RESULT_FILES = tuple(_WRITERS)
+
+
+#: Bytes per pixel of each developed-image format, uncompressed (an upper bound: PNG and JPEG
+#: compress, an EXR is three float32 channels).
+_IMAGE_BYTES_PER_PIXEL = {"png": 3, "png16": 6, "jpeg": 3, "tiff": 6, "exr": 12}
+
+
+def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str, float]:
+    """Bytes each named result file (:data:`RESULT_FILES`) will take, from the config alone,
+    before rendering: radiance.exr uncompressed (bands × ``render.radiance_precision``), depth
+    float32, the DNG's 16-bit mosaic with its crop margin, the developed images uncompressed.
+    An upper bound within a few percent for the EXR and DNG (tests/test_output_size.py)."""
+    from .scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT
+    from .spectra import parse_bands
+
+    sensor = config.sensor
+    pixels = float(sensor.width_px) * sensor.height_px
+    header = 16e3  # a file's tags, attributes and offset tables (a 96 × 64 DNG: 2.3 kB)
+    margin = 2 * sensor.crop_margin_px
+    sizes: dict[str, float] = {}
+    for name in names:
+        if name == "radiance":
+            bands = len(parse_bands(SPECTRAL_BANDS_DEFAULT if config.render.bands in BAND_MODES else config.render.bands))
+            sizes[name] = header + pixels * bands * (2 if config.render.radiance_precision == "half" else 4)
+        elif name == "depth":
+            sizes[name] = header + pixels * 4
+        elif name == "raw":
+            sizes[name] = header + (sensor.width_px + margin) * (sensor.height_px + margin) * 2.0
+        elif name == "image":
+            sizes[name] = pixels * sum(_IMAGE_BYTES_PER_PIXEL.get(f, 12) for f in config.isp.outputs)
+        else:
+            sizes[name] = 64e3  # scene.toml and a light's CSV
+    return sizes
 
 
 def write_files(sim: Simulation, folder: str | Path, names: Iterable[str], *, image_stem: str = "image") -> list[Path]:
@@ -268,13 +302,20 @@ def run_render_job(
     """
     started = time.perf_counter()
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
+    names = ["depth", "raw", "image", "scene"]
+    if spectral_output and config.render.bands != "camera":
+        names.insert(0, "radiance")
+    sizes = estimate_result_bytes(config, names)
+    parts = ", ".join(f"{name} {size / 1e9:.2g} GB" for name, size in sizes.items() if size > 1e8)
+    check_free_disk(sum(sizes.values()), Path(output).parent,
+                    what=f"the result folder {output}" + (f" ({parts})" if parts else ""), remedy="free space or choose -o elsewhere; render.radiance_precision = 'half' halves radiance.exr, "
+                    "render.spectral_output = false drops it")
     with staged_directory(output, force=force) as stage:
         sim = simulate(config, progress=progress)
         timings = dict(sim.timings_s)
         t0 = time.perf_counter()
-        names = ["depth", "raw", "image", "scene"]
-        if spectral_output and sim.radiance.channels is None:
-            names.insert(0, "radiance")
+        if "radiance" in names and sim.radiance.channels is not None:
+            names.remove("radiance")
         written = write_files(sim, stage, names)
         timings["write"] = time.perf_counter() - t0
         timings["total"] = time.perf_counter() - started

@@ -254,6 +254,12 @@ class ThinLens:
     def fov_y_deg(self) -> float:
         return math.degrees(2.0 * math.atan(self.sensor_height_m / (2.0 * self.image_distance_m)))
 
+    @property
+    def fov_diagonal_deg(self) -> float:
+        """Diagonal field of view 2·atan(d / 2v), d the sensor's diagonal."""
+        diagonal = math.hypot(self.sensor_width_m, self.sensor_height_m)
+        return math.degrees(2.0 * math.atan(diagonal / (2.0 * self.image_distance_m)))
+
     # ------------------------------------------------------------------ defocus
     def coc_diameter_m(self, depth_m):
         """Circle-of-confusion diameter on the sensor for a point at depth z (m).

@@ -22,7 +22,8 @@ import numpy as np
 
 from .errors import RawFormatError
 from .image import SpectralImage
-from .exr import resolve_compression, write_exr, write_exr_channels
+from .exr import HALF_MAX, HALF_MIN_NORMAL, resolve_compression, write_exr, write_exr_channels
+from .errors import ConfigError
 
 __all__ = ["write_spectral_exr", "read_spectral_exr", "write_depth_exr", "read_depth_exr", "channel_name"]
 
@@ -35,10 +36,27 @@ def channel_name(wavelength_nm: float) -> str:
     return "S0." + f"{wavelength_nm:.6f}".replace(".", ",") + "nm"
 
 
-def write_spectral_exr(image: SpectralImage, path: str | Path) -> Path:
+def write_spectral_exr(image: SpectralImage, path: str | Path, *, precision: str = "float") -> Path:
     """Write spectral radiance **per nm** (band integral / band width), W·m⁻²·sr⁻¹·nm⁻¹.
 
     The file appears only once complete (written to a temporary name, then renamed).
+
+    Parameters
+    ----------
+    image
+        Band integrals of radiance.
+    path
+        Output file.
+    precision : {"float", "half"}
+        Pixel type: FLOAT (binary32) or HALF (binary16: half the bytes, a relative error
+        ≤ 2⁻¹¹ = 0.049 % for values from 6.1e-5 to 65504 W·m⁻²·sr⁻¹·nm⁻¹, coarser below;
+        docs/design.md measures it against the sensor's noise).
+
+    Raises
+    ------
+    ConfigError
+        For ``precision="half"`` when a value passes the largest half (65504), which would be
+        written as infinity; nothing is written.
 
     Examples
     --------
@@ -69,8 +87,39 @@ def write_spectral_exr(image: SpectralImage, path: str | Path) -> Path:
         "spectral_cam_band_edges_nm": json.dumps([float(e) for e in image.band_edges_nm]),
     }
     height, width = cube.shape[:2]
-    codec = resolve_compression("auto", rows, height)
-    return write_exr(path, [names[i] for i in order], width, height, rows, attributes=attributes, compression=codec)
+    if precision == "half":
+        peak = float(np.max(np.max(cube, axis=(0, 1)) / np.asarray(image.band_widths_nm, dtype=float))) if cube.size else 0.0
+        if peak > HALF_MAX:
+            raise ConfigError(f"render.radiance_precision = 'half' cannot hold this radiance: it reaches {peak:.4g} "
+                              f"W·m⁻²·sr⁻¹·nm⁻¹, beyond the largest half ({HALF_MAX:g}); use 'float'")
+        _warn_subnormal(cube, image.band_widths_nm)
+    codec = resolve_compression("auto", rows, height, precision)
+    return write_exr(path, [names[i] for i in order], width, height, rows, attributes=attributes, compression=codec,
+                     pixel_type=precision)
+
+
+#: Warn when more than this fraction of a half file's positive values fall below the normal
+#: range, where the rounding passes 0.049 %.
+SUBNORMAL_WARN_FRACTION = 0.01
+
+
+def _warn_subnormal(cube: np.ndarray, band_widths_nm) -> None:
+    """A SceneWarning when a dim scene puts many values below half's normal range (a 1000-lux
+    ColorChecker: 15 % of them; a 1-lux one: all of them, measured in docs/design.md)."""
+    widths = np.asarray(band_widths_nm, dtype=np.float32)
+    below = positive = 0
+    for first in range(0, cube.shape[0], 64):  # bounded memory on a 45 MP cube
+        block = np.asarray(cube[first:first + 64], dtype=np.float32) / widths
+        positive += int(np.count_nonzero(block > 0))
+        below += int(np.count_nonzero((block > 0) & (block < HALF_MIN_NORMAL)))
+    if positive and below / positive > SUBNORMAL_WARN_FRACTION:
+        import warnings
+
+        from .errors import SceneWarning
+
+        warnings.warn(f"render.radiance_precision = 'half': {100 * below / positive:.3g} % of radiance.exr's values lie "
+                      f"below {HALF_MIN_NORMAL:.3g} W·m⁻²·sr⁻¹·nm⁻¹, where a half keeps fewer digits than its 0.049 % "
+                      "(a dim scene); use 'float' to keep them", SceneWarning, stacklevel=4)
 
 
 def _open(path: Path) -> tuple[dict, dict]:

@@ -118,6 +118,7 @@ def render(
     check_render_memory(lens.width_px, lens.height_px, channels=channels, layered=config.lens.model == "layered",
                         robust_passes=decide_estimator(config, config.render.spp)[0])
     check_tiling(config, lens)
+    warn_wide_view(lens.layout_lens)
     variant, variant_record = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
     decisions: dict[str, dict] = {"variant": variant_record}
@@ -155,6 +156,36 @@ def render(
     image.meta["illuminant_spd"] = config.illuminant.spd  # what white balance and the truth assume
     image.meta["illuminant_emitter"] = config.illuminant.emitter
     return image
+
+
+#: The widest diagonal field a rectilinear lens covers well: a 12 mm lens on a 36 × 24 mm
+#: sensor (122°). A few lenses go further (Laowa 9 mm f/5.6 FF: 135°), at corners a
+#: photographer avoids.
+WIDEST_RECTILINEAR_DEG = 122.0
+
+
+def warn_wide_view(lens: ThinLens) -> None:
+    """A SceneWarning when the frame's diagonal field passes :data:`WIDEST_RECTILINEAR_DEG`:
+    ``sensor.width_px`` × ``pixel_pitch_um`` sets the sensor's size, so a big frame behind the
+    default 8 mm lens is an extreme wide angle (8000 × 6000 px at 6 µm: 143° across), whose
+    corners get cos⁴θ of the centre's light and a 1/cos²θ stretch (issue 25 #8: the meter read
+    a dark corner and clipped a quarter of the centre)."""
+    diagonal = lens.fov_diagonal_deg
+    if diagonal <= WIDEST_RECTILINEAR_DEG:
+        return
+    import math
+    import warnings
+
+    from ..errors import SceneWarning
+
+    corner = math.radians(diagonal / 2)
+    widest_f = math.hypot(lens.sensor_width_m, lens.sensor_height_m) / 2 / math.tan(math.radians(WIDEST_RECTILINEAR_DEG / 2))
+    warnings.warn(f"a {lens.sensor_width_m * 1e3:.3g} × {lens.sensor_height_m * 1e3:.3g} mm sensor (sensor.width_px × "
+                  f"pixel_pitch_um) behind a {lens.focal_length_m * 1e3:.3g} mm lens sees {lens.fov_x_deg:.0f}° across "
+                  f"and {diagonal:.0f}° diagonally, wider than rectilinear lenses reach ({WIDEST_RECTILINEAR_DEG:.0f}°, "
+                  f"a 12 mm lens on full frame): its corners get {100 * math.cos(corner) ** 4:.2g} % of the centre's "
+                  f"light, stretched {1 / math.cos(corner) ** 2:.2g}×. Set lens.focal_length_mm ≥ {widest_f * 1e3:.3g}, "
+                  "or a smaller sensor.pixel_pitch_um or frame, for a usual view", SceneWarning, stacklevel=3)
 
 
 def _xml_field_of_view_record(config: SceneConfig, lens: ThinLens) -> dict:

@@ -612,6 +612,8 @@ def generate_dataset(
         bar.update()  # at once: planning a large dataset is itself work
         planned = _plan_items(spec, total, per_point, output, rows, bar, force=force)
         first = next(planned, None)  # plans (and skips finished items) up to the first to render
+        if first is not None:
+            _check_disk(first, total - sum(1 for r in rows.values() if r["status"] != "pending"), output)
         manifest = output / "manifest.jsonl"
         try:
             if first is not None:
@@ -634,6 +636,20 @@ def generate_dataset(
             _write_summaries(output, sweeps=bool(spec.sweeps))
     summary.seconds = time.perf_counter() - started
     return summary
+
+
+def _check_disk(task: Mapping[str, Any], items: int, output: Path) -> None:
+    """Refuse a dataset whose result files cannot fit on the disk, before rendering: the first
+    item's files (:func:`spectral_cam.job.estimate_result_bytes`; the labels besides them not
+    counted, so it never refuses what fits) times the items left to render."""
+    from ...io import check_free_disk
+    from ...job import RESULT_FILES, estimate_result_bytes
+
+    per_item = sum(estimate_result_bytes(scene_from_dict(task["scene"]),
+                                         [name for name in task["outputs"] if name in RESULT_FILES]).values())
+    check_free_disk(per_item * items, output, what=f"{items} items of about {per_item / 1e6:.3g} MB each",
+                    remedy="free space, choose -o elsewhere, render fewer items (-n), or drop outputs such as "
+                    "'radiance' (render.radiance_precision = 'half' halves it)")
 
 
 def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, bar, summary, manifest) -> None:

@@ -275,10 +275,12 @@ def test_without_dask_nothing_is_created(tmp_path, monkeypatch):
 
 
 @pytest.mark.timeout(60)
-def test_a_huge_dataset_starts_rendering_at_once(tmp_path):
+def test_a_huge_dataset_starts_rendering_at_once(tmp_path, monkeypatch):
     """Issue 12 #12: -n 100000000000 planned every item before rendering any (growing ~6.5 MB/s)."""
     import time
 
+    usage = shutil.disk_usage(tmp_path)  # an exabyte free: the disk check (below) passes
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage._replace(free=10 ** 18))
     spec = spec_from_dict({"sensor": {"width_px": 24, "height_px": 16},
                            "lens": {"f_number": {"log_uniform": [2.0, 8.0]}}})
     calls = []
@@ -297,3 +299,12 @@ def test_a_huge_dataset_starts_rendering_at_once(tmp_path):
     assert calls == [0, 1, 2, 3]
     rows = read_manifest(tmp_path / "huge")  # the manifest holds what was planned, not 10^11 rows
     assert [r["status"] for r in rows] == ["done", "done", "done", "pending"]
+
+
+def test_a_dataset_that_cannot_fit_on_the_disk_is_refused_before_rendering(tmp_path):
+    """Issue 25 #8: 10^11 items of 24 × 16 px, each at least its DNG, PNG and depth map
+    (job.estimate_result_bytes), need millions of GB: refused before any item renders."""
+    spec = spec_from_dict({"sensor": {"width_px": 24, "height_px": 16}})
+    with pytest.raises(ConfigError, match=r"100000000000 items of about .* MB each needs about .* GB but .* free"):
+        generate_dataset(spec, tmp_path / "huge", n=10 ** 11, scheduler="inline", progress=False,
+                         item_function=lambda task: pytest.fail("rendered before the disk check"))
