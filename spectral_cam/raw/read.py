@@ -17,7 +17,7 @@ from __future__ import annotations
 import contextlib
 import logging
 from pathlib import Path
-from typing import NamedTuple
+from typing import Iterator, NamedTuple
 
 import numpy as np
 
@@ -295,6 +295,35 @@ def unsupported_reason(path: Path) -> str | None:
     return None
 
 
+@contextlib.contextmanager
+def _libraw_messages() -> "Iterator[list[str]]":
+    """Hold what LibRaw prints on the process's stderr (file descriptor 2: its default data
+    callback writes "<file>: Unexpected end of file" there, issue 25 #16) while it reads, and
+    yield a list that receives those lines, so they join our one-line error instead of
+    leaking above it. Where descriptor 2 cannot be redirected (no such descriptor), nothing
+    is held."""
+    import os
+    import sys
+    import tempfile
+
+    lines: list[str] = []
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):
+        yield lines
+        return
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        try:
+            yield lines
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            held.seek(0)
+            lines += [line for line in held.read().decode("utf-8", "replace").splitlines() if line.strip()]
+
+
 def _size_hint(path: Path) -> str:
     for ifd in _raw_ifds(path):
         shape = ifd.shape
@@ -407,7 +436,7 @@ def read_raw(path) -> RawImage:
     _check_tiff_cfa(path, ifds)
     _check_data_in_file(path, ifds)
     try:
-        with rawpy.imread(str(path)) as handle:
+        with _libraw_messages() as said, rawpy.imread(str(path)) as handle:
             mosaic = np.array(handle.raw_image_visible, dtype=np.uint16, copy=True)
             colors = int(handle.num_colors)
             stacked = handle.raw_type == rawpy.RawType.Stack
@@ -432,9 +461,12 @@ def read_raw(path) -> RawImage:
         if reason:  # a valid file LibRaw cannot decode is not "corrupt"
             raise RawFormatError(f"{path}: {reason}") from None
         # rawpy raises NotImplementedError ("filters: N") for CFA layouts it cannot map
+        libraw = f" (LibRaw: {'; '.join(said)})" if said else ""
         raise RawFormatError(
             f"{path} is not a readable raw file (missing data, truncated or corrupt){_size_hint(path)}: "
-            f"{type(exc).__name__}: {exc}") from None
+            f"{type(exc).__name__}: {exc}{libraw}") from None
+    if said:  # LibRaw's data callback reports a read past the end or corrupt data, then goes on with zeros
+        raise RawFormatError(f"{path} is truncated or corrupt: LibRaw read it with errors ({'; '.join(said)})")
     if mosaic.size == 0 or (mosaic.ndim != 2 and cfa != LINEAR):
         raise RawFormatError(f"{path}: no single-plane raw mosaic nor three-colour linear raw (LibRaw raw type "
                              f"{raw_type}, {colors} colours)")

@@ -227,3 +227,37 @@ def test_an_empty_file_is_called_empty(tmp_path):
     (tmp_path / "empty.dng").write_bytes(b"")
     with pytest.raises(RawFormatError, match=r"is empty \(0 bytes\): not a raw file"):
         read_raw(tmp_path / "empty.dng")
+
+
+def test_libraw_messages_join_our_error_instead_of_leaking(tmp_path, monkeypatch, capfd):
+    """Issue 25 #16: LibRaw's default data callback prints "<file>: Unexpected end of file" on
+    file descriptor 2 (C stdio, past Python's sys.stderr) and goes on with zeros; the line leaked
+    above our message. Here a stand-in for rawpy.imread writes it to descriptor 2 as LibRaw's C
+    code does, once failing and once returning data."""
+    import os
+
+    import rawpy
+
+    from spectral_cam.errors import RawFormatError
+    from spectral_cam.raw import RawImage, write_dng
+
+    path = write_dng(RawImage(np.full((32, 32), 500, np.uint16), "RGGB", 64.0, 4095), tmp_path / "x.dng")
+    real = rawpy.imread
+
+    def failing(name):
+        os.write(2, f"{name}: Unexpected end of file\n".encode())
+        raise rawpy.LibRawIOError(b"Input/output error")
+
+    def reading_on(name):
+        os.write(2, f"{name}: Unexpected end of file\n".encode())
+        return real(name)
+
+    for stand_in, expected in ((failing, r"Input/output error'? \(LibRaw: .*Unexpected end of file\)"),
+                               (reading_on, r"truncated or corrupt: LibRaw read it with errors \(.*Unexpected end")):
+        monkeypatch.setattr(rawpy, "imread", stand_in)
+        with pytest.raises(RawFormatError, match=expected):
+            read_raw(path)
+        assert capfd.readouterr().err == ""  # nothing reached the terminal
+    monkeypatch.setattr(rawpy, "imread", real)
+    os.write(2, b"after\n")  # descriptor 2 is the terminal's again
+    assert read_raw(path).mosaic.shape == (32, 32) and capfd.readouterr().err == "after\n"
