@@ -269,6 +269,21 @@ def _claim_output(spec: SequenceSpec, output: Path, force: bool) -> str:
     return fingerprint
 
 
+def _check_disk(spec: SequenceSpec, output: Path, modes: Sequence[str]) -> None:
+    """Refuse, before any frame renders, a sequence whose files cannot fit on the disk: each
+    frame's radiance and depth (stored for the camera runs) and, per camera mode, its RAW and
+    image (:func:`spectral_cam.job.estimate_result_bytes`, uncompressed: an upper bound)."""
+    from ...io import check_free_disk
+    from ...job import estimate_result_bytes
+
+    config = spec.frame_config(0)
+    frame = sum(estimate_result_bytes(config, ["radiance", "depth"]).values())
+    camera = sum(estimate_result_bytes(config, ["raw", "image"]).values()) * len(modes)
+    check_free_disk((frame + camera) * len(spec), output, what=f"{len(spec)} frames of about "
+                    f"{(frame + camera) / 1e6:.3g} MB each", remedy="free space, choose -o elsewhere, or render "
+                    "fewer or smaller frames")
+
+
 def run_sequence(spec: SequenceSpec, output: str | Path, *, modes: Sequence[str] = ("auto",), executor=None,
                  scheduler=None, workers=None, lock_frame: int | None = None, log=None, force: bool = False) -> dict:
     """Render the frames (resuming a run of the same spec), then run the camera in each of
@@ -280,6 +295,7 @@ def run_sequence(spec: SequenceSpec, output: str | Path, *, modes: Sequence[str]
         For an output folder of another run without ``force``.
     """
     output = Path(output)
+    _check_disk(spec, output, modes)
     fingerprint = _claim_output(spec, output, force)
     write_json({"spec_sha256": fingerprint, "complete": False}, output / "sequence.json")
     renders = render_frames(spec, output, executor=executor, scheduler=scheduler, workers=workers, log=log)

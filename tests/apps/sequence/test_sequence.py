@@ -108,3 +108,16 @@ def test_a_sequence_never_replaces_another_run_without_force(tmp_path):
     run_sequence(shorter, tmp_path, scheduler="inline", force=True)
     assert sorted(p.name for p in (tmp_path / "render").iterdir()) == ["0000", "0001"]
     assert sorted(p.name for p in (tmp_path / "auto").iterdir()) == ["0000", "0001", "frames.csv"]
+
+
+def test_a_sequence_that_cannot_fit_on_the_disk_is_refused_before_rendering(tmp_path, monkeypatch):
+    """Issue 25 #8: frames × (radiance + depth + a RAW and image per mode), uncompressed, against
+    the free disk, before any frame renders or the folder is claimed."""
+    import shutil
+
+    usage = shutil.disk_usage(tmp_path)
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage._replace(free=50_000))  # 50 kB
+    spec = _spec({"illuminant.illuminance_lux": [1000.0, 2000.0, 4000.0]}, 3)
+    with pytest.raises(ConfigError, match=r"3 frames of about .* MB each needs about .* GB but .* free"):
+        run_sequence(spec, tmp_path / "seq", modes=("auto", "locked"), scheduler="inline")
+    assert not (tmp_path / "seq").exists()
