@@ -13,12 +13,15 @@ random colour texture with a little noise, in [0, 1] (quantised for OpenCV).
   time is the call's own, page faults of its fresh arrays included; the median of
   ``--first-calls`` processes.
 - ``--baseline REV`` adds our methods as they were at git revision ``REV`` (its ``isp/demosaic.py``
-  and ``isp/menon2007.py``, loaded beside the current ones) to both measurements.
+  and ``isp/menon2007.py``, loaded beside the current ones) to both measurements; the CSV names
+  them ``method @REV``, the chart's legend ``method (NAME)`` with ``--baseline-name NAME``
+  (default "previous") and the revision in a footnote.
 
 Usage::
 
     python benchmarks/bench_demosaic.py docs/bench [--sizes 1,12,24] [--repeats 7] [--first-calls 3]
-                                                   [--baseline HEAD]
+                                                   [--baseline HEAD] [--baseline-name previous]
+    python benchmarks/bench_demosaic.py docs/bench --from-csv   # redraw the chart from the CSV
 
 Writes ``OUTDIR/demosaic_speed.csv`` (one row per size and method, with the CPUs and the
 highest 1-minute load average seen while measuring that size) and ``OUTDIR/demosaic_speed.png``.
@@ -135,15 +138,25 @@ def _first_call(method: str, megapixels: float, baseline: str | None) -> None:
     print(time.perf_counter() - start)
 
 
-def chart(rows: list[dict], path: Path) -> Path:
-    from matplotlib.ticker import NullFormatter, ScalarFormatter
+def display_name(method: str, baseline_name: str = "previous") -> str:
+    """The chart's name of a CSV method: ``"bilinear @05607e8"`` (ours at a git revision)
+    becomes ``"bilinear (previous)"``; other names are kept."""
+    base, at, _ = method.partition(" @")
+    return f"{base} ({baseline_name})" if at else method
+
+
+def chart(rows: list[dict], path: Path, *, baseline_name: str = "previous") -> Path:
+    """Warm MP/s per frame size (left) and our methods' first call (right); methods from a
+    ``--baseline`` revision are named ``method (baseline_name)``, the revision in a footnote."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     from spectral_cam.viz import figure, save_png
 
-    fig = figure(11, 4.4)
+    fig = figure(11, 4.6)
     warm_ax, first_ax = fig.subplots(1, 2)
     names = list(dict.fromkeys(r["method"] for r in rows))
     colours = {name: f"C{k}" for k, name in enumerate([n for n in names if "@" not in n])}
+    revisions = sorted({n.partition(" @")[2] for n in names if " @" in n})
 
     def colour(name):
         return colours[name.split(" @")[0]]
@@ -152,7 +165,7 @@ def chart(rows: list[dict], path: Path) -> Path:
         mine = [r for r in rows if r["method"] == name]
         style = "-" if name in OURS else (":" if "@" in name else "--")
         warm_ax.plot([r["megapixels"] for r in mine], [r["warm_mp_per_s"] for r in mine], style, marker="o",
-                     color=colour(name), label=name)
+                     color=colour(name), label=display_name(name, baseline_name))
     warm_ax.set(xlabel="frame (MP)", ylabel="MP/s (median, warm)", yscale="log",
                 title="Warm calls: ours float32 → float32, OpenCV 8/16-bit")
     sizes = sorted({r["megapixels"] for r in rows})
@@ -161,21 +174,27 @@ def chart(rows: list[dict], path: Path) -> Path:
     for k, name in enumerate(ours):
         by_size = {r["megapixels"]: r for r in rows if r["method"] == name}
         first_ax.bar([i + k * width for i in range(len(sizes))], [by_size[s]["first_call_mp_per_s"] for s in sizes],
-                     width, color=colour(name), hatch="//" if "@" in name else None, label=name)
+                     width, color=colour(name), hatch="//" if "@" in name else None,
+                     label=display_name(name, baseline_name))
     first_ax.axhline(30, color="k", lw=0.8, ls="--", label="30 MP/s")
     first_ax.set_xticks([i + width * (len(ours) - 1) / 2 for i in range(len(sizes))], [f"{s:g} MP" for s in sizes])
     first_ax.set(ylabel="MP/s (median)", yscale="log", title="Our methods' first call in a fresh process")
-    low, high = warm_ax.get_ylim()
-    warm_ax.set_ylim(low, high * 6)  # room for the legend above the curves
+    for ax, room in ((warm_ax, 6), (first_ax, 4)):  # room for the legend above the curves and bars
+        low, high = ax.get_ylim()
+        ax.set_ylim(low, high * room)
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+        ax.yaxis.set_minor_formatter(NullFormatter())
     warm_ax.legend(fontsize=7, ncol=3, loc="upper center")
-    first_ax.legend(fontsize=7)
+    first_ax.legend(fontsize=7, ncol=3, loc="upper center")
     for ax in (warm_ax, first_ax):
-        ax.yaxis.set_major_formatter(ScalarFormatter())
-        ax.yaxis.set_minor_formatter(ScalarFormatter() if ax is first_ax else NullFormatter())
         ax.grid(True, which="both", alpha=0.3)
     load = max(float(r["load_average_1min"]) for r in rows)
     fig.suptitle(f"Demosaicing speed, RGGB mosaic, {rows[0]['cpus']} CPUs (1-min load average up to {load:.1f} "
                  "from other processes)", fontsize=10)
+    if revisions:
+        fig.supxlabel(f"({baseline_name}): our methods as they were at git revision {', '.join(revisions)}",
+                      fontsize=7, color="0.35")
     return save_png(fig, path, dpi=110)
 
 
@@ -186,6 +205,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=7, help="warm rounds (after one warm-up)")
     parser.add_argument("--first-calls", type=int, default=3, help="fresh processes per method and size")
     parser.add_argument("--baseline", help="also time our methods at this git revision")
+    parser.add_argument("--baseline-name", default="previous",
+                        help="what the chart's legend calls the --baseline methods (default: previous)")
+    parser.add_argument("--from-csv", action="store_true", help="redraw the chart from OUTDIR/demosaic_speed.csv")
     parser.add_argument("--first-call", help=argparse.SUPPRESS)  # the child process of a first-call timing
     args = parser.parse_args(argv)
     sizes = [float(s) for s in args.sizes.split(",")]
@@ -194,6 +216,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.outdir is None:
         parser.error("OUTDIR is required")
+    if args.from_csv:
+        from spectral_cam.apps.bench.common import read_rows
+
+        rows = read_rows(args.outdir / "demosaic_speed.csv")
+        print(f"wrote {chart(rows, args.outdir / 'demosaic_speed.png', baseline_name=args.baseline_name)}")
+        return 0
 
     from spectral_cam.apps.bench.common import write_rows
     from spectral_cam.cli import _keep_large_blocks
@@ -240,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"×{row['ratio_to_opencv_bilinear_16bit']:.2f} of OpenCV 16-bit bilinear{first_text}", flush=True)
     args.outdir.mkdir(parents=True, exist_ok=True)
     csv_path = write_rows(rows, args.outdir / "demosaic_speed.csv")
-    png_path = chart(rows, args.outdir / "demosaic_speed.png")
+    png_path = chart(rows, args.outdir / "demosaic_speed.png", baseline_name=args.baseline_name)
     print(f"wrote {csv_path} and {png_path}")
     return 0
 

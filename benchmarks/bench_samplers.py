@@ -14,6 +14,7 @@ Writes ``OUT/samplers.csv`` and ``OUT/samplers.png`` (p90 relative noise vs spp,
 Usage::
 
     python benchmarks/bench_samplers.py docs/bench [--spp 16,64,256] [--seeds 4]
+    python benchmarks/bench_samplers.py docs/bench --from-csv   # redraw the chart from samplers.csv
 
 References
 ----------
@@ -54,7 +55,38 @@ def measure(sampler: str, spp: int, seeds: int) -> dict:
     bright = mean > 0.1 * mean.max()
     relative = spread[bright] / mean[bright]
     return {"sampler": sampler, "spp": spp, "seconds": float(np.median(seconds[1:] or seconds)),
-            "noise_p50": float(np.median(relative)), "noise_p90": float(np.percentile(relative, 90))}
+            "noise_p50": float(np.median(relative)), "noise_p90": float(np.percentile(relative, 90)),
+            "seeds": seeds}
+
+
+def chart(rows: list[dict], path: Path, *, seeds: int = 4) -> Path:
+    """p90 relative noise against spp (left) and against seconds per render (right), log axes
+    ticked at 1, 2 and 5 per decade (spp at the values measured) in plain numbers: a log axis
+    spanning about a decade otherwise labels its minor ticks too, and they collide."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter
+
+    from spectral_cam.viz import figure, save_png
+
+    plain = FuncFormatter(lambda value, _: f"{value:g}")
+    fig = figure(8, 3.5)
+    left, right = fig.subplots(1, 2)
+    for sampler in SAMPLERS:
+        mine = [r for r in rows if r["sampler"] == sampler]
+        left.loglog([r["spp"] for r in mine], [r["noise_p90"] for r in mine], "o-", label=sampler)
+        right.loglog([r["seconds"] for r in mine], [r["noise_p90"] for r in mine], "o-", label=sampler)
+    left.xaxis.set_major_locator(FixedLocator(sorted({r["spp"] for r in rows})))
+    right.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    for ax in (left, right):
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_major_formatter(plain)
+            axis.set_minor_formatter(NullFormatter())
+        ax.grid(True, which="major", alpha=0.3)
+    left.set_xlabel("spp"), left.set_ylabel("p90 relative noise (camera e⁻)"), left.legend(fontsize=8)
+    right.set_xlabel("seconds per render (240 × 160)"), right.set_ylabel("p90 relative noise")
+    seeds = rows[0].get("seeds", seeds)
+    fig.suptitle(f"Mitsuba samplers on the bundled ColorChecker ({seeds} seeds each)", fontsize=10)
+    return save_png(fig, path)
 
 
 def main() -> None:
@@ -62,12 +94,15 @@ def main() -> None:
     parser.add_argument("output")
     parser.add_argument("--spp", default="16,64,256")
     parser.add_argument("--seeds", type=int, default=4)
+    parser.add_argument("--from-csv", action="store_true", help="redraw the chart from OUT/samplers.csv")
     args = parser.parse_args()
 
-    from spectral_cam.apps.bench.common import write_rows
-    from spectral_cam.viz import figure, save_png
+    from spectral_cam.apps.bench.common import read_rows, write_rows
 
     out = Path(args.output)
+    if args.from_csv:  # the committed CSV has no seeds column: --seeds says how many it used
+        print(f"wrote {chart(read_rows(out / 'samplers.csv'), out / 'samplers.png', seeds=args.seeds)}")
+        return
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for spp in (int(v) for v in args.spp.split(",")):
@@ -75,16 +110,7 @@ def main() -> None:
             rows.append(measure(sampler, spp, args.seeds))
             print(rows[-1], file=sys.stderr)
     write_rows(rows, out / "samplers.csv")
-    fig = figure(8, 3.5)
-    left, right = fig.subplots(1, 2)
-    for sampler in SAMPLERS:
-        mine = [r for r in rows if r["sampler"] == sampler]
-        left.loglog([r["spp"] for r in mine], [r["noise_p90"] for r in mine], "o-", label=sampler)
-        right.loglog([r["seconds"] for r in mine], [r["noise_p90"] for r in mine], "o-", label=sampler)
-    left.set_xlabel("spp"), left.set_ylabel("p90 relative noise (camera e⁻)"), left.legend(fontsize=8)
-    right.set_xlabel("seconds per render (240 × 160)"), right.set_ylabel("p90 relative noise")
-    fig.suptitle("Mitsuba samplers on the bundled ColorChecker (4 seeds each)", fontsize=10)
-    save_png(fig, out / "samplers.png")
+    chart(rows, out / "samplers.png")
 
 
 if __name__ == "__main__":

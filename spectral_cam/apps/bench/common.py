@@ -17,7 +17,8 @@ import numpy as np
 from ...records import exact_number, write_csv
 from ...scene import SceneConfig, scene_from_dict
 
-__all__ = ["pareto_front", "mark_front", "timed", "chart_scene", "NOISE_FREE", "write_rows", "pareto_chart"]
+__all__ = ["pareto_front", "mark_front", "timed", "chart_scene", "NOISE_FREE", "write_rows", "read_rows",
+           "pareto_chart"]
 
 #: Scene overrides that switch off every sensor noise term (the noise-free RAW).
 NOISE_FREE = {"sensor.shot_noise": False, "sensor.read_noise_e": 0.0, "sensor.dark_current_e_per_s": 0.0,
@@ -93,12 +94,33 @@ def write_rows(rows: Sequence[dict], path: str | Path) -> Path:
     return write_csv(rows, path, list(rows[0]), number=exact_number)
 
 
+def read_rows(path: str | Path) -> list[dict]:
+    """Read benchmark rows written by :func:`write_rows`: numbers as ``int`` or ``float``,
+    ``True``/``False`` as bools, empty cells as ``""``, other text as it is (charts are
+    redrawn from the committed CSVs without measuring again)."""
+    import csv
+
+    def value(text: str):
+        if text in ("True", "False"):
+            return text == "True"
+        for kind in (int, float):
+            try:
+                return kind(text)
+            except ValueError:
+                pass
+        return text
+
+    with open(path, newline="", encoding="utf-8") as handle:
+        return [{key: value(text) for key, text in row.items()} for row in csv.DictReader(handle)]
+
+
 def pareto_chart(rows: Sequence[dict], path: str | Path, *, x: str, y: str, label: str, title: str,
                  group: str | None = None, xlabel: str | None = None, ylabel: str | None = None,
                  front: bool = True, higher_is_better: bool = False) -> Path:
-    """Chart ``y`` against ``x`` (log scale) for benchmark rows, each point labelled, with
-    each group's Pareto front drawn as a staircase from its cheapest to its most accurate
-    point; written as a PNG (:mod:`spectral_cam.viz`, no pyplot).
+    """Chart ``y`` against ``x`` (log scale) for benchmark rows, each point labelled without
+    overlaps (:func:`spectral_cam.viz.label_points`), with each group's Pareto front drawn as
+    a dashed staircase from its cheapest to its most accurate point and its points ringed (a
+    front of one point is its ring); written as a PNG (:mod:`spectral_cam.viz`, no pyplot).
 
     Parameters
     ----------
@@ -124,11 +146,16 @@ def pareto_chart(rows: Sequence[dict], path: str | Path, *, x: str, y: str, labe
     -------
     pathlib.Path
     """
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
     from ... import viz
 
     fig = viz.figure(7, 4.5, dpi=110)
     ax = fig.subplots()
     groups = sorted({r[group] for r in rows}) if group else [None]
+    ring = {"marker": "o", "ms": 10, "mfc": "none", "mew": 1.0}
+    staircase = False  # some front of two points or more: its legend entry shows the dashes
     for number, name in enumerate(groups):
         subset = [r for r in rows if group is None or r[group] == name]
         colour = f"C{number}"
@@ -137,16 +164,27 @@ def pareto_chart(rows: Sequence[dict], path: str | Path, *, x: str, y: str, labe
         ax.scatter(cost, value, label=name, s=30, zorder=3, color=colour)
         if front:
             on_front = pareto_front(cost, -value if higher_is_better else value)
+            staircase |= len(on_front) > 1
             ax.step(cost[on_front], value[on_front], where="post", color=colour, lw=1, ls="--", zorder=2,
-                    label="Pareto front" if number == 0 else None)
+                    gid="pareto-front", label=f"_front {name}", **ring)
     ax.set_xscale("log")
+    low, high = ax.get_xlim()  # plain tick numbers, as many per decade as the span leaves room for
+    subs = (1.0, 2.0, 5.0) if high / low > 30 else (1.0, 2.0, 3.0, 5.0) if high / low > 3 else \
+        tuple(float(k) for k in range(1, 10))
+    ax.xaxis.set_major_locator(LogLocator(subs=subs))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(xlabel or x)
     ax.set_ylabel(ylabel or y)
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    if group or front:
-        ax.legend(fontsize=8)
-    ax.margins(y=0.15)  # head room for labels nudged upwards
-    ax.get_xlim(), ax.get_ylim()  # settle the autoscaled limits before placing labels
-    viz.label_points(ax, [r[x] for r in rows], [r[y] for r in rows], [str(r[label]) for r in rows])
+    ax.margins(y=0.15)  # head room for the labels
+    handles = ax.get_legend_handles_labels()[0] if group else []
+    if front:
+        handles.append(Line2D([], [], color="0.35", lw=1, ls="--" if staircase else "none",
+                              label="Pareto front (ringed)", **ring))
+    if handles:  # beside the axes: it never hides a point or a label
+        ax.legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    colours = [f"C{groups.index(r[group])}" if group else "black" for r in rows]
+    viz.label_points(ax, [r[x] for r in rows], [r[y] for r in rows], [str(r[label]) for r in rows], colors=colours)
     return viz.save_png(fig, path, dpi=110)

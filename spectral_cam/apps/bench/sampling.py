@@ -22,7 +22,7 @@ import numpy as np
 from ...scene import SceneConfig, scene_from_dict
 from .common import NOISE_FREE, chart_scene, mark_front, pareto_chart, timed, write_rows
 
-__all__ = ["bench_spp", "bench_bands"]
+__all__ = ["bench_spp", "bench_bands", "bands_charts"]
 
 #: The bands benchmark's reference grid: 1-nm bands from 380 to 730 nm (band centres).
 REFERENCE_BANDS = "380.5:729.5:1"
@@ -184,10 +184,24 @@ def bench_bands(out: Path, *, quick: bool) -> list[dict]:
             row["time_ratio"] = row["seconds"] / baseline
         mark_front(subset, "time_ratio", "delta_e2000_mean")
     write_rows(rows, out / "bands.csv")
+    bands_charts(rows, out)
+    return rows
+
+
+def bands_charts(rows: list[dict], out: Path) -> None:
+    """Draw ``bands.png`` and ``bands_bias.png`` from the rows of ``bands.csv``.
+
+    Redrawing from the committed CSV without measuring again::
+
+        from pathlib import Path
+        from spectral_cam.apps.bench.common import read_rows
+        from spectral_cam.apps.bench.sampling import bands_charts
+        bands_charts(read_rows("docs/bench/bands.csv"), Path("docs/bench"))
+    """
+    out = Path(out)
     pareto_chart(rows, out / "bands.png", x="time_ratio", y="delta_e2000_mean", label="bands", group="illuminant",
                  xlabel="render time / 31 bands (same illuminant)", ylabel="mean ΔE2000 vs 1-nm integration",
                  title="Spectral sampling: time vs colour error (ColorChecker)")
     pareto_chart(rows, out / "bands_bias.png", x="time_ratio", y="bias_max_abs_pct", label="bands",
                  group="illuminant", xlabel="render time / 31 bands (same illuminant)",
                  ylabel="worst per-channel bias vs 1 nm (%)", title="Spectral sampling: time vs per-channel bias")
-    return rows
