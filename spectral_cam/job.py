@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from .errors import ConfigError
+from .budget import estimate_result_bytes
 from .io import atomic_path, check_free_disk, staged_directory
 from .records import package_versions, write_json
 from .scene import SceneConfig
@@ -63,7 +64,7 @@ class Simulation:
 
 
 def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, float], None] | None = None,
-             with_depth: bool = True) -> Simulation:
+             with_depth: bool = True, outputs: Iterable[str] = ()) -> Simulation:
     """Render, expose and develop one scene; per-stage timings in seconds.
 
     Parameters
@@ -77,10 +78,14 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
         Render progress callback (spp done, spp total, seconds).
     with_depth
         Also render the depth map.
+    outputs
+        The result files that will be written (:data:`RESULT_FILES`): their sizes go into the
+        plan's budget.
 
     Returns
     -------
     Simulation
+        Its ``config`` is the capture plan's resolved config (:func:`spectral_cam.render.plan.make_plan`).
 
     Notes
     -----
@@ -89,19 +94,16 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     :func:`spectral_cam.expose` on a rendered image.
     """
     from .isp import develop
-    from .optics import ThinLens
     from .render import render
-    from .render.focus import resolve_focus
+    from .render.plan import make_plan
     from .sensor import expose
 
-    config, _ = resolve_focus(config)  # lens.focus_object sets the focus the job's lens is built with
-    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens.layout_lens
-    timings: dict[str, float] = {}
     # the sensor has a ring of real pixels around the frame (sensor.crop_margin_px): the RAW
     # carries them with a default crop, every other output is the frame
-    captured = render(config, progress=progress, with_depth=with_depth, lens=lens, with_margin=True)
-    config = config.replace(**{"illuminant.spd": captured.meta["illuminant_spd"],  # an XML scene's own light
-                               "illuminant.emitter": captured.meta["illuminant_emitter"]})
+    plan = make_plan(config, with_margin=True, with_depth=with_depth, lens=lens, outputs=outputs)
+    config, lens = plan.config, plan.lens  # the resolved config: what was done, what scene.toml writes
+    timings: dict[str, float] = {}
+    captured = render(plan, progress=progress)
     timings.update({f"render_{k}": v for k, v in captured.meta["timings_s"].items()})
     t0 = time.perf_counter()
     raw = expose(captured, config)
@@ -169,39 +171,6 @@ _WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_ra
 RESULT_FILES = tuple(_WRITERS)
 
 
-#: Bytes per pixel of each developed-image format, uncompressed (an upper bound: PNG and JPEG
-#: compress, an EXR is three float32 channels).
-_IMAGE_BYTES_PER_PIXEL = {"png": 3, "png16": 6, "jpeg": 3, "tiff": 6, "exr": 12}
-
-
-def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str, float]:
-    """Bytes each named result file (:data:`RESULT_FILES`) will take, from the config alone,
-    before rendering: radiance.exr uncompressed (bands × ``render.radiance_precision``), depth
-    float32, the DNG's 16-bit mosaic with its crop margin, the developed images uncompressed.
-    An upper bound within a few percent for the EXR and DNG (tests/test_output_size.py)."""
-    from .scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT
-    from .spectra import parse_bands
-
-    sensor = config.sensor
-    pixels = float(sensor.width_px) * sensor.height_px
-    header = 16e3  # a file's tags, attributes and offset tables (a 96 × 64 DNG: 2.3 kB)
-    margin = 2 * sensor.crop_margin_px
-    sizes: dict[str, float] = {}
-    for name in names:
-        if name == "radiance":
-            bands = len(parse_bands(SPECTRAL_BANDS_DEFAULT if config.render.bands in BAND_MODES else config.render.bands))
-            sizes[name] = header + pixels * bands * (2 if config.render.radiance_precision == "half" else 4)
-        elif name == "depth":
-            sizes[name] = header + pixels * 4
-        elif name == "raw":
-            sizes[name] = header + (sensor.width_px + margin) * (sensor.height_px + margin) * 2.0
-        elif name == "image":
-            sizes[name] = pixels * sum(_IMAGE_BYTES_PER_PIXEL.get(f, 12) for f in config.isp.outputs)
-        else:
-            sizes[name] = 64e3  # scene.toml and a light's CSV
-    return sizes
-
-
 def write_files(sim: Simulation, folder: str | Path, names: Iterable[str], *, image_stem: str = "image") -> list[Path]:
     """Write the named files of a simulation into a folder.
 
@@ -258,10 +227,11 @@ def result_meta(sim: Simulation, files: Iterable[str | Path], timings: dict, **e
         **extra,
         "config": sim.config.to_dict(),
         "optics": radiance.meta["optics"],
-        "render": {k: v for k, v in radiance.meta.items() if k not in ("optics", "timings_s", "model_decisions")},
+        "render": {k: v for k, v in radiance.meta.items() if k not in ("optics", "timings_s", "model_decisions", "plan")},
         "sensor": sim.raw.meta,
         "isp": {"timings_s": developed.timings_s, **{k: v for k, v in developed.meta.items() if k != "config"}},
         "model_decisions": radiance.meta.get("model_decisions", {}),
+        "plan": {k: v for k, v in radiance.meta.get("plan", {}).items() if k not in ("decisions", "optics")},
         "files": sorted(Path(p).name for p in files) + ["meta.json"],
         "timings_s": timings,
         "versions": package_versions(),
@@ -273,6 +243,28 @@ def write_meta(sim: Simulation, folder: str | Path, files: Iterable[str | Path],
     meta = result_meta(sim, files, timings, **extra)
     write_json(meta, Path(folder) / "meta.json")
     return meta
+
+
+def render_job_files(config: SceneConfig, spectral_output: bool | None = None) -> list[str]:
+    """The result files (:data:`RESULT_FILES`) a render job writes: radiance.exr when a spectral
+    output is asked (``render.spectral_output``, or ``spectral_output`` given) and the film can
+    hold one, then depth, RAW, image and scene."""
+    spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
+    names = ["depth", "raw", "image", "scene"]
+    if spectral_output and config.render.bands != "camera":
+        names.insert(0, "radiance")
+    return names
+
+
+def plan_render_job(config: SceneConfig, *, spectral_output: bool | None = None, measure: bool = False):
+    """The capture plan of :func:`run_render_job` (:func:`spectral_cam.render.plan.make_plan`), with the
+    budget of its result files: what ``spectral-cam render --dry-run`` prints (with ``measure``:
+    a small radiance probe times the scene). Renders only the probes the decisions need (the
+    depth map, an XML scene's emitters, a focus object)."""
+    from .render.plan import make_plan
+
+    return make_plan(config, with_margin=True, with_depth=True, outputs=render_job_files(config, spectral_output),
+                     measure=measure)
 
 
 def run_render_job(
@@ -301,17 +293,14 @@ def run_render_job(
         camera-film render (``render.bands = "camera"``) has no spectrum to write.
     """
     started = time.perf_counter()
-    spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
-    names = ["depth", "raw", "image", "scene"]
-    if spectral_output and config.render.bands != "camera":
-        names.insert(0, "radiance")
+    names = render_job_files(config, spectral_output)
     sizes = estimate_result_bytes(config, names)
     parts = ", ".join(f"{name} {size / 1e9:.2g} GB" for name, size in sizes.items() if size > 1e8)
     check_free_disk(sum(sizes.values()), Path(output).parent,
                     what=f"the result folder {output}" + (f" ({parts})" if parts else ""), remedy="free space or choose -o elsewhere; render.radiance_precision = 'half' halves radiance.exr, "
                     "render.spectral_output = false drops it")
     with staged_directory(output, force=force) as stage:
-        sim = simulate(config, progress=progress)
+        sim = simulate(config, progress=progress, outputs=names)
         timings = dict(sim.timings_s)
         t0 = time.perf_counter()
         if "radiance" in names and sim.radiance.channels is not None:

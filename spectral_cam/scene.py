@@ -784,25 +784,6 @@ def _lens_for_xml_camera(lens: dict[str, Any], scene: SceneSection, sensor: Sens
     width_m = sensor.width_px * sensor.pixel_pitch_um * 1e-6
     lens["focal_length_mm"] = focal_length_for_fov(fov.fov_x_deg, width_m, float(focus))
     return lens
-    focus = lens.get("focus_distance_m", LensSection.focus_distance_m)
-    if not isinstance(focus, (int, float)) or isinstance(focus, bool) or focus <= 0:
-        return lens  # LensSection reports it
-    width_m = sensor.width_px * sensor.pixel_pitch_um * 1e-6
-    derived = focal_length_for_fov(fov.fov_x_deg, width_m, float(focus))
-    if given == "auto":
-        lens["focal_length_mm"] = derived
-    elif isinstance(given, (int, float)) and not isinstance(given, bool) and abs(given / derived - 1) > 0.01:
-        import warnings
-
-        from .errors import SceneWarning
-
-        image_distance = given * focus * 1e3 / (focus * 1e3 - given) if focus * 1e3 > given else math.inf
-        ours = 2 * math.degrees(math.atan(width_m * 1e3 / 2 / image_distance))
-        warnings.warn(f"lens.focal_length_mm = {given:g} gives a {ours:.3g}° field of view on this "
-                      f"{width_m * 1e3:.3g} mm-wide sensor, replacing the XML camera's {fov.fov_x_deg:.3g}° field of "
-                      f"view ({fov.source}); leave lens.focal_length_mm unset to keep it "
-                      f"({derived:.4g} mm)", SceneWarning, stacklevel=4)
-    return lens
 
 
 def section_from_table(name: str, table: Mapping[str, Any], base_dir: str | Path = ".") -> Any:

@@ -19,9 +19,10 @@ from spectral_cam.charts import narrow_band_flat
 from spectral_cam.errors import ConfigError, SceneWarning
 from spectral_cam.exr import HALF_MIN_NORMAL
 from spectral_cam.image import SpectralImage
-from spectral_cam.job import estimate_result_bytes, run_render_job
+from spectral_cam.budget import estimate_result_bytes
+from spectral_cam.job import run_render_job
 from spectral_cam.optics import ThinLens
-from spectral_cam.render import WIDEST_RECTILINEAR_DEG, warn_wide_view
+from spectral_cam.render.plan import WIDEST_RECTILINEAR_DEG, warn_wide_view
 from spectral_cam.spectral_exr import read_spectral_exr, write_spectral_exr
 
 pytestmark = pytest.mark.timeout(180)

@@ -16,7 +16,7 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-n", type=int, default=None, metavar="N",
                         help="items (per grid point with --sweep); default: the spec's [dataset] n, or 1 per "
                              "grid point")
-    parser.add_argument("-o", "--output", required=True, help="dataset folder (resumed when it exists)")
+    parser.add_argument("-o", "--output", help="dataset folder (resumed when it exists)")
     parser.add_argument("--sweep", action="append", metavar="SECTION.KEY=START:STOP:COUNT[:log]",
                         help="grid axis, e.g. --sweep lens.focus_distance_m=0.5:5:10 or "
                              "--sweep 'lens.f_number=[1.4, 2.8, 5.6]' (repeatable: their product)")
@@ -36,18 +36,26 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
                         help="serve Dask's dashboard on http://127.0.0.1:8787 (local cluster; off by default: "
                              "every server listens on loopback and serves no pages)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="print the capture plans of the first items and the dataset's estimated time, memory "
+                             "and size on the chosen cluster, then exit")
 
 
 def run(args: argparse.Namespace) -> int:
     """``spectral-cam dataset``: exit 0 when every item is done, 1 when some failed (they are
     listed in the manifest; finished items are kept)."""
-    from ..apps.dataset import generate_dataset, load_spec
+    from ..apps.dataset import generate_dataset, load_spec, plan_dataset
     from ..errors import ConfigError
     from ..progress import duration
 
     if args.scheduler and args.workers is not None:
         raise ConfigError("--workers sizes the local cluster; with --scheduler the cluster decides")
     spec = load_spec(args.spec, sweeps=args.sweep or [], overrides=args.set or [])
+    if args.dry_run:
+        print(plan_dataset(spec, n=args.n, workers=args.workers, scheduler=args.scheduler))
+        return 0
+    if not args.output:
+        raise ConfigError("spectral-cam dataset needs -o DIR (the dataset folder), or --dry-run to see the plan")
     summary = generate_dataset(spec, args.output, n=args.n, scheduler=args.scheduler, workers=args.workers,
                                retries=args.retries, force=args.force, progress=not args.quiet,
                                dashboard=args.dashboard)

@@ -31,8 +31,6 @@ from .. import spectra
 from ..errors import ConfigError
 from ..image import SpectralImage
 from ..optics import ThinLens
-from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT
-from .decisions import decide_diffraction
 from .depth import render_depth
 from .trace import frame_optics, trace
 from .variants import choose_variant
@@ -239,7 +237,8 @@ def defocus_layers(radiance, lens, *, depth_m: np.ndarray | None = None, coc_rat
                          depth.astype(np.float32), meta, getattr(radiance, "channels", None))
 
 
-def nearest_depth(config, *, lens: ThinLens | None = None, supersample: int = 4) -> np.ndarray:
+def nearest_depth(config, *, lens: ThinLens | None = None, supersample: int = 4,
+                  variant: str | None = None) -> np.ndarray:
     """Camera-space z (m) of the nearest surface in each pixel, from ``supersample``²
     depth samples per pixel (a pinhole depth render at ``supersample``× the resolution,
     min-pooled), so small objects are not missed as by a 1-sample depth map.
@@ -253,6 +252,8 @@ def nearest_depth(config, *, lens: ThinLens | None = None, supersample: int = 4)
         same area ``supersample``× finer, with the scene laid out for the same frame.
     supersample : int
         Depth samples per pixel along each axis, 1–8.
+    variant : str, optional
+        The Mitsuba variant already chosen (default: from ``render.variant``).
 
     Returns
     -------
@@ -271,14 +272,13 @@ def nearest_depth(config, *, lens: ThinLens | None = None, supersample: int = 4)
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     width, height = lens.width_px, lens.height_px
     factor = max(1, min(supersample, 20000 // max(width, height)))
-    mi.set_variant(choose_variant(config.render.variant))
+    mi.set_variant(choose_variant(config.render.variant) if variant is None else variant)
     depth = render_depth(mi, config, lens.supersampled(factor))
     return depth.reshape(height, factor, width, factor).min(axis=(1, 3)).astype(np.float32)
 
 
 def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: int = 4, coc_ratio: float = 1.05,
-                   margin_px: int | str = "auto", progress=None,
-                   variant: str | None = None):
+                   margin_px: int | str = "auto", progress=None, plan=None):
     """Thin-lens depth of field without its Monte-Carlo noise: render through a pinhole,
     then defocus by depth layers (:func:`defocus_layers`).
 
@@ -286,11 +286,10 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     the aperture, so camera-side path tracing needs ~1/p samples per pixel per unit of
     relative variance; through a pinhole the same source covers whole pixels and converges
     as fast as anything else. The spectral radiance is rendered through a pinhole of the
-    configured geometry (frame enlarged by ``margin_px`` on each side so light from just
-    outside the view blurs in), the nearest depth per pixel from ``depth_supersample``²
-    samples, the per-depth uniform disc PSF of the CoC diameter applied to all bands, the
-    frame cropped; diffraction follows ``render.diffraction`` as in
-    :func:`spectral_cam.render.render`.
+    configured geometry (the capture area enlarged by the plan's layered margin on each side
+    so light from just outside the view blurs in), the nearest depth per pixel from
+    ``depth_supersample``² samples, the per-depth uniform disc PSF of the CoC diameter applied
+    to all bands, the capture area cropped; diffraction as the plan decided.
 
     Parameters
     ----------
@@ -298,17 +297,19 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
         The scene with its thin lens (``lens.model`` is ignored: this is the thin lens's
         defocus).
     lens : ThinLens, optional
-        The job's lens (default: from ``config``).
+        The frame's lens (default: from ``config``), when no ``plan`` is given.
     depth_supersample : int
         Depth samples per pixel along each axis (1–8).
     coc_ratio : float
         CoC bin width as a ratio (> 1).
     margin_px : int or "auto"
-        Extra pixels rendered on each side; ``"auto"``: half the largest CoC in view + 1.
+        Extra pixels rendered on each side; ``"auto"``: the plan's (half the largest CoC in
+        view + 1).
     progress : callable, optional
         Called after each pass of the pinhole render with (spp done, spp total, seconds).
-    variant : str, optional
-        Mitsuba variant already chosen (default: ``render.variant`` resolved).
+    plan : CapturePlan, optional
+        The capture plan (:func:`spectral_cam.render.plan.make_plan`) of a layered capture; default:
+        planned here for ``config`` with ``lens.model = "layered"``, without a crop margin.
 
     Returns
     -------
@@ -321,51 +322,34 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     .. [1] Potmesil & Chakravarty (1981), Proc. SIGGRAPH '81, 297–305.
     .. [2] Kraus & Strengert (2007), Computer Graphics Forum 26(3), 645–654.
     """
+    from .plan import make_plan
 
-    timings: dict[str, float] = {}
-    import mitsuba as mi
-
-    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
-    variant = choose_variant(config.render.variant) if variant is None else variant
-    mi.set_variant(variant)
-    width, height = lens.width_px, lens.height_px
-    band_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
-    bands = spectra.parse_bands(band_spec)
-    apply, diffraction = decide_diffraction(lens, bands, config.render.diffraction)
-    pinhole = {"lens.model": "pinhole", "render.diffraction": "off"}
-    if apply:
-        if config.render.bands == "camera":
-            raise ConfigError("render.bands = 'camera' cannot carry the per-band diffraction PSF that applies "
-                              "here; use render.bands = 'auto' or a band grid, or render.diffraction = 'off'")
-        pinhole["render.bands"] = band_spec  # diffraction is applied per band after the defocus
-    started = time.perf_counter()
-    if margin_px == "auto":
-        probe = nearest_depth(config, lens=lens, supersample=1)
-        finite = probe[np.isfinite(probe)]
-        reach = [float(lens.coc_diameter_px(z)) for z in (finite.min(), finite.max())] if finite.size else []
-        if not np.all(np.isfinite(probe)):
-            reach.append(float(lens.coc_diameter_px(math.inf)))
-        margin = int(math.ceil(max(reach, default=0.0) / 2.0)) + 1
-    elif isinstance(margin_px, int) and margin_px >= 0:
-        margin = margin_px
-    else:
+    if not (margin_px == "auto" or (isinstance(margin_px, int) and margin_px >= 0)):
         raise ConfigError(f"margin_px {margin_px!r} must be 'auto' or a whole number of pixels >= 0")
-    margin = min(margin, max(width, height), (20000 - max(width, height)) // 2)
-    timings["margin_probe"] = time.perf_counter() - started
-    wide = config.replace(**pinhole)
+    if plan is None:
+        plan = make_plan(config.replace(**{"lens.model": "layered"}), with_margin=False, with_depth=False, lens=lens)
+    timings: dict[str, float] = {}
+    started = time.perf_counter()
+    lens = plan.capture_lens
+    width, height = lens.width_px, lens.height_px
+    margin = plan.layered_margin_px if margin_px == "auto" else \
+        min(margin_px, max(width, height), (20000 - max(width, height)) // 2)
     t0 = time.perf_counter()
     wide_lens = lens.widened(margin)  # the scene stays laid out for the frame
-    sharp = trace(wide, wide_lens, "pinhole", variant=variant, progress=progress)
+    sharp = trace(plan.config, wide_lens, "pinhole", variant=plan.variant, camera_film=plan.camera_film,
+                  diffraction=False, groups=plan.estimator_passes, subframes=plan.subframes,
+                  decisions=dict(plan.decisions), progress=progress)
     timings["pinhole_render"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    depth = nearest_depth(wide, lens=wide_lens, supersample=depth_supersample)
+    depth = nearest_depth(plan.config, lens=wide_lens, supersample=depth_supersample, variant=plan.variant)
     timings["depth"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     blurred = defocus_layers(sharp, wide_lens, depth_m=depth, coc_ratio=coc_ratio)
     timings["defocus_layers"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     data = blurred.data
-    if apply:
+    if plan.diffraction:
+        bands = spectra.parse_bands(plan.band_spec)
         data = lens.apply_diffraction(data, bands.centres_nm, out=data if data.dtype == np.float32 else None)
     timings["diffraction"] = time.perf_counter() - t0
     crop = (slice(margin, margin + height), slice(margin, margin + width))
@@ -379,13 +363,11 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
                    "instead of thin-lens path tracing"),
         "depth_supersample": depth_supersample, "margin_px": margin, **layers,
     }
-    decisions["diffraction"] = diffraction
     meta.update({"lens_model": "layered", "model_decisions": decisions,
                  "optics": frame_optics(lens),
                  "timings_s": {**meta.get("timings_s", {}), **timings, "total": time.perf_counter() - started}})
     return SpectralImage(np.ascontiguousarray(data[crop], dtype=np.float32), blurred.wavelengths_nm,
                          blurred.band_edges_nm, blurred.depth_m[crop], meta, blurred.channels, lens)
-
 
 
 def aperture_fraction(config, lens: ThinLens | None = None) -> float:

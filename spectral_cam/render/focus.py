@@ -13,19 +13,22 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
 
 from ..errors import ConfigError
+from ..optics import ThinLens
 from ..scene import SceneConfig
 
 __all__ = ["resolve_focus"]
 
 
-def resolve_focus(config: SceneConfig) -> tuple[SceneConfig, dict | None]:
+def resolve_focus(config: SceneConfig, lens: ThinLens) -> tuple[SceneConfig, dict | None, ThinLens]:
     """The scene with ``lens.focus_distance_m`` set from ``lens.focus_object`` (unchanged, with
-    record None, when no object is named), and a record for ``model_decisions["focus"]``.
+    record None, when no object is named), a record for ``model_decisions["focus"]``, and
+    ``lens`` (built from ``config``) focused there.
 
     Raises
     ------
@@ -34,32 +37,29 @@ def resolve_focus(config: SceneConfig) -> tuple[SceneConfig, dict | None]:
         the camera or nearer than the lens can focus.
     """
     if not config.lens.focus_object:
-        return config, None
+        return config, None, lens
     for _ in range(4):  # a preset laid out against the lens moves a little as the focus (and so the
-        distance, record = _focus_depth(config)  # image distance) changes: iterate to the fixed point
+        distance, record = _focus_depth(config, lens)  # image distance) changes: iterate to the fixed point
         settled = abs(distance - config.lens.focus_distance_m) <= 1e-7 * distance
         config = config.replace(**{"lens.focus_distance_m": distance})
+        lens = dataclasses.replace(lens, focus_distance_m=distance)
         if settled:
             break
     if distance * 1000.0 <= config.lens.focal_length_mm * 1.001:
         raise ConfigError(f"lens.focus_object = {config.lens.focus_object!r} lies {distance:.3g} m from the camera, "
                           f"nearer than the {config.lens.focal_length_mm:g} mm lens can focus; choose another object")
-    return config, record
+    return config, record, lens
 
 
 @functools.lru_cache(maxsize=16)
-def _focus_depth(config: SceneConfig) -> tuple[float, dict]:
-    """(depth, record) of ``config``'s focus object; cached because a job resolves it before
-    building its lens and again in the render (the scene is loaded once)."""
+def _focus_depth(config: SceneConfig, lens: ThinLens) -> tuple[float, dict]:
+    """(depth, record) of ``config``'s focus object seen through ``lens`` (the scene laid out
+    for it), with Mitsuba's variant already set; cached on both (a dataset's items repeat them)."""
     import mitsuba as mi
 
-    from ..optics import ThinLens
     from .scene_dict import build_scene, camera_dict
-    from .variants import choose_variant
 
-    mi.set_variant(choose_variant(config.render.variant))
     name = config.lens.focus_object
-    lens = ThinLens.from_config(config.lens, config.sensor)
     film = {"type": "hdrfilm", "width": 8, "height": 8}
     scene, sensor, _ = build_scene(mi, config, lens.layout_lens, camera_dict(mi, lens.layout_lens, "pinhole", film, 1),
                                    {"type": "direct"})
@@ -81,4 +81,5 @@ def _focus_depth(config: SceneConfig) -> tuple[float, dict]:
     depth = float((point - origin) @ axis)
     if depth <= 0:
         raise ConfigError(f"lens.focus_object = {name!r} lies behind the camera; choose an object in view")
-    return depth, {"choice": depth, "object": name, "at": how}
+    return depth, {"choice": depth, "object": name, "at": how,
+                   "reason": f"lens.focus_object = {name!r}: the depth of {how}"}

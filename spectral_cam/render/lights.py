@@ -201,9 +201,12 @@ def _shares(mi, scene, sensor, integrator, emitters) -> list[float] | None:
     return [t / total for t in totals] if total > 0 else None
 
 
-def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[SceneEmitter]:
+def scene_emitters(config: SceneConfig, *, measure_shares: bool = True, lens=None,
+                   variant: str | None = None) -> list[SceneEmitter]:
     """The emitters of ``config``'s XML scene (or sky-lit preset) with their spectra (and,
-    when there are several, the share of the camera's light each sends).
+    when there are several, the share of the camera's light each sends through ``lens``, the
+    frame's; default: built from ``config``). ``variant``: the Mitsuba variant already chosen
+    (a capture plan's); default: chosen from ``render.variant``.
 
     Raises
     ------
@@ -223,8 +226,8 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True) -> list[
     if not (config.scene.mitsuba_xml or lit_by_sky(config)):
         raise ConfigError("scene_emitters reads a Mitsuba XML scene (scene.mitsuba_xml) or a preset under the sun "
                           "and sky; other presets are lit by [illuminant]")
-    mi.set_variant(choose_variant(config.render.variant))
-    lens = ThinLens.from_config(config.lens, config.sensor)
+    mi.set_variant(choose_variant(config.render.variant) if variant is None else variant)
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens.layout_lens
     width = PROBE_SIZE[0]
     height = max(1, round(width * lens.height_px / lens.width_px))
     probe = replace(lens, width_px=width, height_px=height, frame_lens=lens.layout_lens)  # same view
@@ -269,7 +272,7 @@ def _spectrum_csv(emitter: SceneEmitter) -> str:
     return str(path)
 
 
-def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
+def resolve_light(config: SceneConfig, *, lens=None, variant: str | None = None) -> tuple[SceneConfig, dict]:
     """The scene with ``illuminant.spd`` set to the light that lights it, and a record of the
     choice (for meta.json's ``model_decisions["illuminant"]``).
 
@@ -306,7 +309,7 @@ def resolve_light(config: SceneConfig) -> tuple[SceneConfig, dict]:
                       f"emitters do); white balance, the colour matrix and the ground truth use {spd!r} as "
                       "asked. Leave [illuminant] unset to use the scene's own light.", SceneWarning, stacklevel=2)
         return config, {"choice": spd, "reason": "illuminant.spd set for a scene its emitters light (warned)"}
-    emitters = scene_emitters(config)
+    emitters = scene_emitters(config, lens=lens, variant=variant)
     if not emitters:
         raise ConfigError(f"the XML scene {where} has no emitter, so nothing lights it: add one (an XML scene is "
                           "lit by its own emitters; illuminant.spd only names the light its ground truth assumes)")

@@ -23,11 +23,10 @@ from ..errors import ConfigError, RenderError
 from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
-from .decisions import (AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass, decide_bands, decide_diffraction,
-                        decide_estimator)
+from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass
 from .robust import adaptive_median_of_means
-from .films import band_film, camera_film
-from .motion import ObjectMotion, plan_subframes, subframe_transform
+from .films import band_film, camera_film as camera_film_dict
+from .motion import ObjectMotion, subframe_transform
 from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, moved_sensor, pass_seed,
                          release_render_memory, tile_sensors)
 
@@ -156,11 +155,13 @@ def check_tiling(config: SceneConfig, lens: ThinLens) -> None:
                           f"frame of the same scene up to {TILE_PIXELS} px shows how many samples it needs)")
 
 
-def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
+def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str, camera_film: bool,
+          diffraction: bool, groups: int = 1, subframes: int = 1,
           depth: np.ndarray | None = None, depth_s: float = 0.0, decisions: dict | None = None,
           progress: Callable[[int, int, float], None] | None = None) -> SpectralImage:
-    """Render the radiance of ``config`` through ``lens`` as ``lens_model`` (``"thin"`` or
-    ``"pinhole"``) with Mitsuba's current variant (``variant``, already set).
+    """Render the radiance of ``config`` through ``lens`` as ``lens_model`` with Mitsuba's
+    current variant (``variant``, already set), as a capture plan decided
+    (:func:`spectral_cam.render.plan.make_plan`: nothing is decided here but ``spp = "auto"``'s stop).
 
     Parameters
     ----------
@@ -172,11 +173,19 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         Geometry of the camera rays.
     variant : str
         The Mitsuba variant in use (recorded).
+    camera_film : bool
+        Integrate the camera's curves (6 channels) instead of the spectral bands.
+    diffraction : bool
+        Apply the per-band Airy PSF after tracing.
+    groups : int
+        K groups of passes for the adaptive median of means (1: the mean).
+    subframes : int
+        Time-stratified motion sub-frames (1: none).
     depth, depth_s
         A depth map already rendered (m) and its time (s), carried into the result.
     decisions : dict, optional
-        Model decisions made so far (``lens_model``); the film, diffraction and spp
-        decisions are added.
+        The plan's model decisions, recorded; ``spp = "auto"``'s outcome and the adaptive
+        median's share are added.
     progress : callable, optional
         Called after each pass with (spp done, spp total, seconds so far); a frame of more
         than :data:`~spectral_cam.render.scene_dict.TILE_PIXELS` pixels renders in tiles and
@@ -197,12 +206,11 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     decisions = dict(decisions or {})
     spectral_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
     bands = spectra.parse_bands(spectral_spec)
-    diffract, decisions["diffraction"] = decide_diffraction(lens, bands, config.render.diffraction)
-    use_camera, decisions["bands"] = decide_bands(config, diffract)
+    diffract, use_camera = diffraction, camera_film
     if use_camera:
         from ..sensor import CAMERA_CHANNELS
 
-        film, channels = camera_film(config, width, height), CAMERA_CHANNELS
+        film, channels = camera_film_dict(config, width, height), CAMERA_CHANNELS
         wavelengths, edges = np.array([]), np.asarray(spectra.MITSUBA_RANGE_NM)
     else:
         film, channels = band_film(bands, width, height), None
@@ -211,7 +219,6 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
 
     auto_spp = config.render.spp == "auto"
     target_spp = config.render.max_spp if auto_spp else config.render.spp
-    check_tiling(config, lens)  # again here: the layered model traces a widened frame
     tiles = frame_tiles(width, height)
     lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
     sampler = config.render.sampler
@@ -233,13 +240,11 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     tiled = len(tiles) > 1
     data = np.empty((height, width, n_channels), np.float32) if tiled else None
     done, seeds, radiance_range = 0, [], _RadianceRange()
-    subframes, mover = 1, None
-    if config.motion.moving:
-        subframes, decisions["motion"] = plan_subframes(config, lens, depth, target_spp)
-        if config.motion.object:
-            mover = ObjectMotion(mi, scene, sensor, config)
-            decisions["motion"]["object"] = {"name": config.motion.object, "shapes": mover.keys}
-    groups, decisions["estimator"] = decide_estimator(config, config.render.spp)
+    mover = None
+    if config.motion.moving and config.motion.object:
+        mover = ObjectMotion(mi, scene, sensor, config)
+        decisions["motion"] = {**decisions.get("motion", {}), "object": {"name": config.motion.object,
+                                                                         "shapes": mover.keys}}
     robust_shares = []
     for tile, rows, tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
         accumulated = _PassMean()
@@ -285,7 +290,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     release_render_memory()
     radiance_range.check()
     if robust_shares:
-        decisions["estimator"]["median_share"] = float(np.mean(robust_shares))
+        decisions["estimator"] = {**decisions.get("estimator", {}), "median_share": float(np.mean(robust_shares))}
     if monitor is not None:
         decisions["spp"] = monitor.record(done, config.render.max_spp)
         if progress is not None and done < target_spp:

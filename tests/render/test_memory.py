@@ -13,9 +13,12 @@ def test_a_frame_too_large_for_memory_is_refused_before_mitsuba_starts():
     from spectral_cam.errors import ConfigError
     from spectral_cam.render.memory import available_bytes, estimate_render_bytes
 
+    from spectral_cam.errors import SceneWarning
+
     config = scene_from_dict({"sensor": {"width_px": 20000, "height_px": 20000}})
     assert estimate_render_bytes(20000, 20000) > available_bytes()  # 600 GB on any machine here
-    with pytest.raises(ConfigError, match=r"needs about \d+\.\d GB of memory .* lower sensor.width_px"):
+    with pytest.raises(ConfigError, match=r"needs about \d+\.\d GB of memory .* lower sensor.width_px"), \
+            pytest.warns(SceneWarning, match="165° across"):  # 120 mm of sensor behind 8 mm, said first
         render(config)
 
 

@@ -148,6 +148,7 @@ from .run import (
                      generate_dataset,
                      item_task,
                      local_cluster,
+                     plan_dataset,
                      render_item,
 )
 from .sheets import CONTACT_SHEET_MAX, write_blur_chart, write_contact_sheet
@@ -168,7 +169,7 @@ __all__ = [
     "spec_from_dict", "load_spec",
     "LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "defocus_map_px", "clean_camera_rgb",
     "measure_scene_blur",
-    "DatasetSummary", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers",
+    "DatasetSummary", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers", "plan_dataset",
     "ProgressBar", "MANIFEST_EVERY_S",
     "CONTACT_SHEET_MAX", "write_contact_sheet", "write_blur_chart",
 ]

@@ -34,6 +34,7 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 
 from ...errors import ConfigError
 from ...io import atomic_path
+from ...job import RESULT_FILES
 from ...progress import ProgressLine, duration
 from ...records import json_ready, read_json, write_json
 from ...render.variants import set_render_threads
@@ -43,7 +44,7 @@ from .sheets import write_blur_chart, write_contact_sheet
 from .spec import DatasetSpec, ItemPlan
 
 __all__ = ["DatasetSummary", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers",
-           "ProgressBar", "MANIFEST_EVERY_S", "open_executor"]
+           "ProgressBar", "MANIFEST_EVERY_S", "open_executor", "plan_dataset", "PLANNED_SAMPLE"]
 
 #: Seconds between manifest rewrites during a run (it is always written at the end).
 MANIFEST_EVERY_S = 30.0
@@ -638,12 +639,63 @@ def generate_dataset(
     return summary
 
 
+#: Items whose capture plans stand for the whole dataset in ``--dry-run`` (each renders its depth probe).
+PLANNED_SAMPLE = 3
+
+
+def plan_dataset(spec: DatasetSpec, *, n: int | None = None, workers: int | None = None,
+                 scheduler: str | None = None) -> str:
+    """What ``spectral-cam dataset --dry-run`` prints: the capture plans of the first
+    :data:`PLANNED_SAMPLE` valid items (:func:`spectral_cam.render.plan.make_plan`), and the
+    dataset's total from them: time over the cluster's workers (``workers`` local processes,
+    default :func:`default_workers`; one process for ``scheduler="inline"``; per item for a
+    remote scheduler, whose size is not known here), peak memory per worker, and the files'
+    size. Nothing but the probes the plans need and their cost probes is rendered.
+
+    Raises
+    ------
+    ConfigError
+        For an invalid count, or when none of the first items has a valid scene.
+    """
+    from ...render.plan import make_plan
+
+    total = spec.item_count(n)
+    per_point = total // spec.grid_size
+    plans, errors = [], []
+    for index in range(total):
+        item = spec.plan_item(index, per_point)
+        if item.scene is None:
+            errors.append(f"{item.id}: {item.error}")
+        else:
+            outputs = [name for name in spec.outputs if name in RESULT_FILES]
+            plans.append((item, make_plan(scene_from_dict(item.scene), outputs=outputs, measure=True)))
+        if len(plans) == PLANNED_SAMPLE or len(errors) > 10 * PLANNED_SAMPLE:
+            break
+    if not plans:
+        raise ConfigError(f"none of the first items has a valid scene: {'; '.join(errors[:3])}")
+    time_s = sum(p.budget["time_s"] for _, p in plans) / len(plans)
+    memory = max(p.budget["memory_bytes"] for _, p in plans)
+    files = sum(sum(p.budget["outputs_bytes"].values()) for _, p in plans) / len(plans)
+    lines = [f"item {item.id} {item.params}:\n  " + plan.summary().replace("\n", "\n  ") for item, plan in plans]
+    parallel = 1 if scheduler == "inline" else (None if scheduler else (workers or default_workers()))
+    where = (f"{parallel} worker process{'es' if parallel != 1 else ''}" if parallel else
+             f"the cluster at {scheduler} (its size unknown here: time per item)")
+    total_s = time_s * total / parallel if parallel else time_s
+    lines.append(f"dataset: {total} items on {where}: about {total_s:.3g} s"
+                 + (" per item" if not parallel else f" ({time_s:.3g} s an item)")
+                 + f", peak memory about {memory / 1e9:.2g} GB a worker"
+                 + (f" ({memory * parallel / 1e9:.2g} GB in all)" if parallel else "")
+                 + f", files about {files * total / 1e9:.3g} GB (labels beyond the render's files not counted); "
+                 f"from the plans of {len(plans)} item(s)" + (f", {len(errors)} invalid" if errors else ""))
+    return "\n".join(lines)
+
+
 def _check_disk(task: Mapping[str, Any], items: int, output: Path) -> None:
     """Refuse a dataset whose result files cannot fit on the disk, before rendering: the first
-    item's files (:func:`spectral_cam.job.estimate_result_bytes`; the labels besides them not
+    item's files (:func:`spectral_cam.budget.estimate_result_bytes`; the labels besides them not
     counted, so it never refuses what fits) times the items left to render."""
     from ...io import check_free_disk
-    from ...job import RESULT_FILES, estimate_result_bytes
+    from ...budget import estimate_result_bytes
 
     per_item = sum(estimate_result_bytes(scene_from_dict(task["scene"]),
                                          [name for name in task["outputs"] if name in RESULT_FILES]).values())

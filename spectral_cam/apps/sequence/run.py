@@ -272,9 +272,9 @@ def _claim_output(spec: SequenceSpec, output: Path, force: bool) -> str:
 def _check_disk(spec: SequenceSpec, output: Path, modes: Sequence[str]) -> None:
     """Refuse, before any frame renders, a sequence whose files cannot fit on the disk: each
     frame's radiance and depth (stored for the camera runs) and, per camera mode, its RAW and
-    image (:func:`spectral_cam.job.estimate_result_bytes`, uncompressed: an upper bound)."""
+    image (:func:`spectral_cam.budget.estimate_result_bytes`, uncompressed: an upper bound)."""
     from ...io import check_free_disk
-    from ...job import estimate_result_bytes
+    from ...budget import estimate_result_bytes
 
     config = spec.frame_config(0)
     frame = sum(estimate_result_bytes(config, ["radiance", "depth"]).values())
