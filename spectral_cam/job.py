@@ -164,10 +164,21 @@ def _write_scene(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     return written + [folder / "scene.toml"]
 
 
-_WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
+def _write_camera(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    """camera.json: intrinsics, distortion and pose (:func:`spectral_cam.camera_record.camera_record`)."""
+    from .camera_record import camera_record
+
+    meta = sim.radiance.meta
+    record = camera_record(sim.lens, meta["camera_to_world"], distortion=sim.config.lens.distortion,
+                           lens_model=meta.get("lens_model", sim.config.lens.model),
+                           exposure_s=sim.raw.meta.get("exposure_s"), iso=sim.raw.meta.get("iso"))
+    return [write_json(record, folder / "camera.json")]
+
+
+_WRITERS = {"radiance": _write_radiance, "camera": _write_camera, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
             "scene": _write_scene}
 #: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
-#: ``<stem>.<isp.outputs>`` and scene.toml.
+#: ``<stem>.<isp.outputs>``, camera.json and scene.toml.
 RESULT_FILES = tuple(_WRITERS)
 
 
@@ -183,6 +194,7 @@ def write_files(sim: Simulation, folder: str | Path, names: Iterable[str], *, im
     names
         Among :data:`RESULT_FILES`: ``"radiance"`` (radiance.exr; the render must hold a
         spectrum, not camera-film channels), ``"depth"`` (depth.exr), ``"raw"`` (raw.dng),
+        ``"camera"`` (camera.json: intrinsics, distortion, pose),
         ``"image"`` (``<image_stem>`` in every ``isp.outputs`` format), ``"scene"``
         (scene.toml, the resolved scene).
     image_stem
@@ -250,7 +262,7 @@ def render_job_files(config: SceneConfig, spectral_output: bool | None = None) -
     output is asked (``render.spectral_output``, or ``spectral_output`` given) and the film can
     hold one, then depth, RAW, image and scene."""
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
-    names = ["depth", "raw", "image", "scene"]
+    names = ["depth", "raw", "image", "camera", "scene"]
     if spectral_output and config.render.bands != "camera":
         names.insert(0, "radiance")
     return names

@@ -235,7 +235,8 @@ def _sensor_class(mi):
             o, d, passed = self._trace(origin, direction, wavelengths, mi.Bool(active))
             o = mi.Point3f(o.x, o.y, o.z - self.pupil_offset)  # camera origin at the entrance pupil
             to_world = self.world_transform()
-            ray = mi.Ray3f(to_world @ o, dr.normalize(to_world @ d), time, wavelengths)
+            # d as a direction (a Point3f would take the camera's translation: an XML camera off the origin)
+            ray = mi.Ray3f(to_world @ o, dr.normalize(to_world @ mi.Vector3f(d)), time, wavelengths)
             scale = dr.select(passed, geometry, 0.0)
             if self.disperses:
                 return ray, one_wavelength(mi, dr, weight, scale)

@@ -137,7 +137,9 @@ def _sensor_class(mi):
             origin = mi.Point3f(disc.x, disc.y, 0.0)
             target = mi.Point3f(x * focus, y * focus, focus)
             to_world = self.world_transform()
-            ray = mi.Ray3f(to_world @ origin, dr.normalize(to_world @ (target - origin)), time, wavelengths)
+            # a direction, not a point: Point3f − Point3f stays a Point3f in Mitsuba's Python types, and
+            # a transform would add the camera's translation to it (an XML camera away from the origin)
+            ray = mi.Ray3f(to_world @ origin, dr.normalize(to_world @ mi.Vector3f(target - origin)), time, wavelengths)
             if not self.disperses:
                 return ray, weight * self.area_ratio
             return ray, one_wavelength(mi, dr, weight, self.area_ratio)

@@ -236,6 +236,8 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     integrator = {"type": "path", "max_depth": config.render.max_depth}
     scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
+    # the pose of the render (camera.json): the exposure's start for a moving camera
+    camera_to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
 
     tiled = len(tiles) > 1
     data = np.empty((height, width, n_channels), np.float32) if tiled else None
@@ -315,6 +317,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         "bands_nm": list(wavelengths),
         "channels": list(channels) if channels else None,
         "optics": frame_optics(lens),
+        "camera_to_world": camera_to_world.tolist(),
         "model_decisions": decisions,
         "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s,
                       "diffraction": diffraction_s},

@@ -104,7 +104,9 @@ for _name, _description in (
         ("raw", "raw.dng: the simulated RAW"),
         ("image", "image.<isp.outputs>: the developed sRGB image (every isp.outputs format)"),
         ("radiance", "radiance.exr: spectral radiance per nm, Fichet et al. layout (opt-in)"),
-        ("depth", "depth.exr: camera-space z (m)")):
+        ("depth", "depth.exr: camera-space z (m)"),
+        ("camera", "camera.json: intrinsics K (pixels), OpenCV distortion, pose world → camera (OpenCV and "
+                   "OpenGL axes), focus, aperture, exposure")):
     LABELS.add(_name, functools.partial(_result_file, name=_name), description=_description)
 
 

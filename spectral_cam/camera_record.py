@@ -1,0 +1,99 @@
+"""``camera.json``: the camera of a capture as 3-D vision tools take it: intrinsics K, distortion,
+pose (world → camera) in OpenCV's and OpenGL's axis conventions, focus, aperture and exposure.
+
+Conventions (written into the file too):
+
+- pixels of the frame (after the sensor's crop margin), pixel centres at integer coordinates,
+  (0, 0) the top-left pixel's centre: fx = fy = v / p (v the image distance at the focus
+  distance, p the pixel pitch), cx = W/2 − ½, cy = H/2 − ½;
+- OpenCV camera axes: +x right, +y down, +z forward (the view); OpenGL: +x right, +y up, +z
+  backward. Mitsuba's camera frame (``look_at``) has +x to the image's left, +y up, +z forward;
+- distortion (k1, k2, p1, p2, k3) in OpenCV's Brown–Conrady convention
+  (:mod:`spectral_cam.lenses.distortion`): zero for the ideal thin lens and the pinhole.
+
+References
+----------
+.. [1] OpenCV, "Camera calibration and 3D reconstruction" (pinhole model, ``projectPoints``,
+   distortion coefficients k1, k2, p1, p2, k3).
+.. [2] Hartley, R., & Zisserman, A. (2004). Multiple View Geometry, 2nd ed., §6.1 (K, [R | t]).
+.. [3] Jakob, W., et al. (2022). Mitsuba 3, ``look_at`` (camera frame: +x left, +y up, +z view).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .optics import ThinLens
+
+__all__ = ["camera_record", "intrinsics_matrix", "MITSUBA_TO_OPENCV", "MITSUBA_TO_OPENGL"]
+
+#: Camera-frame axes of OpenCV from Mitsuba's (x left → right, y up → down, z forward kept).
+MITSUBA_TO_OPENCV = np.diag([-1.0, -1.0, 1.0, 1.0])
+#: Camera-frame axes of OpenGL from Mitsuba's (x left → right, y up kept, z forward → backward).
+MITSUBA_TO_OPENGL = np.diag([-1.0, 1.0, -1.0, 1.0])
+
+
+def intrinsics_matrix(lens: ThinLens) -> np.ndarray:
+    """K (3 × 3) of the frame's lens in pixels, pixel centres at integers: fx = fy = v/p,
+    (cx, cy) = (W/2 − ½, H/2 − ½)."""
+    frame = lens.layout_lens
+    focal_px = frame.image_distance_m / frame.pixel_pitch_m
+    return np.array([[focal_px, 0.0, frame.width_px / 2 - 0.5],
+                     [0.0, focal_px, frame.height_px / 2 - 0.5],
+                     [0.0, 0.0, 1.0]])
+
+
+def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0, 0.0, 0.0),
+                  lens_model: str = "thin", exposure_s: float | None = None, iso: float | None = None) -> dict:
+    """The content of ``camera.json``.
+
+    Parameters
+    ----------
+    lens
+        The frame's lens (the crop margin is not part of the frame).
+    camera_to_world
+        4 × 4 Mitsuba camera-to-world transform of the render (``meta["camera_to_world"]``).
+    distortion
+        (k1, k2, p1, p2, k3), OpenCV's convention.
+    lens_model
+        The lens model the render used (a prescription's real distortion is not fitted here:
+        its coefficients stay zero and ``distortion_fitted`` says so).
+    exposure_s, iso
+        The exposure the sensor used.
+
+    Returns
+    -------
+    dict
+        ``K``, ``image_size`` [W, H], ``distortion``, ``world_to_camera_opencv`` and
+        ``world_to_camera_opengl`` (4 × 4), ``camera_to_world_opencv``, ``conventions`` and the
+        optics (focal length, f-number, aperture, focus distance, pixel pitch, exposure).
+    """
+    frame = lens.layout_lens
+    to_world = np.asarray(camera_to_world, dtype=np.float64).reshape(4, 4)
+    world_to_mitsuba = np.linalg.inv(to_world)
+    opencv = MITSUBA_TO_OPENCV @ world_to_mitsuba
+    opengl = MITSUBA_TO_OPENGL @ world_to_mitsuba
+    return {
+        "K": intrinsics_matrix(frame).tolist(),
+        "image_size": [int(frame.width_px), int(frame.height_px)],
+        "distortion": [float(c) for c in distortion],
+        "distortion_model": "opencv (k1, k2, p1, p2, k3)",
+        "distortion_fitted": lens_model != "prescription",
+        "world_to_camera_opencv": opencv.tolist(),
+        "world_to_camera_opengl": opengl.tolist(),
+        "camera_to_world_opencv": np.linalg.inv(opencv).tolist(),
+        "conventions": {
+            "pixels": "frame pixels (crop margin excluded); pixel centres at integers, (0, 0) the top-left centre",
+            "opencv": "+x right, +y down, +z forward",
+            "opengl": "+x right, +y up, +z backward",
+            "world": "the scene's (Mitsuba) world frame, metres"},
+        "lens_model": lens_model,
+        "focal_length_mm": frame.focal_length_m * 1e3,
+        "image_distance_mm": frame.image_distance_m * 1e3,
+        "f_number": frame.f_number,
+        "aperture_diameter_mm": 2e3 * frame.aperture_radius_m,
+        "focus_distance_m": frame.focus_distance_m,
+        "pixel_pitch_um": frame.pixel_pitch_m * 1e6,
+        "exposure_s": exposure_s,
+        "iso": iso,
+    }
