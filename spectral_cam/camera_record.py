@@ -25,7 +25,7 @@ import numpy as np
 
 from .optics import ThinLens
 
-__all__ = ["camera_record", "intrinsics_matrix", "MITSUBA_TO_OPENCV", "MITSUBA_TO_OPENGL"]
+__all__ = ["camera_record", "illuminant_record", "intrinsics_matrix", "MITSUBA_TO_OPENCV", "MITSUBA_TO_OPENGL"]
 
 #: Camera-frame axes of OpenCV from Mitsuba's (x left → right, y up → down, z forward kept).
 MITSUBA_TO_OPENCV = np.diag([-1.0, -1.0, 1.0, 1.0])
@@ -97,3 +97,47 @@ def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0,
         "exposure_s": exposure_s,
         "iso": iso,
     }
+
+
+def illuminant_record(spd: str, neutral, *, sensor_model: str, emitter: str = "",
+                      illuminance_lux: float | None = None) -> dict:
+    """The content of ``illuminant.json``: the scene light's ground truth as colour-constancy
+    datasets publish it (NUS 8-camera, Gehler–Shi, Cube+: the light's camera RGB).
+
+    Parameters
+    ----------
+    spd
+        The light (``illuminant.spd`` resolved: a name, ``blackbody:<K>``, or a CSV).
+    neutral
+        The camera's response to the light's white (the RAW's AsShotNeutral: the measured curves,
+        lens transmission and IR cut integrated against the SPD), any scale.
+    sensor_model, emitter, illuminance_lux
+        Recorded as given.
+
+    Returns
+    -------
+    dict
+        ``camera_rgb`` (max 1), ``camera_rgb_g1`` (green 1), ``camera_rgb_unit`` (unit length),
+        ``xy`` (CIE 1931 2°), ``cct_k`` and ``duv`` (Ohno 2013, CIE 1960 uv).
+
+    References
+    ----------
+    .. [1] Cheng, D., Prasad, D. K., & Brown, M. S. (2014). Illuminant estimation for colour
+       constancy: why spatial-domain methods work and the role of the colour distribution.
+       JOSA A 31(5) (NUS 8-camera: ground truth as the light's camera RGB).
+    .. [2] Ohno, Y. (2014). Practical use and calculation of CCT and Duv. LEUKOS 10(1), 47–55.
+    """
+    import colour
+
+    from .colorimetry import illuminant_white_xyz
+
+    rgb = np.asarray(neutral, dtype=float)
+    xy = colour.XYZ_to_xy(illuminant_white_xyz(spd))
+    cct, duv = colour.temperature.uv_to_CCT_Ohno2013(colour.xy_to_UCS_uv(xy))
+    return {"spd": spd, "emitter": emitter or None, "illuminance_lux": illuminance_lux, "sensor_model": sensor_model,
+            "camera_rgb": (rgb / rgb.max()).tolist(), "camera_rgb_g1": (rgb / rgb[1]).tolist(),
+            "camera_rgb_unit": (rgb / np.linalg.norm(rgb)).tolist(), "xy": [float(v) for v in xy],
+            "cct_k": float(cct), "duv": float(duv),
+            "conventions": {"camera_rgb": "raw camera channels R, G, B (the mosaic's colours, black-subtracted, "
+                                          "linear) of a perfect white diffuser under the light",
+                            "xy": "CIE 1931 2° chromaticity of the light", "cct": "Ohno 2013 on CIE 1960 uv"}}

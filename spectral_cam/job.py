@@ -175,10 +175,24 @@ def _write_camera(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     return [write_json(record, folder / "camera.json")]
 
 
-_WRITERS = {"radiance": _write_radiance, "camera": _write_camera, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
+def _write_illuminant(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    """illuminant.json: the light's camera RGB, chromaticity and CCT
+    (:func:`spectral_cam.camera_record.illuminant_record`)."""
+    from .camera_record import illuminant_record
+
+    config = sim.config
+    if sim.raw.as_shot_neutral is None:  # a monochrome sensor has no colour to record
+        return []
+    lux = None if config.scene.mitsuba_xml else config.illuminant.illuminance_lux
+    record = illuminant_record(config.illuminant.spd, sim.raw.as_shot_neutral, sensor_model=config.sensor.model,
+                               emitter=config.illuminant.emitter, illuminance_lux=lux)
+    return [write_json(record, folder / "illuminant.json")]
+
+
+_WRITERS = {"radiance": _write_radiance, "camera": _write_camera, "illuminant": _write_illuminant, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
             "scene": _write_scene}
 #: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
-#: ``<stem>.<isp.outputs>``, camera.json and scene.toml.
+#: ``<stem>.<isp.outputs>``, camera.json, illuminant.json and scene.toml.
 RESULT_FILES = tuple(_WRITERS)
 
 
@@ -194,7 +208,8 @@ def write_files(sim: Simulation, folder: str | Path, names: Iterable[str], *, im
     names
         Among :data:`RESULT_FILES`: ``"radiance"`` (radiance.exr; the render must hold a
         spectrum, not camera-film channels), ``"depth"`` (depth.exr), ``"raw"`` (raw.dng),
-        ``"camera"`` (camera.json: intrinsics, distortion, pose),
+        ``"camera"`` (camera.json: intrinsics, distortion, pose), ``"illuminant"`` (illuminant.json:
+        the light's camera RGB, chromaticity, CCT; none for a monochrome sensor),
         ``"image"`` (``<image_stem>`` in every ``isp.outputs`` format), ``"scene"``
         (scene.toml, the resolved scene).
     image_stem
@@ -262,7 +277,7 @@ def render_job_files(config: SceneConfig, spectral_output: bool | None = None) -
     output is asked (``render.spectral_output``, or ``spectral_output`` given) and the film can
     hold one, then depth, RAW, image and scene."""
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
-    names = ["depth", "raw", "image", "camera", "scene"]
+    names = ["depth", "raw", "image", "camera", "illuminant", "scene"]
     if spectral_output and config.render.bands != "camera":
         names.insert(0, "radiance")
     return names

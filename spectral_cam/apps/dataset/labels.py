@@ -106,7 +106,8 @@ for _name, _description in (
         ("radiance", "radiance.exr: spectral radiance per nm, Fichet et al. layout (opt-in)"),
         ("depth", "depth.exr: camera-space z (m)"),
         ("camera", "camera.json: intrinsics K (pixels), OpenCV distortion, pose world → camera (OpenCV and "
-                   "OpenGL axes), focus, aperture, exposure")):
+                   "OpenGL axes), focus, aperture, exposure"),
+        ("illuminant", "illuminant.json: the light's camera RGB (max 1, green 1, unit length), CIE xy, CCT and Duv")):
     LABELS.add(_name, functools.partial(_result_file, name=_name), description=_description)
 
 
