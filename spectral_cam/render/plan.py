@@ -204,6 +204,32 @@ def xml_field_of_view_record(config: SceneConfig, lens: ThinLens) -> dict:
             "lens.focal_length_mm set in the scene file replaces the XML camera's field of view"}
 
 
+def _keeps_xml_view(config: SceneConfig) -> bool:
+    """Whether ``lens.focal_length_mm`` is the one derived from an XML camera's field of view (left
+    unset by the user), which a new focus distance must re-derive to keep that view."""
+    from ..xml_scene import focal_length_for_fov, xml_field_of_view
+
+    fov = xml_field_of_view(config.scene.mitsuba_xml) if config.scene.mitsuba_xml else None
+    if fov is None:
+        return False
+    derived = focal_length_for_fov(fov.fov_x_deg, config.sensor.width_m, config.lens.focus_distance_m)
+    return abs(config.lens.focal_length_mm / derived - 1.0) <= 1e-9
+
+
+def _refit_xml_focal_length(config: SceneConfig, frame: ThinLens) -> tuple[SceneConfig, ThinLens]:
+    """The focal length that keeps an XML camera's field of view at the resolved focus
+    distance (issue 26: it was derived at the file's focus distance, then ``focus_object`` moved
+    the focus and a warning blamed a focal length the user never set)."""
+    import dataclasses
+
+    from ..xml_scene import focal_length_for_fov, xml_field_of_view
+
+    fov = xml_field_of_view(config.scene.mitsuba_xml)
+    focal_mm = focal_length_for_fov(fov.fov_x_deg, config.sensor.width_m, config.lens.focus_distance_m)
+    return (config.replace(**{"lens.focal_length_mm": focal_mm}),
+            dataclasses.replace(frame, focal_length_m=focal_mm * 1e-3))
+
+
 def _lens_model_decision(config: SceneConfig, capture: ThinLens, depth: np.ndarray | None) -> tuple[str, dict]:
     from .decisions import decide_lens_model
 
@@ -346,9 +372,12 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     variant, decisions["variant"] = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
     frame = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens.layout_lens
+    keeps_xml_view = _keeps_xml_view(config)
     config, focus_record, frame = resolve_focus(config, frame)
     if focus_record is not None:
         decisions["focus"] = focus_record
+        if keeps_xml_view:  # the XML camera's field of view, kept at the new focus distance
+            config, frame = _refit_xml_focal_length(config, frame)
     capture = frame.widened(config.sensor.crop_margin_px) if with_margin else frame
     warn_wide_view(frame)
     config, decisions["illuminant"] = resolve_light(config, lens=frame, variant=variant)

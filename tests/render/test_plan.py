@@ -172,3 +172,35 @@ def test_dry_run_memory_is_within_15_percent_of_the_jobs_peak(tmp_path, scene, w
                           capture_output=True, text=True, check=True)
     peak = float(done.stdout) * 1024.0
     assert plan["budget"]["memory_bytes"] == pytest.approx(peak, rel=0.15)
+
+
+def test_focus_object_keeps_an_xml_cameras_field_of_view(tmp_path):
+    """Issue 26: an XML scene's focal length was derived from its camera's 40° at the file's
+    focus distance, then ``focus_object`` moved the focus (changing the image distance, so the
+    view) and a warning blamed a focal length the user never set. 2·atan(w/2v) must stay 40°."""
+    import math
+
+    xml = tmp_path / "near.xml"
+    xml.write_text('''<scene version="3.0.0">
+    <sensor type="perspective"><float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0, 0, -1" target="0, 0, 0" up="0, 1, 0"/></transform>
+    </sensor>
+    <shape type="sphere" id="ball"><point name="center" x="0" y="0" z="-0.6"/><float name="radius" value="0.05"/>
+        <emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>
+</scene>''')
+    from spectral_cam.render import execute
+    from spectral_cam.render.plan import make_plan
+
+    config = sc.scene_from_dict({"scene": {"mitsuba_xml": str(xml)}, "lens": {"focus_object": "ball"},
+                                 "sensor": {"width_px": 48, "height_px": 32}, "render": {"spp": 2}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sc.errors.SceneWarning)
+        plan = make_plan(config, with_margin=False)
+        image = execute(plan)
+    record = image.meta["model_decisions"]
+    assert record["focus"]["choice"] == pytest.approx(0.35, abs=1e-4)  # the ball's near surface, 0.35 m away
+    assert record["field_of_view"]["choice"] == "kept"
+    resolved = plan.config  # what scene.toml writes, rebuilt here into a lens
+    lens = ThinLens.from_config(resolved.lens, resolved.sensor)
+    assert resolved.lens.focus_distance_m == pytest.approx(0.35, abs=1e-4)
+    assert math.degrees(2 * math.atan(lens.sensor_width_m / 2 / lens.image_distance_m)) == pytest.approx(40.0, abs=1e-6)
