@@ -148,6 +148,7 @@ from .run import (
                      generate_dataset,
                      item_task,
                      local_cluster,
+                     PLANNED_SAMPLE,
                      plan_dataset,
                      render_item,
 )
@@ -170,6 +171,7 @@ __all__ = [
     "LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "defocus_map_px", "clean_camera_rgb",
     "measure_scene_blur",
     "DatasetSummary", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers", "plan_dataset",
+    "PLANNED_SAMPLE",
     "ProgressBar", "MANIFEST_EVERY_S",
     "CONTACT_SHEET_MAX", "write_contact_sheet", "write_blur_chart",
 ]

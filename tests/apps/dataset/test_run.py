@@ -308,3 +308,24 @@ def test_a_dataset_that_cannot_fit_on_the_disk_is_refused_before_rendering(tmp_p
     with pytest.raises(ConfigError, match=r"100000000000 items of about .* MB each needs about .* GB but .* free"):
         generate_dataset(spec, tmp_path / "huge", n=10 ** 11, scheduler="inline", progress=False,
                          item_function=lambda task: pytest.fail("rendered before the disk check"))
+
+
+def test_dataset_dry_run_totals_the_plans_of_its_first_items(capsys):
+    """Issue 26: ``dataset --dry-run`` plans the first items (their cost measured by probes) and
+    totals them: time over the workers, memory per worker, files; nothing rendered to disk."""
+    from spectral_cam.apps.dataset import PLANNED_SAMPLE, plan_dataset
+    from spectral_cam.cli import main
+
+    spec = spec_from_dict({"sensor": {"width_px": 24, "height_px": 16}, "render": {"spp": 4},
+                           "lens": {"f_number": {"log_uniform": [2.0, 8.0]}}})
+    text = plan_dataset(spec, n=40, workers=4)
+    assert text.count("\nitem ") + text.startswith("item ") == PLANNED_SAMPLE
+    total = text.splitlines()[-1]
+    assert total.startswith("dataset: 40 items on 4 worker processes: about ")
+    item_s = float(total.split("(")[1].split(" s an item")[0])
+    assert float(total.split("about ")[1].split(" s")[0]) == pytest.approx(item_s * 40 / 4, rel=0.01)
+    assert "inline" not in plan_dataset(spec, n=40, scheduler="inline") and \
+        "on 1 worker process:" in plan_dataset(spec, n=40, scheduler="inline")
+    capsys.readouterr()
+    assert main(["dataset", str(Path(__file__).resolve().parents[3] / "plans" / "dataset_example.toml")]) == 2
+    assert "-o DIR" in capsys.readouterr().err
