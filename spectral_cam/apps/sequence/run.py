@@ -184,6 +184,19 @@ def _write_labels(image, folder: Path) -> None:
                            {"spectral_cam_units": "signed CoC diameter, pixels (+ behind focus)"})
 
 
+def _write_camera(image, config, raw, folder: Path) -> None:
+    """The frame's camera.json (:func:`spectral_cam.camera_record.camera_record`): intrinsics,
+    distortion, pose and the exposure this camera mode chose (frames rendered before camera.json
+    existed carry no pose: none is written)."""
+    from ...camera_record import camera_record
+
+    if "camera_to_world" in image.meta:
+        write_json(camera_record(image.lens, image.meta["camera_to_world"], distortion=config.lens.distortion,
+                                 lens_model=image.meta.get("lens_model", config.lens.model),
+                                 exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso")),
+                   folder / "camera.json")
+
+
 def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int | None = None) -> list[dict]:
     """Run the camera in ``mode`` over the rendered frames; write ``output/<mode>``; the rows of
     its frames.csv."""
@@ -219,6 +232,7 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
             write_dng(raw, folder / "raw.dng")
             write_image(developed, folder / "image.png")
             _write_labels(image, folder)
+            _write_camera(image, config, raw, folder)
             next_state = ae.step(state, bayer_luminance(stats))
             next_white = awb.step(white_state, stats)
             row = {"frame": index, "hour": spec.hours[index], "exposure_s": state.time_s, "iso": state.iso,

@@ -121,3 +121,21 @@ def test_a_sequence_that_cannot_fit_on_the_disk_is_refused_before_rendering(tmp_
     with pytest.raises(ConfigError, match=r"3 frames of about .* MB each needs about .* GB but .* free"):
         run_sequence(spec, tmp_path / "seq", modes=("auto", "locked"), scheduler="inline")
     assert not (tmp_path / "seq").exists()
+
+
+def test_each_frame_has_its_camera_json_with_the_exposure_used(tmp_path):
+    """Issue 27 #1: a sequence writes camera.json per frame; its exposure is the one the frame's
+    RAW carries (EXIF ExposureTime via the RAW's meta) and K is v/p of the frame."""
+    import json
+
+    from spectral_cam.optics import ThinLens
+
+    spec = _spec({"illuminant.illuminance_lux": [1000.0, 4000.0]}, 2)
+    result = run_sequence(spec, tmp_path, modes=("auto",), scheduler="inline")
+    for row in result["cameras"]["auto"]:
+        camera = json.loads((tmp_path / "auto" / f"{row['frame']:04d}" / "camera.json").read_text())
+        assert camera["exposure_s"] == pytest.approx(row["exposure_s"], rel=1e-12)
+        config = spec.frame_config(row["frame"])
+        lens = ThinLens.from_config(config.lens, config.sensor)
+        assert camera["K"][0][0] == pytest.approx(lens.image_distance_m / lens.pixel_pitch_m, rel=1e-12)
+        assert camera["image_size"] == [32, 24]
