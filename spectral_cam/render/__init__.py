@@ -1,11 +1,12 @@
-"""Spectral rendering with Mitsuba 3: passes, seeds, model decisions, depth.
+"""Spectral rendering with Mitsuba 3: the capture plan, passes, seeds, depth.
 
 The only package that imports Mitsuba. :func:`render` turns a
 :class:`~spectral_cam.scene.SceneConfig` into a :class:`~spectral_cam.image.SpectralImage`
 of band radiances (W·m⁻²·sr⁻¹ per band: each value the integral of L(λ) over its band, as
-Mitsuba's ``specfilm`` returns it) and a depth map. ``variants`` picks the Mitsuba variant,
-``films`` what a pixel integrates, ``scene_dict`` builds the Mitsuba scene, ``decisions``
-the model choices, ``depth`` the depth pass and ``defocus`` the depth-layered lens model.
+Mitsuba's ``specfilm`` returns it) and a depth map: ``plan`` makes every decision once (with
+the rules of ``decisions``), :func:`execute` renders the plan. ``variants`` picks the Mitsuba
+variant, ``films`` what a pixel integrates, ``scene_dict`` builds the Mitsuba scene, ``trace``
+the passes, ``depth`` the depth pass and ``defocus`` the depth-layered lens model.
 
 References
 ----------

@@ -104,6 +104,11 @@ class CapturePlan:
         return 6 if self.camera_film else len(parse_bands(self.band_spec))
 
     @property
+    def crop_margin_px(self) -> int:
+        """Real pixels rendered around the frame for the RAW's crop (0 for a plain render)."""
+        return (self.capture_lens.width_px - self.lens.width_px) // 2
+
+    @property
     def band_spec(self) -> str:
         """The spectral band grid of the render (the diffraction PSF's, for a camera film too)."""
         bands = self.config.render.bands
@@ -120,7 +125,7 @@ class CapturePlan:
                          "diffraction": self.diffraction},
                 "optics": frame_optics(self.capture_lens),
                 "frame": {"width_px": self.lens.width_px, "height_px": self.lens.height_px,
-                          "crop_margin_px": self.config.sensor.crop_margin_px,
+                          "crop_margin_px": self.crop_margin_px,
                           "layered_margin_px": self.layered_margin_px, "tiles": self.tiles,
                           "estimator_passes": self.estimator_passes, "seed": self.config.render.seed},
                 "budget": {k: v for k, v in self.budget.items() if k != "memory_available_bytes"},
@@ -134,7 +139,7 @@ class CapturePlan:
         lines.append(f"optics: {lens.focal_length_m * 1e3:.4g} mm f/{lens.f_number:.3g} focused at "
                      f"{lens.focus_distance_m:.4g} m, {lens.fov_x_deg:.3g}° × {lens.fov_y_deg:.3g}° on "
                      f"{lens.sensor_width_m * 1e3:.3g} × {lens.sensor_height_m * 1e3:.3g} mm "
-                     f"({lens.width_px} × {lens.height_px} px, +{self.config.sensor.crop_margin_px} px crop margin"
+                     f"({lens.width_px} × {lens.height_px} px, +{self.crop_margin_px} px crop margin"
                      + (f", +{self.layered_margin_px} px defocus margin" if self.layered_margin_px else "") + ")")
         budget = self.budget
         spp = self.config.render.spp
