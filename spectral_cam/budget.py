@@ -31,7 +31,6 @@ def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str
     before rendering: radiance.exr uncompressed (bands × ``render.radiance_precision``), depth
     float32, the DNG's 16-bit mosaic with its crop margin, the developed images uncompressed.
     An upper bound within a few percent for the EXR and DNG (tests/test_output_size.py)."""
-    from .scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT
     from .spectra import parse_bands
 
     sensor = config.sensor
@@ -41,7 +40,7 @@ def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str
     sizes: dict[str, float] = {}
     for name in names:
         if name == "radiance":
-            bands = len(parse_bands(SPECTRAL_BANDS_DEFAULT if config.render.bands in BAND_MODES else config.render.bands))
+            bands = len(parse_bands(config.render.spectral_bands))
             sizes[name] = header + pixels * bands * (2 if config.render.radiance_precision == "half" else 4)
         elif name == "depth":
             sizes[name] = header + pixels * 4

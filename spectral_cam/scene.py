@@ -512,6 +512,12 @@ class RenderSection:
     sampler: str = "multijitter"
     estimator: str = "auto"
 
+    @property
+    def spectral_bands(self) -> str:
+        """The band grid of the render's spectrum: ``bands`` itself, or the default grid for
+        ``"auto"`` and ``"camera"`` (a camera film's diffraction PSF is per band too)."""
+        return self.bands if self.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
+
     def __post_init__(self) -> None:
         if self.estimator not in RENDER_ESTIMATORS:
             _fail("render.estimator", self.estimator, f"valid: {', '.join(RENDER_ESTIMATORS)} (auto: the adaptive median "

@@ -349,7 +349,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     t0 = time.perf_counter()
     data = blurred.data
     if plan.diffraction:
-        bands = spectra.parse_bands(plan.band_spec)
+        bands = spectra.parse_bands(plan.config.render.spectral_bands)
         data = lens.apply_diffraction(data, bands.centres_nm, out=data if data.dtype == np.float32 else None)
     timings["diffraction"] = time.perf_counter() - t0
     crop = (slice(margin, margin + height), slice(margin, margin + width))

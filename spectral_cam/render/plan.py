@@ -32,7 +32,7 @@ import numpy as np
 
 from ..budget import estimate_result_bytes, measured_budget
 from ..optics import ThinLens
-from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
+from ..scene import SceneConfig
 
 __all__ = ["CapturePlan", "make_plan", "layered_margin", "warn_wide_view", "xml_field_of_view_record",
            "WIDEST_RECTILINEAR_DEG"]
@@ -101,18 +101,12 @@ class CapturePlan:
         """Values per pixel of the film: 6 camera channels or the spectral bands."""
         from ..spectra import parse_bands
 
-        return 6 if self.camera_film else len(parse_bands(self.band_spec))
+        return 6 if self.camera_film else len(parse_bands(self.config.render.spectral_bands))
 
     @property
     def crop_margin_px(self) -> int:
         """Real pixels rendered around the frame for the RAW's crop (0 for a plain render)."""
         return (self.capture_lens.width_px - self.lens.width_px) // 2
-
-    @property
-    def band_spec(self) -> str:
-        """The spectral band grid of the render (the diffraction PSF's, for a camera film too)."""
-        bands = self.config.render.bands
-        return bands if bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
 
     def record(self) -> dict:
         """The plan as plain JSON-ready data (``meta.json → plan``): decisions, optics, frame,
@@ -121,7 +115,7 @@ class CapturePlan:
 
         return {"lens_model": self.lens_model, "variant": self.variant,
                 "film": {"kind": "camera" if self.camera_film else "bands",
-                         "bands": None if self.camera_film else self.band_spec, "channels": self.channels,
+                         "bands": None if self.camera_film else self.config.render.spectral_bands, "channels": self.channels,
                          "diffraction": self.diffraction},
                 "optics": frame_optics(self.capture_lens),
                 "frame": {"width_px": self.lens.width_px, "height_px": self.lens.height_px,
@@ -297,7 +291,7 @@ def measure_cost(config: SceneConfig, traced: ThinLens, lens_model: str, variant
     from .scene_dict import build_scene, camera_dict, exact_pass_spp
 
     spp = exact_pass_spp(config.render.sampler, PROBE_SPP)
-    bands = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
+    bands = config.render.spectral_bands
     lens, loaded, runs, resident = config.lens, None, [], None
     widths = (min(PROBE_WIDTH_PX, traced.width_px), min(4 * PROBE_WIDTH_PX, traced.width_px))
     for width in dict.fromkeys(widths):  # one size where the frame is no wider than the first
@@ -392,8 +386,8 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
 
     # memory before anything renders, at the most the decisions to come can need (31 bands unless
     # the camera film is asked; the layered model only where asked: auto's choice is checked again)
-    most = 6 if config.render.bands == "camera" else len(parse_bands(
-        config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT))
+    bands = parse_bands(config.render.spectral_bands)
+    most = 6 if config.render.bands == "camera" else len(bands)
     check_render_memory(capture.width_px, capture.height_px, channels=most, layered=config.lens.model == "layered",
                         robust_passes=groups)
     depth, depth_s = None, 0.0
@@ -405,8 +399,6 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     margin = layered_margin(capture, depth) if lens_model == "layered" else 0
     traced = capture.widened(margin)
 
-    band_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
-    bands = parse_bands(band_spec)
     diffract, decisions["diffraction"] = decide_diffraction(capture, bands, config.render.diffraction)
     camera_film, decisions["bands"] = decide_bands(config, diffract)
     channels = 6 if camera_film else len(bands)

@@ -22,7 +22,7 @@ from .. import spectra
 from ..errors import ConfigError, RenderError
 from ..image import SpectralImage
 from ..optics import ThinLens
-from ..scene import BAND_MODES, SPECTRAL_BANDS_DEFAULT, SceneConfig
+from ..scene import SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass
 from .robust import adaptive_median_of_means
 from .films import band_film, camera_film as camera_film_dict
@@ -204,7 +204,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
 
     width, height = lens.width_px, lens.height_px  # the frame, or the frame and its margin
     decisions = dict(decisions or {})
-    spectral_spec = config.render.bands if config.render.bands not in BAND_MODES else SPECTRAL_BANDS_DEFAULT
+    spectral_spec = config.render.spectral_bands
     bands = spectra.parse_bands(spectral_spec)
     diffract, use_camera = diffraction, camera_film
     if use_camera:
