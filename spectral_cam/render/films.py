@@ -37,6 +37,14 @@ def band_film(bands: spectra.BandGrid, width: int, height: int) -> dict:
     return film
 
 
+def render_film(config: SceneConfig, camera: bool, width: int, height: int) -> dict:
+    """The film a capture plan chose: :func:`camera_film` when ``camera``, else
+    :func:`band_film` of ``render.spectral_bands``."""
+    if camera:
+        return camera_film(config, width, height)
+    return band_film(spectra.parse_bands(config.render.spectral_bands), width, height)
+
+
 def camera_film(config: SceneConfig, width: int, height: int) -> dict:
     """A 6-channel ``specfilm``: the photon-weighted camera curves η_c(λ)·T(λ)·λ/λ_ref
     (:func:`spectral_cam.sensor.film_curves`) and the CIE 1931 2° CMFs, so one render

@@ -286,23 +286,17 @@ def measure_cost(config: SceneConfig, traced: ThinLens, lens_model: str, variant
 
     import mitsuba as mi
 
-    from .. import spectra
-    from .films import band_film, camera_film as camera_film_dict
-    from .scene_dict import build_scene, camera_dict, exact_pass_spp
+    from .films import render_film
+    from .scene_dict import build_scene, configured_camera, exact_pass_spp
 
     spp = exact_pass_spp(config.render.sampler, PROBE_SPP)
-    bands = config.render.spectral_bands
-    lens, loaded, runs, resident = config.lens, None, [], None
+    loaded, runs, resident = None, [], None
     widths = (min(PROBE_WIDTH_PX, traced.width_px), min(4 * PROBE_WIDTH_PX, traced.width_px))
     for width in dict.fromkeys(widths):  # one size where the frame is no wider than the first
         height = max(1, round(width * traced.height_px / traced.width_px))
         probe = dataclasses.replace(traced, width_px=width, height_px=height, frame_lens=traced.layout_lens)
-        film = (camera_film_dict(config, width, height) if camera_film else
-                band_film(spectra.parse_bands(bands), width, height))
-        camera = camera_dict(mi, probe, "pinhole" if lens_model == "layered" else lens_model, film, spp,
-                             config.render.sampler, glass=lens.glass, prescription=lens.prescription,
-                             blades=lens.blades, blade_rotation_deg=lens.blade_rotation_deg,
-                             blade_rounding=lens.blade_rounding, distortion=lens.distortion)
+        camera = configured_camera(mi, config, probe, "pinhole" if lens_model == "layered" else lens_model,
+                                   render_film(config, camera_film, width, height), spp)
         started = time.perf_counter()
         scene, sensor, integrator = build_scene(mi, config, probe, camera,
                                                 {"type": "path", "max_depth": config.render.max_depth})

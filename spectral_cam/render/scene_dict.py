@@ -162,6 +162,16 @@ def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: s
     return camera
 
 
+def configured_camera(mi, config: SceneConfig, lens: ThinLens, model: str, film: dict, spp: int) -> dict:
+    """:func:`camera_dict` with ``render.sampler`` and the ``[lens]`` section's glass,
+    prescription, aperture blades and distortion: the camera a render of ``config`` traces."""
+    section = config.lens
+    return camera_dict(mi, lens, model, film, spp, config.render.sampler, glass=section.glass,
+                       prescription=section.prescription, blades=section.blades,
+                       blade_rotation_deg=section.blade_rotation_deg, blade_rounding=section.blade_rounding,
+                       distortion=section.distortion)
+
+
 def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrator: dict):
     """Load (scene, sensor, integrator). Presets are built as one scene dict; a user's
     Mitsuba XML scene keeps its shapes, emitters and its first sensor's pose, while our

@@ -25,10 +25,10 @@ from ..optics import ThinLens
 from ..scene import SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass
 from .robust import adaptive_median_of_means
-from .films import band_film, camera_film as camera_film_dict
+from .films import render_film
 from .motion import ObjectMotion, subframe_transform
-from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, exact_pass_spp, frame_tiles, moved_sensor, pass_seed,
-                         release_render_memory, tile_sensors)
+from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, configured_camera, exact_pass_spp, frame_tiles,
+                         moved_sensor, pass_seed, release_render_memory, tile_sensors)
 
 #: Most wavefront lanes (pixels × spp) of one Mitsuba call in the vectorised variants. Mitsuba's
 #: path tracer runs as a symbolic loop whose memory does not grow with the lanes (measured: see
@@ -210,10 +210,10 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     if use_camera:
         from ..sensor import CAMERA_CHANNELS
 
-        film, channels = camera_film_dict(config, width, height), CAMERA_CHANNELS
+        channels = CAMERA_CHANNELS
         wavelengths, edges = np.array([]), np.asarray(spectra.MITSUBA_RANGE_NM)
     else:
-        film, channels = band_film(bands, width, height), None
+        channels = None
         wavelengths, edges = np.asarray(bands.centres_nm), np.asarray(bands.edges_nm)
     n_channels = len(channels) if channels else len(bands)
 
@@ -229,10 +229,8 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         monitor = NoiseMonitor(config, wavelengths, edges, channels, lens)
 
     started = time.perf_counter()
-    camera = camera_dict(mi, lens, lens_model, film, spp_per_pass, sampler, glass=config.lens.glass,
-                         prescription=config.lens.prescription, blades=config.lens.blades,
-                         blade_rotation_deg=config.lens.blade_rotation_deg, blade_rounding=config.lens.blade_rounding,
-                         distortion=config.lens.distortion)
+    camera = configured_camera(mi, config, lens, lens_model, render_film(config, use_camera, width, height),
+                               spp_per_pass)
     integrator = {"type": "path", "max_depth": config.render.max_depth}
     scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
