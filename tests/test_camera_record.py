@@ -6,6 +6,7 @@ independently with ``scipy.ndimage.label``) are the reference."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 import cv2
@@ -83,7 +84,7 @@ def test_our_python_cameras_follow_an_xml_cameras_pose(tmp_path, model):
         lens["glass"] = "ideal"
     scene = {"scene": {"mitsuba_xml": str(_xml(tmp_path / "dots.xml"))}, "sensor": {"width_px": 96, "height_px": 72},
              "lens": lens, "illuminant": {"emitter": "dot0"}, "render": {"spp": 16, "diffraction": "off"}}
-    with pytest.warns() if model == "prescription" else _no_warning():
+    with pytest.warns() if model == "prescription" else contextlib.nullcontext():
         ours = sc.render(sc.scene_from_dict(scene))
     if model == "spectral_thin":
         mitsuba = sc.render(sc.scene_from_dict({**scene, "lens": {**lens, "model": "thin"}}))
@@ -94,9 +95,3 @@ def test_our_python_cameras_follow_an_xml_cameras_pose(tmp_path, model):
         assert light.sum() > 0
         row, column = ndimage.center_of_mass(light)
         assert abs(column - 47.5) < 1.0 and abs(row - 35.5) < 1.0
-
-
-def _no_warning():
-    import contextlib
-
-    return contextlib.nullcontext()

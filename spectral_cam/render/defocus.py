@@ -322,7 +322,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     .. [1] Potmesil & Chakravarty (1981), Proc. SIGGRAPH '81, 297–305.
     .. [2] Kraus & Strengert (2007), Computer Graphics Forum 26(3), 645–654.
     """
-    from .plan import make_plan
+    from .plan import clamp_margin, make_plan
 
     if not (margin_px == "auto" or (isinstance(margin_px, int) and margin_px >= 0)):
         raise ConfigError(f"margin_px {margin_px!r} must be 'auto' or a whole number of pixels >= 0")
@@ -332,8 +332,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     started = time.perf_counter()
     lens = plan.capture_lens
     width, height = lens.width_px, lens.height_px
-    margin = plan.layered_margin_px if margin_px == "auto" else \
-        min(margin_px, max(width, height), (20000 - max(width, height)) // 2)
+    margin = plan.layered_margin_px if margin_px == "auto" else clamp_margin(lens, margin_px)
     t0 = time.perf_counter()
     wide_lens = lens.widened(margin)  # the scene stays laid out for the frame
     sharp = trace(plan.config, wide_lens, "pinhole", variant=plan.variant, camera_film=plan.camera_film,

@@ -23,6 +23,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ from ..budget import estimate_result_bytes, measured_budget
 from ..optics import ThinLens
 from ..scene import SceneConfig
 
-__all__ = ["CapturePlan", "make_plan", "layered_margin", "warn_wide_view", "xml_field_of_view_record",
+__all__ = ["CapturePlan", "make_plan", "layered_margin", "clamp_margin", "warn_wide_view", "xml_field_of_view_record",
            "WIDEST_RECTILINEAR_DEG"]
 
 @dataclass(frozen=True)
@@ -163,7 +164,6 @@ def warn_wide_view(lens: ThinLens) -> None:
     diagonal = lens.fov_diagonal_deg
     if diagonal <= WIDEST_RECTILINEAR_DEG:
         return
-    import math
     import warnings
 
     from ..errors import SceneWarning
@@ -203,30 +203,15 @@ def xml_field_of_view_record(config: SceneConfig, lens: ThinLens) -> dict:
             "lens.focal_length_mm set in the scene file replaces the XML camera's field of view"}
 
 
-def _keeps_xml_view(config: SceneConfig) -> bool:
-    """Whether ``lens.focal_length_mm`` is the one derived from an XML camera's field of view (left
-    unset by the user), which a new focus distance must re-derive to keep that view."""
+def _xml_focal_length_mm(config: SceneConfig) -> float | None:
+    """The focal length (mm) that gives an XML scene's camera its field of view on this sensor at
+    ``lens.focus_distance_m``; None without an XML camera whose field of view can be read."""
     from ..xml_scene import focal_length_for_fov, xml_field_of_view
 
     fov = xml_field_of_view(config.scene.mitsuba_xml) if config.scene.mitsuba_xml else None
     if fov is None:
-        return False
-    derived = focal_length_for_fov(fov.fov_x_deg, config.sensor.width_m, config.lens.focus_distance_m)
-    return abs(config.lens.focal_length_mm / derived - 1.0) <= 1e-9
-
-
-def _refit_xml_focal_length(config: SceneConfig, frame: ThinLens) -> tuple[SceneConfig, ThinLens]:
-    """The focal length that keeps an XML camera's field of view at the resolved focus
-    distance (issue 26: it was derived at the file's focus distance, then ``focus_object`` moved
-    the focus and a warning blamed a focal length the user never set)."""
-    import dataclasses
-
-    from ..xml_scene import focal_length_for_fov, xml_field_of_view
-
-    fov = xml_field_of_view(config.scene.mitsuba_xml)
-    focal_mm = focal_length_for_fov(fov.fov_x_deg, config.sensor.width_m, config.lens.focus_distance_m)
-    return (config.replace(**{"lens.focal_length_mm": focal_mm}),
-            dataclasses.replace(frame, focal_length_m=focal_mm * 1e-3))
+        return None
+    return focal_length_for_fov(fov.fov_x_deg, config.sensor.width_m, config.lens.focus_distance_m)
 
 
 def _lens_model_decision(config: SceneConfig, capture: ThinLens, depth: np.ndarray | None) -> tuple[str, dict]:
@@ -245,8 +230,14 @@ def layered_margin(lens: ThinLens, depth: np.ndarray) -> int:
     reach = [float(lens.coc_diameter_px(z)) for z in (finite.min(), finite.max())] if finite.size else []
     if not np.all(np.isfinite(depth)):
         reach.append(float(lens.coc_diameter_px(math.inf)))
-    margin = int(math.ceil(max(reach, default=0.0) / 2.0)) + 1
-    return min(margin, max(lens.width_px, lens.height_px), (20000 - max(lens.width_px, lens.height_px)) // 2)
+    return clamp_margin(lens, int(math.ceil(max(reach, default=0.0) / 2.0)) + 1)
+
+
+def clamp_margin(lens: ThinLens, margin: int) -> int:
+    """A layered margin the widened film can hold: at most the frame's longer side, and the film
+    at most 20000 px wide."""
+    longest = max(lens.width_px, lens.height_px)
+    return min(margin, longest, (20000 - longest) // 2)
 
 
 #: Frame width (px) and samples per pixel of the radiance probe that measures a scene's cost.
@@ -282,8 +273,6 @@ def measure_cost(config: SceneConfig, traced: ThinLens, lens_model: str, variant
         ``scene_load_s``, ``compile_s``, ``call_s``, ``s_per_msample`` (seconds per million
         pixel-samples), ``resident_bytes``.
     """
-    import dataclasses
-
     import mitsuba as mi
 
     from .films import render_film
@@ -365,12 +354,18 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     variant, decisions["variant"] = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
     frame = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens.layout_lens
-    keeps_xml_view = _keeps_xml_view(config)
+    # a focal length derived from an XML camera (left unset by the user) must be derived again
+    # where focus_object moves the focus, to keep that camera's field of view (issue 26: a
+    # warning blamed a focal length the user never set)
+    derived_mm = _xml_focal_length_mm(config)
+    keeps_xml_view = derived_mm is not None and abs(config.lens.focal_length_mm / derived_mm - 1.0) <= 1e-9
     config, focus_record, frame = resolve_focus(config, frame)
     if focus_record is not None:
         decisions["focus"] = focus_record
-        if keeps_xml_view:  # the XML camera's field of view, kept at the new focus distance
-            config, frame = _refit_xml_focal_length(config, frame)
+        if keeps_xml_view:
+            focal_mm = _xml_focal_length_mm(config)
+            config = config.replace(**{"lens.focal_length_mm": focal_mm})
+            frame = dataclasses.replace(frame, focal_length_m=focal_mm * 1e-3)
     capture = frame.widened(config.sensor.crop_margin_px) if with_margin else frame
     warn_wide_view(frame)
     config, decisions["illuminant"] = resolve_light(config, lens=frame, variant=variant)
