@@ -189,8 +189,8 @@ def _write_illuminant(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     return [write_json(record, folder / "illuminant.json")]
 
 
-_WRITERS = {"radiance": _write_radiance, "camera": _write_camera, "illuminant": _write_illuminant, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
-            "scene": _write_scene}
+_WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
+            "camera": _write_camera, "illuminant": _write_illuminant, "scene": _write_scene}
 #: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
 #: ``<stem>.<isp.outputs>``, camera.json, illuminant.json and scene.toml.
 RESULT_FILES = tuple(_WRITERS)
@@ -275,7 +275,7 @@ def write_meta(sim: Simulation, folder: str | Path, files: Iterable[str | Path],
 def render_job_files(config: SceneConfig, spectral_output: bool | None = None) -> list[str]:
     """The result files (:data:`RESULT_FILES`) a render job writes: radiance.exr when a spectral
     output is asked (``render.spectral_output``, or ``spectral_output`` given) and the film can
-    hold one, then depth, RAW, image and scene."""
+    hold one, then depth, RAW, image, camera.json, illuminant.json and scene."""
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
     names = ["depth", "raw", "image", "camera", "illuminant", "scene"]
     if spectral_output and config.render.bands != "camera":
@@ -324,8 +324,9 @@ def run_render_job(
     sizes = estimate_result_bytes(config, names)
     parts = ", ".join(f"{name} {size / 1e9:.2g} GB" for name, size in sizes.items() if size > 1e8)
     check_free_disk(sum(sizes.values()), Path(output).parent,
-                    what=f"the result folder {output}" + (f" ({parts})" if parts else ""), remedy="free space or choose -o elsewhere; render.radiance_precision = 'half' halves radiance.exr, "
-                    "render.spectral_output = false drops it")
+                    what=f"the result folder {output}" + (f" ({parts})" if parts else ""),
+                    remedy="free space or choose -o elsewhere; render.radiance_precision = 'half' halves "
+                           "radiance.exr, render.spectral_output = false drops it")
     with staged_directory(output, force=force) as stage:
         sim = simulate(config, progress=progress, outputs=names)
         timings = dict(sim.timings_s)

@@ -88,11 +88,7 @@ def write_spectral_exr(image: SpectralImage, path: str | Path, *, precision: str
     }
     height, width = cube.shape[:2]
     if precision == "half":
-        peak = float(np.max(np.max(cube, axis=(0, 1)) / np.asarray(image.band_widths_nm, dtype=float))) if cube.size else 0.0
-        if peak > HALF_MAX:
-            raise ConfigError(f"render.radiance_precision = 'half' cannot hold this radiance: it reaches {peak:.4g} "
-                              f"W·m⁻²·sr⁻¹·nm⁻¹, beyond the largest half ({HALF_MAX:g}); use 'float'")
-        _warn_subnormal(cube, image.band_widths_nm)
+        _check_half_range(cube, image.band_widths_nm)
     codec = resolve_compression("auto", rows, height, precision)
     return write_exr(path, [names[i] for i in order], width, height, rows, attributes=attributes, compression=codec,
                      pixel_type=precision)
@@ -103,15 +99,23 @@ def write_spectral_exr(image: SpectralImage, path: str | Path, *, precision: str
 SUBNORMAL_WARN_FRACTION = 0.01
 
 
-def _warn_subnormal(cube: np.ndarray, band_widths_nm) -> None:
-    """A SceneWarning when a dim scene puts many values below half's normal range (a 1000-lux
-    ColorChecker: 15 % of them; a 1-lux one: all of them, measured in docs/design.md)."""
+def _check_half_range(cube: np.ndarray, band_widths_nm) -> None:
+    """Whether the per-nm radiance fits a half, in one pass over the cube in blocks of 64 rows
+    (bounded memory on a 45 MP cube): a ConfigError where a value passes the largest half
+    (written as infinity), a SceneWarning when a dim scene puts many values below half's normal
+    range (a 1000-lux ColorChecker: 15 % of them; a 1-lux one: all of them, docs/design.md)."""
     widths = np.asarray(band_widths_nm, dtype=np.float32)
-    below = positive = 0
-    for first in range(0, cube.shape[0], 64):  # bounded memory on a 45 MP cube
+    peak, below, positive = 0.0, 0, 0
+    for first in range(0, cube.shape[0], 64):
         block = np.asarray(cube[first:first + 64], dtype=np.float32) / widths
-        positive += int(np.count_nonzero(block > 0))
-        below += int(np.count_nonzero((block > 0) & (block < HALF_MIN_NORMAL)))
+        if block.size:
+            peak = max(peak, float(block.max()))
+        lit = block > 0
+        positive += int(np.count_nonzero(lit))
+        below += int(np.count_nonzero(lit & (block < HALF_MIN_NORMAL)))
+    if peak > HALF_MAX:
+        raise ConfigError(f"render.radiance_precision = 'half' cannot hold this radiance: it reaches {peak:.4g} "
+                          f"W·m⁻²·sr⁻¹·nm⁻¹, beyond the largest half ({HALF_MAX:g}); use 'float'")
     if positive and below / positive > SUBNORMAL_WARN_FRACTION:
         import warnings
 
