@@ -25,7 +25,7 @@ import numpy as np
 
 from .optics import ThinLens
 
-__all__ = ["camera_record", "illuminant_record", "intrinsics_matrix", "MITSUBA_TO_OPENCV", "MITSUBA_TO_OPENGL"]
+__all__ = ["camera_record", "capture_camera_record", "illuminant_record", "intrinsics_matrix", "MITSUBA_TO_OPENCV", "MITSUBA_TO_OPENGL"]
 
 #: Camera-frame axes of OpenCV from Mitsuba's (x left → right, y up → down, z forward kept).
 MITSUBA_TO_OPENCV = np.diag([-1.0, -1.0, 1.0, 1.0])
@@ -97,6 +97,17 @@ def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0,
         "exposure_s": exposure_s,
         "iso": iso,
     }
+
+
+def capture_camera_record(radiance, config, raw) -> dict | None:
+    """:func:`camera_record` of a capture: the rendered image's lens and pose
+    (``meta["camera_to_world"]``), the config's distortion, the RAW's exposure. None for an
+    image rendered before poses were recorded."""
+    if "camera_to_world" not in radiance.meta:
+        return None
+    return camera_record(radiance.lens, radiance.meta["camera_to_world"], distortion=config.lens.distortion,
+                         lens_model=radiance.meta.get("lens_model", config.lens.model),
+                         exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso"))
 
 
 def illuminant_record(spd: str, neutral, *, sensor_model: str, emitter: str = "",

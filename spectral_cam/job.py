@@ -166,13 +166,9 @@ def _write_scene(sim: Simulation, folder: Path, stem: str) -> list[Path]:
 
 def _write_camera(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     """camera.json: intrinsics, distortion and pose (:func:`spectral_cam.camera_record.camera_record`)."""
-    from .camera_record import camera_record
+    from .camera_record import capture_camera_record
 
-    meta = sim.radiance.meta
-    record = camera_record(sim.lens, meta["camera_to_world"], distortion=sim.config.lens.distortion,
-                           lens_model=meta.get("lens_model", sim.config.lens.model),
-                           exposure_s=sim.raw.meta.get("exposure_s"), iso=sim.raw.meta.get("iso"))
-    return [write_json(record, folder / "camera.json")]
+    return [write_json(capture_camera_record(sim.radiance, sim.config, sim.raw), folder / "camera.json")]
 
 
 def _write_illuminant(sim: Simulation, folder: Path, stem: str) -> list[Path]:

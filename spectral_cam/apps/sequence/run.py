@@ -188,13 +188,11 @@ def _write_camera(image, config, raw, folder: Path) -> None:
     """The frame's camera.json (:func:`spectral_cam.camera_record.camera_record`): intrinsics,
     distortion, pose and the exposure this camera mode chose (frames rendered before camera.json
     existed carry no pose: none is written)."""
-    from ...camera_record import camera_record
+    from ...camera_record import capture_camera_record
 
-    if "camera_to_world" in image.meta:
-        write_json(camera_record(image.lens, image.meta["camera_to_world"], distortion=config.lens.distortion,
-                                 lens_model=image.meta.get("lens_model", config.lens.model),
-                                 exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso")),
-                   folder / "camera.json")
+    record = capture_camera_record(image, config, raw)
+    if record is not None:
+        write_json(record, folder / "camera.json")
 
 
 def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int | None = None) -> list[dict]:
