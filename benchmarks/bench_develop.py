@@ -47,7 +47,7 @@ def make_dng(path: Path, megapixels: float) -> Path:
     import cv2
 
     from spectral_cam import expose, scene_from_dict
-    from spectral_cam.charts import narrow_band_flat
+    from spectral_cam.radiance_targets import narrow_band_flat
     from spectral_cam.raw import RawImage, write_dng
 
     width = int(round(np.sqrt(megapixels * 1e6 * 1.5) / 2)) * 2

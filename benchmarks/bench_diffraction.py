@@ -7,7 +7,7 @@ thread, interleaved, the order rotated each repeat. Wall time and process CPU ti
 threads) are taken without tracing; the peak of Python-tracked allocations (NumPy and
 scipy's arrays, the output cube included, the input cube not) in one further traced run of
 each. The new result is compared with the legacy one (they differ only at the border: the
-fast sizes reflect a few more pixels, see tests/test_optics_mtf.py) and its bytes with the
+fast sizes reflect a few more pixels, see tests/optics/test_thin_lens_mtf.py) and its bytes with the
 one-thread result.
 
 Usage::
@@ -68,7 +68,7 @@ def legacy_apply_diffraction(lens, data: np.ndarray, wavelengths_nm) -> np.ndarr
 def build_cube(width: int, height: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """A 31-band radiance cube (float32, (H, W, 31)): D65-lit ColorChecker spectra in random
     16-px blocks under a smooth gradient, and the band centres (nm)."""
-    from spectral_cam.charts import lambertian_radiance, reflectance_set
+    from spectral_cam.radiance_targets import lambertian_radiance, reflectance_set
     from spectral_cam.spectra import parse_bands
 
     bands = parse_bands("400:700:10")

@@ -76,8 +76,8 @@ def main() -> None:
     from spectral_cam import expose, scene_from_dict
     from spectral_cam.apps.bench.common import timed, write_rows
     from spectral_cam.apps.bench.isp import libraw_xyz
-    from spectral_cam.charts import reflectance_set, synthetic_chart
-    from spectral_cam.colorimetry import patch_linear_srgb, xyz_to_linear_srgb
+    from spectral_cam.radiance_targets import reflectance_set, synthetic_chart
+    from spectral_cam.colour_ground_truth import patch_linear_srgb, xyz_to_linear_srgb
     from spectral_cam.isp import ISPConfig, develop
     from spectral_cam.metrics import colorchecker_delta_e
     from spectral_cam.raw import read_raw, write_dng

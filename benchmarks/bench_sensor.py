@@ -35,7 +35,7 @@ import numpy as np
 def build_cube(width: int, height: int, seed: int = 0):
     """A 31-band radiance cube: D65-lit ColorChecker-like spectra, randomly placed, with a
     smooth illumination gradient (float32, W·m⁻²·sr⁻¹ per band)."""
-    from spectral_cam.charts import lambertian_radiance, reflectance_set
+    from spectral_cam.radiance_targets import lambertian_radiance, reflectance_set
     from spectral_cam.image import SpectralImage
     from spectral_cam.spectra import parse_bands
 

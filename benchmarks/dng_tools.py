@@ -84,7 +84,7 @@ def chart_dng(directory: Path, illuminant: str):
     """The noise-free synthetic ColorChecker under ``illuminant`` as our DNG (as the suite's
     ``_chart_dng`` builds it, with larger patches); returns ``(chart, path)``."""
     from spectral_cam import expose, scene_from_dict
-    from spectral_cam.charts import reflectance_set, synthetic_chart
+    from spectral_cam.radiance_targets import reflectance_set, synthetic_chart
     from spectral_cam.raw import write_dng
 
     chart = synthetic_chart(reflectance_set("colorchecker"), illuminant, patch_px=PATCH_PX, gap_px=GAP_PX,
@@ -235,7 +235,7 @@ TOOLS = (
 # ----------------------------------------------------------------------------- the run
 def measure(work: Path, log=print) -> tuple[list[dict], list[str]]:
     """Every installed tool on both charts: the CSV rows and one line per tool not run."""
-    from spectral_cam.colorimetry import patch_linear_srgb
+    from spectral_cam.colour_ground_truth import patch_linear_srgb
     from spectral_cam.metrics import colorchecker_delta_e
 
     charts = {ill: chart_dng(work, ill) for ill in ILLUMINANTS}

@@ -21,7 +21,7 @@ import numpy as np
 
 def table(pixels: int = 128) -> list[dict]:
     from spectral_cam import expose, scene_from_dict
-    from spectral_cam.charts import uniform_image
+    from spectral_cam.radiance_targets import uniform_image
     from spectral_cam.sensor import expected_electrons
 
     config = scene_from_dict({"sensor": {"model": "ideal", "cfa": "none", "width_px": pixels, "height_px": pixels,

@@ -9,7 +9,7 @@ Conventions (written into the file too):
 - OpenCV camera axes: +x right, +y down, +z forward (the view); OpenGL: +x right, +y up, +z
   backward. Mitsuba's camera frame (``look_at``) has +x to the image's left, +y up, +z forward;
 - distortion (k1, k2, p1, p2, k3) in OpenCV's Brown–Conrady convention
-  (:mod:`spectral_cam.lenses.distortion`): zero for the ideal thin lens and the pinhole.
+  (:mod:`spectral_cam.optics.distortion`): zero for the ideal thin lens and the pinhole.
 
 References
 ----------
@@ -141,7 +141,7 @@ def illuminant_record(spd: str, neutral, *, sensor_model: str, emitter: str = ""
     """
     import colour
 
-    from .colorimetry import illuminant_white_xyz
+    from .colour_ground_truth import illuminant_white_xyz
 
     rgb = np.asarray(neutral, dtype=float)
     xy = colour.XYZ_to_xy(illuminant_white_xyz(spd))

@@ -2,8 +2,8 @@
 
 Every mode returns the *grey-equivalent* value g of a frame: the exposure that puts g at
 :data:`GREY_RAW` of saturation is the metered exposure. The one-shot auto exposure
-(:mod:`spectral_cam.sensor.exposure`, ``exposure.metering``) and the sequence controller
-(:mod:`spectral_cam.control.exposure`) both use it, so a render, a dataset item and a
+(:mod:`spectral_cam.sensor.metered_exposure`, ``exposure.metering``) and the sequence controller
+(:mod:`spectral_cam.control.exposure_loop`) both use it, so a render, a dataset item and a
 sequence frame meter alike.
 
 - ``average``: the mean luminance (the meter ISO 2720 calibrates, K = 12.5);

@@ -310,7 +310,7 @@ class LensSection:
     """A thin lens (or a pinhole with the same field of view). ``model = "auto"`` renders
     through a pinhole when defocus costs ≤ 0.03 of MTF at Nyquist over the scene's depths,
     and with the depth-layered model (``"layered"``: a pinhole render defocused per depth
-    layer, :mod:`spectral_cam.render.defocus`) where that is exact and thin-lens path tracing
+    layer, :mod:`spectral_cam.render.layered`) where that is exact and thin-lens path tracing
     would be noisy (docs/design.md, "Model decisions"). ``focus_object`` names a shape of the
     scene (an XML ``id``, a preset's ``object_3`` or ``plant_2``) to focus on: it replaces
     ``focus_distance_m`` with that object's depth when the render starts
@@ -318,11 +318,11 @@ class LensSection:
     (``"ideal"``, the default: no dispersion; a catalogue glass: a singlet, or
     ``"crown+flint"``: a cemented achromat) whose focal
     length follows the glass's dispersion, ``focal_length_mm`` at the d line
-    (:mod:`spectral_cam.lenses`; ``glass = "ideal"``: none), with ``blades`` straight aperture
+    (:mod:`spectral_cam.optics.glass`; ``glass = "ideal"``: none), with ``blades`` straight aperture
     blades (0: round; a vertex ``blade_rotation_deg`` from up towards image-left; rounded by
     ``blade_rounding`` from 0, straight, to 1, a circle) and
     Brown–Conrady ``distortion`` [k1, k2, p1, p2, k3] (OpenCV's convention). ``model = "prescription"`` traces the real surfaces of
-    ``prescription`` (a bundled lens or a CSV, :mod:`spectral_cam.lenses.prescription`); its
+    ``prescription`` (a bundled lens or a CSV, :mod:`spectral_cam.optics.prescription`); its
     focal length and f-number are then the prescription's (paraxial), set when the scene is
     read."""
 
@@ -349,7 +349,7 @@ class LensSection:
                   f"({self.focal_length_mm / 1000:g} m); give a larger focus distance")
         if self.model not in LENS_MODELS:
             _fail("lens.model", self.model, f"valid: {', '.join(LENS_MODELS)}")
-        from .lenses.glass import GLASS_NAMES
+        from .optics.glass import GLASS_NAMES
 
         glasses = [part.strip() for part in str(self.glass).split("+")]
         if self.glass != "ideal" and (len(glasses) > 2 or any(g not in GLASS_NAMES for g in glasses)):
@@ -753,7 +753,7 @@ def _lens_for_prescription(lens: dict[str, Any]) -> dict[str, Any]:
     passes every aperture)."""
     if lens.get("model") != "prescription":
         return lens
-    from .lenses.prescription import focal_length_and_f_number
+    from .optics.prescription import focal_length_and_f_number
 
     focal_m, f_number = focal_length_and_f_number(str(lens.get("prescription", "dgauss_50mm")))
     replaced = [f"lens.{key} = {lens[key]!r} by its {value:.4g}" for key, value in

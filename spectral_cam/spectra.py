@@ -370,7 +370,7 @@ def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, 
 #: reading order (McCamy et al. 1976), written out so that validating a patch name does not
 #: import colour; tests/test_spectra.py checks them against colour-science.
 #: Names of the built-in reflectance sets (:data:`spectral_cam.reflectance_sets.REFLECTANCE_SETS`, which
-#: loads them), here so that validating a scene loads none; tests/test_charts.py
+#: loads them), here so that validating a scene loads none; tests/test_radiance_targets.py
 #: keeps the two equal.
 REFLECTANCE_SET_NAMES = ("colorchecker", "rawtoaces", "cie2017", "cri", "cqs", "usgs_vegetation", "usgs_soils",
                          "usgs_wood", "usgs_stone")

@@ -62,7 +62,7 @@ def write_spectral_exr(image: SpectralImage, path: str | Path, *, precision: str
     --------
     >>> import pathlib, tempfile
     >>> import numpy as np
-    >>> from spectral_cam.charts import narrow_band_flat
+    >>> from spectral_cam.radiance_targets import narrow_band_flat
     >>> from spectral_cam.spectral_exr import read_spectral_exr, write_spectral_exr
     >>> image = narrow_band_flat((4, 4), 0.05)            # 31 bands of 10 nm, 400–700 nm
     >>> path = write_spectral_exr(image, pathlib.Path(tempfile.mkdtemp()) / "radiance.exr")

@@ -15,7 +15,7 @@ import OpenEXR
 import pytest
 
 import spectral_cam as sc
-from spectral_cam.charts import narrow_band_flat
+from spectral_cam.radiance_targets import narrow_band_flat
 from spectral_cam.errors import ConfigError, SceneWarning
 from spectral_cam.exr import HALF_MIN_NORMAL
 from spectral_cam.image import SpectralImage

@@ -130,7 +130,7 @@ def test_bad_band_edges_in_a_spectral_exr_are_refused(tmp_path, edges):
     """Issue 12 #13: a wrong-length or NaN edges attribute was broadcast into the data."""
     import numpy as np
 
-    from spectral_cam.charts import narrow_band_flat
+    from spectral_cam.radiance_targets import narrow_band_flat
     from spectral_cam.exr import write_exr_channels
     from spectral_cam.spectral_exr import channel_name
 

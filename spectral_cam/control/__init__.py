@@ -10,8 +10,8 @@ References
    Cameras, ch. 8 (AE, AWB control loops).
 """
 
-from .exposure import METERING, AutoExposure, ExposureState, meter
-from .white_balance import AWB_METHODS, AutoWhiteBalance, estimate_white
+from .exposure_loop import METERING, AutoExposure, ExposureState, meter
+from .white_balance_loop import AWB_METHODS, AutoWhiteBalance, estimate_white
 
 __all__ = ["METERING", "meter", "AutoExposure", "ExposureState", "AWB_METHODS", "estimate_white",
            "AutoWhiteBalance"]

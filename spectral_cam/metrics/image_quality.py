@@ -131,7 +131,7 @@ def colorchecker_delta_e(image: np.ndarray, reference, patches, *, margin: float
     image
         (H, W, 3) linear sRGB (tone curve off), unclipped.
     reference
-        (N, 3) reference linear sRGB per patch (e.g. :func:`spectral_cam.colorimetry.patch_linear_srgb`),
+        (N, 3) reference linear sRGB per patch (e.g. :func:`spectral_cam.colour_ground_truth.patch_linear_srgb`),
         or an (H, W, 3) reference image whose patch means are taken.
     patches
         The N patches (:func:`spectral_cam.presets.colorchecker_patches`).
@@ -139,7 +139,7 @@ def colorchecker_delta_e(image: np.ndarray, reference, patches, *, margin: float
         Patch-interior margin (see :func:`patch_means`).
     white_index
         Index of the patch used for exposure matching; default the ColorChecker's white
-        (:func:`spectral_cam.colorimetry.white_patch_index` of the patch names).
+        (:func:`spectral_cam.colour_ground_truth.white_patch_index` of the patch names).
 
     Returns
     -------
@@ -158,7 +158,7 @@ def colorchecker_delta_e(image: np.ndarray, reference, patches, *, margin: float
     if reference.ndim == 3:
         reference = patch_means(reference, patches, margin=margin)
     if white_index is None:
-        from ..colorimetry import white_patch_index
+        from ..colour_ground_truth import white_patch_index
 
         white_index = white_patch_index([p.name for p in patches])
     weights = np.asarray(colour.models.RGB_COLOURSPACE_sRGB.matrix_RGB_to_XYZ)[1]

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import spectra
-from ..colorimetry import WHITE_PATCH
+from ..colour_ground_truth import WHITE_PATCH
 from .common import (
     CHART_FRAME_REFLECTANCE,
     EDGE_REFLECTANCES,

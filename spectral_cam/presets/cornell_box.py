@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import spectra
-from ..colorimetry import WHITE_PATCH
+from ..colour_ground_truth import WHITE_PATCH
 from .common import PRESETS, diffuse, light_irradiance, spectrum_dict
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -24,7 +24,7 @@ from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import SceneConfig
 from ..presets import white_reference_mask
-from .defocus import render_layered
+from .layered import render_layered
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
 from .variants import choose_variant
 
@@ -126,7 +126,7 @@ def execute(plan, *, progress: Callable[[int, int, float], None] | None = None) 
                       diffraction=plan.diffraction, groups=plan.estimator_passes, subframes=plan.subframes,
                       depth=plan.depth_m, depth_s=plan.depth_s, decisions=dict(plan.decisions), progress=progress)
     if plan.lens_model == "prescription":  # what the trace says the lens is (focal length, f-number, field)
-        from ..lenses.prescription import load_prescription
+        from ..optics.prescription import load_prescription
 
         image.meta["prescription"] = load_prescription(config.lens.prescription).describe(
             plan.lens.focus_distance_m, plan.lens.sensor_width_m)

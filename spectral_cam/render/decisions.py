@@ -293,7 +293,7 @@ def chromatic_blur_px(lens: ThinLens, glass_spec: str) -> float:
     distance for f(λ) of ``glass_spec`` (``lens.glass``; 0 for ``"ideal"``)."""
     if glass_spec == "ideal":
         return 0.0
-    from ..lenses.glass import LINES_NM, thin_lens_focal_length
+    from ..optics.glass import LINES_NM, thin_lens_focal_length
 
     z, v_d = lens.focus_distance_m, lens.image_distance_m
     focal = thin_lens_focal_length(glass_spec, lens.focal_length_m, [LINES_NM["F"], LINES_NM["C"]])
@@ -309,7 +309,7 @@ def decide_lens_model(lens: ThinLens, depth_m: np.ndarray, config: SceneConfig |
       more than 0.03 of MTF at Nyquist in the focus plane;
 
     - ``pinhole`` when defocus costs ≤ 0.03 of MTF at Nyquist over the depths in view;
-    - ``layered`` (:func:`spectral_cam.render.defocus.render_layered`) when every surface in
+    - ``layered`` (:func:`spectral_cam.render.layered.render_layered`) when every surface in
       view lies in one CoC bin (no object is blurred over another at a different blur, so
       the layered model has no partial-occlusion error) and thin-lens path tracing at the
       configured spp would leave more than :data:`LAYERED_NOISE_BUDGET` relative noise in

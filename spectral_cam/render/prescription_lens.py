@@ -35,9 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..lenses.glass import LINES_NM
-from ..lenses.aperture import rounded_boundary
-from ..lenses.prescription import Prescription, sag_and_slope
+from ..optics.glass import LINES_NM
+from ..optics.aperture import rounded_boundary
+from ..optics.prescription import Prescription, sag_and_slope
 from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
 
 __all__ = ["PLUGIN", "register", "plugin_dict", "pupil_bounds"]

@@ -133,7 +133,7 @@ def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: s
     pinhole (``perspective``) with the lens's field of view."""
     pose = mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0])
     if model == "prescription":
-        from ..lenses.prescription import load_prescription
+        from ..optics.prescription import load_prescription
         from .prescription_lens import plugin_dict as prescription_dict, register as register_prescription
 
         register_prescription(mi)

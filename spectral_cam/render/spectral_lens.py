@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..lenses.aperture import rounded_boundary
+from ..optics.aperture import rounded_boundary
 from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
 
 __all__ = ["PLUGIN", "register", "plugin_dict"]
@@ -160,7 +160,7 @@ def plugin_dict(lens, glass_spec: str, *, blades: int = 0, blade_rotation_deg: f
     ThinLens: f and v at the d line) made of ``glass_spec`` (``lens.glass``; ``"ideal"``: no
     dispersion), with ``blades`` (0: a circular opening) and Brown–Conrady ``distortion``
     (k1, k2, p1, p2, k3)."""
-    from ..lenses.glass import thin_lens_focal_length
+    from ..optics.glass import thin_lens_focal_length
 
     ideal = glass_spec == "ideal"
     focal = (np.full(len(TABLE_NM), lens.focal_length_m) if ideal

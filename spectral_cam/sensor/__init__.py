@@ -26,8 +26,8 @@ import numpy as np
 from ..errors import SensorError
 from ..isp.tone import profile_tone_curve
 from ..raw.image import RawImage
-from .colour import _colour_matrix, _fitted_corrections, _forward_matrix
-from .exposure import auto_exposure_time, expected_electrons, exposure_index, resolve_exposure
+from .dng_colour import _colour_matrix, _fitted_corrections, _forward_matrix
+from .metered_exposure import auto_exposure_time, expected_electrons, exposure_index, resolve_exposure
 from .noise import (
     HYBRID_POISSON_BELOW_E,
     SHOT_NOISE_METHODS,
@@ -148,7 +148,7 @@ def expose(
     A flat field of 550-nm light (0.05 W·m⁻²·sr⁻¹ in its 10-nm band) for 10 ms:
 
     >>> import spectral_cam as sc
-    >>> from spectral_cam.charts import narrow_band_flat
+    >>> from spectral_cam.radiance_targets import narrow_band_flat
     >>> scene = sc.scene_from_dict({"sensor": {"width_px": 32, "height_px": 32}, "exposure": {"time_s": 0.01}})
     >>> raw = sc.expose(narrow_band_flat((32, 32), 0.05), scene)
     >>> raw.mosaic.shape, raw.mosaic.dtype, raw.cfa, raw.white_level

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from spectral_cam.control import AutoWhiteBalance, estimate_white
-from spectral_cam.control.white_balance import angular_error_deg
+from spectral_cam.control.white_balance_loop import angular_error_deg
 from spectral_cam.reflectance_sets import reflectance_set
-from spectral_cam.sensor.calibration import camera_responses
+from spectral_cam.sensor.colour_calibration import camera_responses
 
 pytestmark = pytest.mark.timeout(120)
 CAMERA = "nikon_d850"

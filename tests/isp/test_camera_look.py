@@ -18,7 +18,7 @@ from scipy.interpolate import CubicSpline
 
 import spectral_cam as sc
 from spectral_cam import spectra
-from spectral_cam.charts import lambertian_radiance, uniform_image
+from spectral_cam.radiance_targets import lambertian_radiance, uniform_image
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.isp.config import TONE_METHODS
 from spectral_cam.isp.tone import adobe_exposure_ramp

@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 import spectral_cam as sc
-from spectral_cam import colorimetry
-from spectral_cam.colorimetry import white_patch_index
+from spectral_cam import colour_ground_truth
+from spectral_cam.colour_ground_truth import white_patch_index
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.presets import colorchecker_patches
 from spectral_cam.scene import scene_from_dict
-from spectral_cam.sensor import calibration, expose
+from spectral_cam.sensor import colour_calibration, expose
 from tests.support.colorchecker import (
     HEIGHT,
     NOISE_OFF,
@@ -72,17 +72,17 @@ def chart():
         "white_mask": white,
         "raw": expose(radiance, config, white_mask=white),
         "noisy_raw": expose(radiance, scene(), white_mask=white),
-        "reference": colorimetry.patch_linear_srgb("D65"),
-        "linear": calibration.camera_to_xyz_d65(model, "D65", method="linear"),
-        "root_polynomial": calibration.camera_to_xyz_d65(model, "D65", method="root_polynomial"),
+        "reference": colour_ground_truth.patch_linear_srgb("D65"),
+        "linear": colour_calibration.camera_to_xyz_d65(model, "D65", method="linear"),
+        "root_polynomial": colour_calibration.camera_to_xyz_d65(model, "D65", method="root_polynomial"),
     }
 
 
 def analytic_delta_e(chart, transform):
     """The same colour transform applied to spectrally integrated patch colours."""
     model = chart["config"].sensor.model
-    camera = calibration.camera_responses(model, "D65")
-    white = calibration.camera_responses(model, "D65", [1.0])[0]
+    camera = colour_calibration.camera_responses(model, "D65")
+    white = colour_calibration.camera_responses(model, "D65", [1.0])[0]
     balanced = camera / white
     xyz = transform(balanced) if callable(transform) else balanced @ np.asarray(transform).T
     return delta_e(xyz_to_srgb(xyz), chart["reference"])
@@ -102,12 +102,12 @@ def test_ground_truth_routes_agree(chart):
     vs the ground truth of the rendered radiance (bands 395–705 nm only)."""
     import colour
 
-    white = colorimetry.illuminant_white_xyz("D65")
+    white = colour_ground_truth.illuminant_white_xyz("D65")
     d65 = colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
     cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white, d65, "Bradford")
-    other = xyz_to_srgb(colorimetry.reflectance_xyz("D65") @ np.asarray(cat).T)
+    other = xyz_to_srgb(colour_ground_truth.reflectance_xyz("D65") @ np.asarray(cat).T)
     assert np.max(delta_e(other, chart["reference"])) < 0.05
-    rendered = colorimetry.groundtruth_linear_srgb(chart["radiance"], "D65",
+    rendered = colour_ground_truth.groundtruth_linear_srgb(chart["radiance"], "D65",
                                                    white_region=chart["patches"][WHITE].interior())
     assert np.mean(delta_e(means(rendered, chart["patches"]), chart["reference"])) < 0.5
 

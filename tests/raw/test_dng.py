@@ -142,11 +142,11 @@ def test_colour_matrix_2_under_illuminant_a_is_written_read_and_interpolated(tmp
     import tifffile
 
     from spectral_cam import expose, scene_from_dict
-    from spectral_cam.colorimetry import patch_linear_srgb
+    from spectral_cam.colour_ground_truth import patch_linear_srgb
     from spectral_cam.isp import ISPConfig, develop
     from spectral_cam.metrics import colorchecker_delta_e
     from spectral_cam.raw import read_raw, write_dng
-    from spectral_cam.charts import reflectance_set, synthetic_chart
+    from spectral_cam.radiance_targets import reflectance_set, synthetic_chart
 
     chart = synthetic_chart(reflectance_set("colorchecker"), "A", patch_px=16, gap_px=4)
     height, width = chart.radiance.data.shape[:2]

@@ -9,8 +9,8 @@ import pytest
 import rawpy
 
 from spectral_cam import expose, scene_from_dict
-from spectral_cam.charts import reflectance_set, synthetic_chart
-from spectral_cam.colorimetry import patch_linear_srgb
+from spectral_cam.radiance_targets import reflectance_set, synthetic_chart
+from spectral_cam.colour_ground_truth import patch_linear_srgb
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.metrics import colorchecker_delta_e, patch_means
 from spectral_cam.raw import RawImage, read_raw, write_dng

@@ -123,7 +123,7 @@ def _small_source(**lens):
 
 @pytest.mark.timeout(120)
 def test_auto_lens_model_picks_the_layered_model_for_a_small_source_far_out_of_focus():
-    from spectral_cam.render.defocus import aperture_fraction
+    from spectral_cam.render.layered import aperture_fraction
 
     config = _small_source()
     image = render(config, with_depth=True)

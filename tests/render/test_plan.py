@@ -65,7 +65,7 @@ def counted(monkeypatch):
     wrap(_module("variants"), "choose_variant", "variant")
     wrap(_module("focus"), "resolve_focus", "focus")
     wrap(_module("depth"), "render_depth", "depth")
-    wrap(_module("defocus"), "render_depth", "layered_depth")  # the layered model's own supersampled input
+    wrap(_module("layered"), "render_depth", "layered_depth")  # the layered model's own supersampled input
     wrap(_module("memory"), "check_render_memory", "memory")
     wrap(_module("trace"), "check_tiling", "tiling")
     original = ThinLens.from_config.__func__

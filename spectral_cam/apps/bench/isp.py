@@ -25,7 +25,7 @@ __all__ = ["bench_isp", "bench_rawpy", "libraw_xyz"]
 
 def _isp_fixture(quick: bool):
     """A rendered ColorChecker exposed with and without noise, its ground truth and white patch."""
-    from ...colorimetry import groundtruth_linear_srgb, white_patch_index
+    from ...colour_ground_truth import groundtruth_linear_srgb, white_patch_index
     from ...presets import colorchecker_patches, white_reference_mask
     from ...render import render
     from ...sensor import expose
@@ -45,7 +45,7 @@ def _isp_fixture(quick: bool):
 def _score(linear, truth, white, config) -> tuple[float, float]:
     """PSNR (dB, against the truth's 99.5th percentile as peak) and mean ΔE2000 of the
     patches, after matching exposure on the white patch."""
-    from ...colorimetry import match_exposure
+    from ...colour_ground_truth import match_exposure
     from ...metrics import colorchecker_delta_e, psnr
     from ...presets import colorchecker_patches
 
@@ -131,7 +131,7 @@ def libraw_xyz(path: str | Path, algorithm) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        uint16 (H, W, 3) XYZ, 65535 = 1 (:func:`spectral_cam.colorimetry.xyz_to_linear_srgb`
+        uint16 (H, W, 3) XYZ, 65535 = 1 (:func:`spectral_cam.colour_ground_truth.xyz_to_linear_srgb`
         of it divided by 65535 is linear sRGB).
 
     References
@@ -163,7 +163,7 @@ def bench_rawpy(out: Path, *, quick: bool) -> list[dict]:
     """
     import rawpy
 
-    from ...colorimetry import xyz_to_linear_srgb
+    from ...colour_ground_truth import xyz_to_linear_srgb
     from ...isp import ISPConfig, develop
     from ...raw import read_raw, write_dng
 

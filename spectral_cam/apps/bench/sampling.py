@@ -30,7 +30,7 @@ REFERENCE_BANDS = "380.5:729.5:1"
 
 def _develop_delta_e(radiance, config: SceneConfig) -> float:
     """Mean ΔE2000 of the developed, noise-free ColorChecker against the analytic ground truth."""
-    from ...colorimetry import patch_linear_srgb
+    from ...colour_ground_truth import patch_linear_srgb
     from ...isp import develop
     from ...metrics import colorchecker_delta_e
     from ...presets import colorchecker_patches, white_reference_mask
@@ -106,10 +106,10 @@ def _channel_rates(radiance, config: SceneConfig) -> np.ndarray:
 
 def _reference_rates(config: SceneConfig) -> np.ndarray:
     """Electron rates (24, 3) of the ColorChecker's patches from 1-nm bands of Lambertian
-    radiance ρE/π (:func:`spectral_cam.charts.lambertian_radiance`) under the config's
+    radiance ρE/π (:func:`spectral_cam.radiance_targets.lambertian_radiance`) under the config's
     illuminant."""
     from ... import spectra
-    from ...charts import lambertian_radiance, reflectance_set
+    from ...radiance_targets import lambertian_radiance, reflectance_set
     from ...image import SpectralImage
 
     grid = spectra.parse_bands(REFERENCE_BANDS)
@@ -138,10 +138,10 @@ def bench_bands(out: Path, *, quick: bool) -> list[dict]:
     list of dict
         One row per illuminant and band mode (columns as in ``bands.csv``).
     """
-    from ...colorimetry import white_patch_index, xyz_to_linear_srgb
+    from ...colour_ground_truth import white_patch_index, xyz_to_linear_srgb
     from ...metrics import delta_e2000
     from ...render import render
-    from ...sensor.calibration import camera_to_xyz_d65
+    from ...sensor.colour_calibration import camera_to_xyz_d65
 
     white = white_patch_index()
     spp_bias = 1 << (16 if quick else 18)

@@ -183,7 +183,7 @@ def _clean_rgb(item: Item, folder: Path) -> list[Path]:
                  description="undistortion.exr: for each undistorted pixel, its column and row in the image "
                              "(cv2.remap's map_x, map_y; identity without lens.distortion)")
 def _undistortion(item: Item, folder: Path) -> list[Path]:
-    from ...lenses.distortion import undistortion_map
+    from ...optics.distortion import undistortion_map
 
     coefficients = item.config.lens.distortion
     map_x, map_y = undistortion_map(item.sim.lens, coefficients)

@@ -6,7 +6,7 @@ meta.json), so they can be redrawn at any time. Figures are matplotlib ``Figure`
 
 References
 ----------
-.. [1] docs/design.md, "Result folder (job.py)" and "Optics (optics.py)" (the thin-lens CoC).
+.. [1] docs/design.md, "Result folder (job.py)" and "Optics (optics/)" (the thin-lens CoC).
 """
 
 from __future__ import annotations

@@ -35,7 +35,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ...control import AutoExposure, AutoWhiteBalance, ExposureState
-from ...control.white_balance import WhiteState
+from ...control.white_balance_loop import WhiteState
 from ...errors import ConfigError
 from ...io import staged_directory
 from ...metering import bayer_luminance
@@ -150,7 +150,7 @@ def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureS
                                             "exposure.metering": ae.metering,
                                             "exposure.auto_fraction": ae.highlight_target}), frame_seed=0)
     time_s = float(probe.meta["exposure_s"])
-    from ...control.exposure import meter
+    from ...control.exposure_loop import meter
 
     metered = meter(bayer_luminance(bayer_stats(probe)), ae.metering, highlight_target=ae.highlight_target)
     scale = ae.target / metered if metered > 0 else 1.0

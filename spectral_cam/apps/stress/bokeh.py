@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ConfigError
-from ...render.defocus import aperture_fraction, render_layered
+from ...render.layered import aperture_fraction, render_layered
 from ...render.trace import light_trace
 from ...viz import figure, save_png
 from .optics import band_sum, bokeh_scene

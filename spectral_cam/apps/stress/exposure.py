@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...charts import lambertian_radiance, narrow_band_flat, uniform_image
+from ...radiance_targets import lambertian_radiance, narrow_band_flat, uniform_image
 from ...viz import figure, save_png
 from .settings import STUDY_CAMERA, StressSettings
 from .summary import summary_row

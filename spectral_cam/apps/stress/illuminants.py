@@ -73,7 +73,7 @@ def write_narrow_band_led(path: Path, *, peaks_nm=NARROW_LED_PEAKS_NM, fwhm_nm: 
 def illuminant_study(settings: StressSettings, *, directory: Path | None = None, illuminants=None) -> dict:
     """ΔE2000 of the colour pipeline under illuminants far from the D65 calibration (study (e)).
 
-    A synthetic ColorChecker (:func:`spectral_cam.charts.synthetic_chart`: 6 × 4 patches of
+    A synthetic ColorChecker (:func:`spectral_cam.radiance_targets.synthetic_chart`: 6 × 4 patches of
     ``patch_px`` pixels of radiance ρ·E/π, no gaps) is exposed by the ``nikon_d850`` sensor
     (ISO 100, all noise terms on, white patch at 0.8 of saturation), developed with each
     white balance of :data:`STUDY_WHITE_BALANCE` and each colour matrix of
@@ -81,7 +81,7 @@ def illuminant_study(settings: StressSettings, *, directory: Path | None = None,
     (what LibRaw uses) with a Bradford adaptation from the white-balance neutral; ``"dng"``:
     ColorMatrix1 and ColorMatrix2 (Standard A) interpolated by the white's CCT;
     ``"fitted"``: the 3×3 matrix fitted under the scene illuminant — tone curve off, and compared per patch with the analytic
-    ground truth (:func:`spectral_cam.colorimetry.patch_linear_srgb`), exposure matched on
+    ground truth (:func:`spectral_cam.colour_ground_truth.patch_linear_srgb`), exposure matched on
     the white patch.
 
     Parameters
@@ -105,9 +105,9 @@ def illuminant_study(settings: StressSettings, *, directory: Path | None = None,
     .. [2] Buchsbaum (1980) (grey world); Land & McCann (1971) (white patch).
     .. [3] Adobe (2023), DNG Specification 1.7.1.0, ch. 6 (ColorMatrix, AsShotNeutral).
     """
-    from ... import colorimetry
+    from ... import colour_ground_truth
     from ... import sensor as S
-    from ...charts import reflectance_set, synthetic_chart
+    from ...radiance_targets import reflectance_set, synthetic_chart
     from ...isp import ISPConfig, develop
     from ...metrics import delta_e2000, patch_means
     from ...scene import scene_from_dict
@@ -133,7 +133,7 @@ def illuminant_study(settings: StressSettings, *, directory: Path | None = None,
         white = np.zeros((height, width), bool)
         white[chart.patches[chart.white_index].interior(PATCH_MARGIN)] = True
         raw = S.expose(chart.radiance, config, white_mask=white, frame_seed=settings.seed_for(10, i_index))
-        reference = colorimetry.patch_linear_srgb(illuminant, chart.sds[:chart.n_set])
+        reference = colour_ground_truth.patch_linear_srgb(illuminant, chart.sds[:chart.n_set])
         entry: dict = {"label": labels[illuminant], "results": {}}
         d65_only = dataclasses.replace(raw, color_matrix_2=None)
         for matrix in STUDY_COLOUR_MATRICES:

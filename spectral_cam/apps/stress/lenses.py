@@ -1,7 +1,7 @@
 """(f) Where the ideal thin lens stops describing a real one: for each bundled prescription, the
 in-focus spot a point leaves on the best-focus plane (which the thin lens renders as a point)
 against f-number and field angle, and the mechanical (cat's-eye) vignetting the thin lens's cos⁴
-law does not have — from NumPy's real-ray trace (:mod:`spectral_cam.lenses.prescription`).
+law does not have — from NumPy's real-ray trace (:mod:`spectral_cam.optics.prescription`).
 
 A case is within the thin-lens model while the spot's RMS diameter stays below one pixel
 (``StressSettings.lens_pixel_um``, 6 µm) and the pupil keeps ≥ 95 % of its axial area.
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...lenses.prescription import PRESCRIPTION_NAMES, load_prescription
+from ...optics.prescription import PRESCRIPTION_NAMES, load_prescription
 from ...viz import figure, save_png
 from .summary import summary_row
 

@@ -11,18 +11,18 @@ holds the simulator's own physics checks (``--self``).
     spectral-cam validate PLAN.toml -o REPORT_DIR [--set section.key=value]... [--force]
     spectral-cam validate --self [--csv PATH]
 
-Ground truth (one definition everywhere, :mod:`spectral_cam.colorimetry`): CIE 1931 2° XYZ
+Ground truth (one definition everywhere, :mod:`spectral_cam.colour_ground_truth`): CIE 1931 2° XYZ
 of each reflectance under the scene illuminant (colour-science integration on the CMFs'
 1-nm grid, the perfect diffuser at Y = 1) → Bradford chromatic adaptation (von Kries) from
 the illuminant's white to D65 → linear sRGB, unclipped.
 
-The chart: ``chart = "synthetic"`` (the default) is :func:`spectral_cam.charts.synthetic_chart`
+The chart: ``chart = "synthetic"`` (the default) is :func:`spectral_cam.radiance_targets.synthetic_chart`
 — each reflectance a square block of ``patch_px`` pixels of band radiance
 ``L_b = ∫_b ρ(λ)·E(λ)/π dλ``, exactly what a render of flat Lambertian patches facing the
 camera converges to, without Monte-Carlo noise; ``chart = "render"`` renders the
 ``colorchecker`` scene preset with Mitsuba instead (the plan's ``[scene]``, ``[lens]``,
 ``[render]`` tables apply). Sets other than the ColorChecker get its white patch
-(:data:`spectral_cam.colorimetry.WHITE_PATCH`) appended as the white reference, excluded from
+(:data:`spectral_cam.colour_ground_truth.WHITE_PATCH`) appended as the white reference, excluded from
 their statistics.
 
 References
@@ -38,7 +38,7 @@ References
 
 from __future__ import annotations
 
-from ...charts import REFLECTANCE_SETS, reflectance_set
+from ...radiance_targets import REFLECTANCE_SETS, reflectance_set
 from .pipelines import PIPELINES, Pipeline, pipeline_type
 from .plan import ExposureSpec, Plan, Thresholds, load_plan, plan_from_dict
 from .run import CellResult, ValidationResult, angular_error_deg, evaluate_patches, rendered_chart, run_plan

@@ -238,7 +238,7 @@ class RawpyPipeline(Pipeline):
     def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
         import rawpy
 
-        from ...colorimetry import xyz_to_linear_srgb
+        from ...colour_ground_truth import xyz_to_linear_srgb
 
         with rawpy.imread(str(dng_path)) as handle:
             image = handle.postprocess(**self._postprocess_options()).astype(np.float64) / 65535.0
@@ -255,7 +255,7 @@ def _to_linear_srgb(image, space: str) -> np.ndarray:
     """(H, W, 3) values in ``space`` → linear sRGB (unclipped)."""
     import colour
 
-    from ...colorimetry import xyz_to_linear_srgb
+    from ...colour_ground_truth import xyz_to_linear_srgb
 
     if space == "xyz":
         return xyz_to_linear_srgb(image)

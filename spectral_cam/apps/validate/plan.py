@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from ...charts import Chart, ReflectanceSet, reflectance_set
+from ...radiance_targets import Chart, ReflectanceSet, reflectance_set
 from ...errors import ConfigError
 from .pipelines import PIPELINES
 

@@ -1,10 +1,10 @@
 """Running a plan: charts, exposures, pipelines and the patch statistics of every cell.
 
 For every reflectance set × illuminant × camera × exposure the chart (a synthetic one from
-:func:`spectral_cam.charts.synthetic_chart`, or the ColorChecker preset rendered with
+:func:`spectral_cam.radiance_targets.synthetic_chart`, or the ColorChecker preset rendered with
 Mitsuba, :func:`rendered_chart`) is exposed on the camera's curves and written as a DNG;
 every pipeline develops it, and :func:`evaluate_patches` compares its linear sRGB, patch by
-patch, with the ground truth of :mod:`spectral_cam.colorimetry`:
+patch, with the ground truth of :mod:`spectral_cam.colour_ground_truth`:
 
 - the pipeline's patch means (interiors, :data:`PATCH_MARGIN` left out on every side) are
   scaled so the white reference has the ground truth's luminance (exposure matching);
@@ -45,8 +45,8 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from ...charts import Chart, ReflectanceSet, synthetic_chart
-from ...colorimetry import white_patch_index
+from ...radiance_targets import Chart, ReflectanceSet, synthetic_chart
+from ...colour_ground_truth import white_patch_index
 from ...errors import ConfigError, SpectralCamError
 from .plan import ExposureSpec, Plan
 
@@ -309,9 +309,9 @@ def _slug(text: str) -> str:
 
 def _exposure_mask(chart: Chart, camera: str, illuminant: str, config) -> np.ndarray:
     """Interior of the patch with the largest camera response (normally the white)."""
-    from ...sensor import calibration
+    from ...sensor import colour_calibration
 
-    responses = calibration.camera_responses(camera, illuminant, chart.sds,
+    responses = colour_calibration.camera_responses(camera, illuminant, chart.sds,
                                              transmission=(config.lens.transmission, config.sensor.ir_cut))
     brightest = int(np.argmax(responses.max(axis=1)))
     if responses.max(axis=1)[brightest] <= responses.max(axis=1)[chart.white_index] * (1 + 1e-9):
@@ -334,7 +334,7 @@ def _render_key(config, illuminant: str, camera: str, exposure: ExposureSpec) ->
 
 def _exposed_charts(plan: Plan) -> Iterator[_Exposed]:
     """Every chart of the plan, exposed, in report order (set, illuminant, camera, exposure)."""
-    from ... import colorimetry
+    from ... import colour_ground_truth
     from ...sensor import expose
 
     render_cache: dict = {}
@@ -344,7 +344,7 @@ def _exposed_charts(plan: Plan) -> Iterator[_Exposed]:
             if plan.chart == "synthetic":
                 synthetic = synthetic_chart(refset, illuminant, illuminance_lux=plan.illuminance_lux,
                                             bands=plan.bands, patch_px=plan.patch_px, gap_px=plan.gap_px)
-                reference = colorimetry.patch_linear_srgb(illuminant, synthetic.sds)
+                reference = colour_ground_truth.patch_linear_srgb(illuminant, synthetic.sds)
             for camera in plan.cameras:
                 for e, exposure in enumerate(plan.exposures):
                     chart = synthetic
@@ -354,7 +354,7 @@ def _exposed_charts(plan: Plan) -> Iterator[_Exposed]:
                         if key not in render_cache:
                             render_cache[key] = rendered_chart(config)
                         chart = render_cache[key]
-                        reference = colorimetry.patch_linear_srgb(illuminant, chart.sds)
+                        reference = colour_ground_truth.patch_linear_srgb(illuminant, chart.sds)
                     config = plan.scene_config(illuminant, camera, exposure, chart)
                     raw = expose(chart.radiance, config, white_mask=_exposure_mask(chart, camera, illuminant, config))
                     # positions keep names unique (two CSVs may share a file name)

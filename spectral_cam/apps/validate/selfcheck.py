@@ -32,7 +32,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ...charts import narrow_band_flat, reflectance_set, synthetic_chart
+from ...radiance_targets import narrow_band_flat, reflectance_set, synthetic_chart
 from ...records import exact_number, format_number, write_csv
 from ...registry import Registry
 from .run import PATCH_MARGIN
@@ -309,7 +309,7 @@ def _check_dng_libraw() -> list[CheckResult]:
     LibRaw's own development against ours with the DNG matrix."""
     import rawpy
 
-    from ... import colorimetry
+    from ... import colour_ground_truth
     from ...isp import ISPConfig, develop
     from ...metrics.image_quality import delta_e2000, patch_means
     from ...raw import read_raw, write_dng
@@ -328,7 +328,7 @@ def _check_dng_libraw() -> list[CheckResult]:
     same_shape = mosaic.shape == raw.mosaic.shape
     max_dn = float(np.max(np.abs(mosaic.astype(np.int64) - raw.mosaic.astype(np.int64)))) if same_shape else math.inf
     neutral = (1.0 / multipliers) / (1.0 / multipliers).max()
-    libraw = patch_means(colorimetry.xyz_to_linear_srgb(xyz), chart.patches, margin=PATCH_MARGIN)
+    libraw = patch_means(colour_ground_truth.xyz_to_linear_srgb(xyz), chart.patches, margin=PATCH_MARGIN)
     ours = patch_means(develop(raw, ISPConfig(colour_matrix="dng", demosaic="menon2007", tone="linear",
                                               highlights="none")).linear, chart.patches, margin=PATCH_MARGIN)
     agreement = delta_e2000(ours, libraw, exposure_match_index=chart.white_index)
@@ -351,28 +351,28 @@ def _check_colour_chain() -> list[CheckResult]:
     camera responses."""
     import colour
 
-    from ... import colorimetry
+    from ... import colour_ground_truth
     from ...isp import ISPConfig, develop
     from ...metrics.image_quality import delta_e2000, patch_means
-    from ...sensor import calibration
+    from ...sensor import colour_calibration
 
     t0 = time.perf_counter()
-    reference = colorimetry.patch_linear_srgb("A")
-    white = calibration.illuminant_white_xyz("A")
+    reference = colour_ground_truth.patch_linear_srgb("A")
+    white = colour_calibration.illuminant_white_xyz("A")
     d65 = colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
     cat = np.asarray(colour.adaptation.matrix_chromatic_adaptation_VonKries(white, d65, "Bradford"))
-    other = colorimetry.xyz_to_linear_srgb(calibration.reflectance_xyz("A") @ cat.T)
+    other = colour_ground_truth.xyz_to_linear_srgb(colour_calibration.reflectance_xyz("A") @ cat.T)
     routes = float(np.max(delta_e2000(other, reference)))
     chart, raw = _noise_free_chart_raw()
-    reference = colorimetry.patch_linear_srgb("D65")
-    matrix = calibration.camera_to_xyz_d65("nikon_d850", "D65")
+    reference = colour_ground_truth.patch_linear_srgb("D65")
+    matrix = colour_calibration.camera_to_xyz_d65("nikon_d850", "D65")
     linear = develop(raw, ISPConfig(colour_matrix="fitted", demosaic="menon2007", tone="linear",
                                     highlights="none"), camera_to_xyz=matrix).linear
     chain = delta_e2000(patch_means(linear, chart.patches, margin=PATCH_MARGIN), reference,
                         exposure_match_index=chart.white_index)
-    balanced = calibration.camera_responses("nikon_d850", "D65") / calibration.camera_responses(
+    balanced = colour_calibration.camera_responses("nikon_d850", "D65") / colour_calibration.camera_responses(
         "nikon_d850", "D65", [1.0])[0]
-    analytic = delta_e2000(colorimetry.xyz_to_linear_srgb(balanced @ matrix.T), reference,
+    analytic = delta_e2000(colour_ground_truth.xyz_to_linear_srgb(balanced @ matrix.T), reference,
                            exposure_match_index=chart.white_index)
     seconds = time.perf_counter() - t0
     return [

@@ -50,7 +50,7 @@ def test_locked_raw_scales_with_illuminance_and_turns_with_the_illuminants_spect
     at 1000 lx: the RAW's channel means double with each doubling of illuminance (within 1 %),
     and under A their ratios are the camera's responses to an 18 % grey under A computed from
     colour-science's SPDs through the camera's curves (within 1 %)."""
-    from spectral_cam.sensor.calibration import camera_responses
+    from spectral_cam.sensor.colour_calibration import camera_responses
 
     spec = _spec({"illuminant.illuminance_lux": [500.0, 1000.0, 2000.0, 1000.0],
                   "illuminant.spd": ["D65", "D65", "D65", "A"]}, 4, {"max_shutter_s": 1.0})

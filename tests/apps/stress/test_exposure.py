@@ -15,7 +15,7 @@ import scipy.constants as const
 from spectral_cam import sensor as S
 from spectral_cam.apps.stress.exposure import (EXPOSURE_SENSORS, exposure_study, mono_config, neutral_chroma,
                                                plot_exposure)
-from spectral_cam.charts import lambertian_radiance, narrow_band_flat, uniform_image
+from spectral_cam.radiance_targets import lambertian_radiance, narrow_band_flat, uniform_image
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.scene import scene_from_dict
 

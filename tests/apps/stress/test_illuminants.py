@@ -9,8 +9,8 @@ from spectral_cam import spectra
 from spectral_cam.apps.stress.illuminants import (NARROW_LED_FWHM_NM, NARROW_LED_PEAKS_NM, PATCH_MARGIN,
                                                   STUDY_COLOUR_MATRICES, STUDY_WHITE_BALANCE, illuminant_study,
                                                   plot_illuminants, write_narrow_band_led)
-from spectral_cam.charts import reflectance_set, synthetic_chart
-from spectral_cam.colorimetry import white_patch_index
+from spectral_cam.radiance_targets import reflectance_set, synthetic_chart
+from spectral_cam.colour_ground_truth import white_patch_index
 
 
 def test_the_study_chart_is_lambertian():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import spectral_cam as sc
-from spectral_cam import colorimetry
+from spectral_cam import colour_ground_truth
 from spectral_cam.apps.validate import (
     angular_error_deg,
     plan_from_dict,
@@ -18,7 +18,7 @@ from spectral_cam.apps.validate import (
 )
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.presets import colorchecker_patches
-from spectral_cam.sensor import calibration, expose
+from spectral_cam.sensor import colour_calibration, expose
 
 
 @pytest.mark.timeout(120)
@@ -96,13 +96,13 @@ def test_csv_matches_the_isp_colorchecker_test_on_an_identical_configuration(tmp
     radiance = sc.render(config, with_depth=False)
     radiance.data = np.maximum(radiance.data, 0.0)
     patches = colorchecker_patches(config)
-    white_index = colorimetry.white_patch_index([p.name for p in patches])
+    white_index = colour_ground_truth.white_patch_index([p.name for p in patches])
     white = np.zeros(radiance.data.shape[:2], bool)
     white[patches[white_index].interior()] = True
     raw = expose(radiance, config, white_mask=white)
-    reference = colorimetry.patch_linear_srgb("D65")
-    transforms = {"linear": calibration.camera_to_xyz_d65("nikon_d850", "D65", method="linear"),
-                  "root_polynomial": calibration.camera_to_xyz_d65("nikon_d850", "D65", method="root_polynomial"),
+    reference = colour_ground_truth.patch_linear_srgb("D65")
+    transforms = {"linear": colour_calibration.camera_to_xyz_d65("nikon_d850", "D65", method="linear"),
+                  "root_polynomial": colour_calibration.camera_to_xyz_d65("nikon_d850", "D65", method="root_polynomial"),
                   None: None}
     worst = 0.0
     for name, (isp, transform) in ISP_TEST_CASES.items():

@@ -1,5 +1,5 @@
-"""The depth-layered lens model (``lens.model = "layered"``, :mod:`spectral_cam.render.defocus`):
-the disc kernel, the layer compositing and :func:`spectral_cam.render.render_layered`
+"""The depth-layered lens model (``lens.model = "layered"``: :mod:`spectral_cam.optics.layered_defocus`,
+:mod:`spectral_cam.render.layered`): the disc kernel, the layer compositing and :func:`spectral_cam.render.render_layered`
 against thin-lens path tracing of a small bright out-of-focus source.
 
 The expected CoC is written out here (A·f·|z − z_f|/(z·(z_f − f))) rather than taken from
@@ -17,7 +17,8 @@ from spectral_cam.errors import ConfigError
 from spectral_cam.image import SpectralImage
 from spectral_cam.optics import ThinLens
 from spectral_cam.render import render, render_layered
-from spectral_cam.render.defocus import aperture_fraction, defocus_layers, disc_kernel, nearest_depth
+from spectral_cam.optics.layered_defocus import defocus_layers, disc_kernel
+from spectral_cam.render.layered import aperture_fraction, nearest_depth
 from spectral_cam.scene import scene_from_dict
 
 WAVELENGTHS = np.arange(400.0, 701.0, 10.0)

@@ -1,4 +1,4 @@
-"""Synthetic targets and reflectance sets (spectral_cam.charts) against their definitions:
+"""Synthetic targets and reflectance sets (spectral_cam.radiance_targets) against their definitions:
 Lambertian radiance ρ·E/π band-integrated from colour-science's tables (McCluney 2014 §1.6),
 the sizes of the published sets, and monochromatic flat fields (EMVA 1288 §6)."""
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_cam import colorimetry, spectra
-from spectral_cam.charts import (
+from spectral_cam import colour_ground_truth, spectra
+from spectral_cam.radiance_targets import (
     REFLECTANCE_SETS,
     narrow_band_flat,
     reflectance_set,
@@ -38,7 +38,7 @@ def test_synthetic_chart_is_lambert_radiance_of_the_reflectances():
     refset = reflectance_set("cqs")
     chart = synthetic_chart(refset, "A", illuminance_lux=500.0, bands="400:700:10", patch_px=8, gap_px=2)
     assert chart.n_set == 15 and len(chart.patches) == 16  # + the ColorChecker white reference
-    assert chart.patches[chart.white_index].name.endswith(colorimetry.WHITE_PATCH)
+    assert chart.patches[chart.white_index].name.endswith(colour_ground_truth.WHITE_PATCH)
     wavelengths, irradiance = spectra.absolute_irradiance("A", 500.0)
     bands = spectra.parse_bands("400:700:10")
     for index in (0, 7, chart.white_index):
@@ -48,7 +48,7 @@ def test_synthetic_chart_is_lambert_radiance_of_the_reflectances():
         block = chart.radiance.data[rows, cols]
         np.testing.assert_allclose(block, np.broadcast_to(expected, block.shape), rtol=1e-6)
     # ground truth and chart order agree: the white reference reads Y ≈ 0.9 of the diffuser
-    reference = colorimetry.patch_linear_srgb("A", chart.sds)
+    reference = colour_ground_truth.patch_linear_srgb("A", chart.sds)
     assert reference[chart.white_index] @ [0.2126, 0.7152, 0.0722] == pytest.approx(0.9, abs=0.03)
 
 
@@ -62,7 +62,7 @@ def test_a_narrow_band_flat_holds_its_radiance_in_one_band():
 
 
 def test_the_reflectance_set_names_scene_validation_knows_are_the_loadable_ones():
-    from spectral_cam.charts import REFLECTANCE_SETS
+    from spectral_cam.radiance_targets import REFLECTANCE_SETS
     from spectral_cam.spectra import REFLECTANCE_SET_NAMES
 
     assert tuple(REFLECTANCE_SETS) == REFLECTANCE_SET_NAMES

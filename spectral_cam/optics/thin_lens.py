@@ -371,7 +371,7 @@ class ThinLens:
         band) into a preallocated float32 buffer, blurred one band per thread (threads left
         over go to each FFT) and written into the float32 output. Every band takes the same
         arithmetic path whatever the thread count, so ``workers`` never changes the bytes
-        (tests/test_optics_mtf.py checks it, pocketfft's own ``workers`` included).
+        (tests/optics/test_thin_lens_mtf.py checks it, pocketfft's own ``workers`` included).
 
         Parameters
         ----------

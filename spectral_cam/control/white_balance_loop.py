@@ -78,7 +78,7 @@ def illuminant_locus(camera: str) -> np.ndarray:
     CIE daylights 4000–25 000 K (colour-science), from its measured curves."""
     import colour
 
-    from ..sensor.calibration import camera_responses
+    from ..sensor.colour_calibration import camera_responses
 
     whites = []
     for kelvin in np.geomspace(2000.0, 10000.0, 40):

@@ -18,20 +18,20 @@ from ..errors import ConfigError
 
 @functools.lru_cache(maxsize=32)
 def _colour_matrix(model: str, specs: tuple, illuminant: str = "D65") -> np.ndarray | None:
-    from . import calibration
+    from . import colour_calibration
 
     try:
-        return calibration.xyz_to_camera_matrix(model, illuminant, transmission=list(specs))
+        return colour_calibration.xyz_to_camera_matrix(model, illuminant, transmission=list(specs))
     except ConfigError:
         return None  # channels without three distinct spectral sensitivities ("ideal")
 
 
 @functools.lru_cache(maxsize=32)
 def _fitted_corrections_cached(model: str, illuminant: str, specs: tuple) -> tuple:
-    from . import calibration
+    from . import colour_calibration
 
-    linear = calibration.camera_to_xyz_d65(model, illuminant, transmission=list(specs))
-    root = calibration.camera_to_xyz_d65(model, illuminant, method="root_polynomial", transmission=list(specs))
+    linear = colour_calibration.camera_to_xyz_d65(model, illuminant, transmission=list(specs))
+    root = colour_calibration.camera_to_xyz_d65(model, illuminant, method="root_polynomial", transmission=list(specs))
     return np.asarray(linear, dtype=float).tolist(), np.asarray(root.ccm, dtype=float).tolist()
 
 
@@ -50,14 +50,14 @@ D50_WHITE_XYZ = np.array([0.9642, 1.0, 0.8249])
 @functools.lru_cache(maxsize=32)
 def _forward_matrix(model: str, specs: tuple, illuminant: str = "D65") -> np.ndarray | None:
     """White-balanced camera RGB → XYZ(D50) under ``illuminant`` (DNG ForwardMatrix): the
-    white-preserving fit of :func:`calibration.camera_to_xyz_d65`, Bradford-adapted from
+    white-preserving fit of :func:`spectral_cam.sensor.colour_calibration.camera_to_xyz_d65`, Bradford-adapted from
     D65 to D50, so camera white (1, 1, 1) maps onto the D50 white as the DNG spec requires."""
     import colour
 
-    from . import calibration
+    from . import colour_calibration
 
     try:
-        to_d65 = np.asarray(calibration.camera_to_xyz_d65(model, illuminant, transmission=list(specs)), float)
+        to_d65 = np.asarray(colour_calibration.camera_to_xyz_d65(model, illuminant, transmission=list(specs)), float)
     except ConfigError:
         return None
     d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_cam.lenses.prescription import load_prescription
+from spectral_cam.optics.prescription import load_prescription
 
 N = 1.5168  # N-BK7 at the d line
 
@@ -53,7 +53,7 @@ def test_a_rendered_aspheric_singlet_focuses_tighter_than_the_spherical_one(tmp_
     """Plano-convex, flat side to the object, f ≈ 97 mm at f/4: the glass-to-air surface a
     hyperboloid (e = n, k = −n²) renders a distant point as a spot several times smaller than the
     spherical surface's, through the drjit camera."""
-    from tests.lenses.test_prescription_render import _render, _source, _spot_rms_px
+    from tests.optics.test_prescription_render import _render, _source, _spot_rms_px
 
     rows = "0,1,1,,STOP,12.5,0,0,0\n0,5,{n},,,12.5,0,0,0\n-50,0,1,,,12.5,{k},0,0\n"
     for name, k in (("hyperbolic", -N ** 2), ("spherical", 0.0)):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from spectral_cam.errors import ConfigError
-from spectral_cam.lenses.glass import (GLASS_NAMES, LINES_NM, achromat_focal_length, glass, singlet_focal_length,
+from spectral_cam.optics.glass import (GLASS_NAMES, LINES_NM, achromat_focal_length, glass, singlet_focal_length,
                                        thin_lens_focal_length)
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from spectral_cam.errors import ConfigError
-from spectral_cam.lenses.prescription import PRESCRIPTION_NAMES, load_prescription
+from spectral_cam.optics.prescription import PRESCRIPTION_NAMES, load_prescription
 
 #: What the sources state: (focal length mm, back focal length mm or None).
 STATED = {"dgauss_50mm": (50.0, None), "telephoto_250mm": (250.0, None), "wide_56deg_100mm": (100.0, 52.78),

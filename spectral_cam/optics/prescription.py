@@ -67,7 +67,7 @@ AIR = ModelGlass(1.0)
 @dataclass(frozen=True)
 class Surface:
     """One surface: signed radius (m; 0 = flat), gap to the next surface (m), the medium after
-    it (a catalogue :class:`~spectral_cam.lenses.glass.Glass` or a :class:`ModelGlass`), clear
+    it (a catalogue :class:`~spectral_cam.optics.glass.Glass` or a :class:`ModelGlass`), clear
     semi-diameter (m), whether it is the aperture stop, and for an even asphere its conic
     constant k and coefficients (A₄, A₆, A₈, A₁₀ in m⁻³, m⁻⁵, …): the sag
     z(ρ) = cρ/(1 + √(1 − (1 + k)c²ρ)) + A₄ρ² + A₆ρ³ + …, ρ = x² + y², c = 1/R."""

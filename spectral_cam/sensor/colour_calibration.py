@@ -38,7 +38,7 @@ from typing import Callable
 import numpy as np
 
 from .. import spectra
-from ..colorimetry import illuminant_sd, illuminant_white_xyz, reflectance_list, reflectance_xyz
+from ..colour_ground_truth import illuminant_sd, illuminant_white_xyz, reflectance_list, reflectance_xyz
 from ..errors import ConfigError
 
 __all__ = [

@@ -125,7 +125,7 @@ def test_rendered_grid_points_land_where_brown_conrady_puts_them():
     # each source where x_u = X/Z says, within 0.15 px (bilinear resampling of 3-px dots)
     import cv2
 
-    from spectral_cam.lenses.distortion import undistortion_map
+    from spectral_cam.optics.distortion import undistortion_map
 
     map_x, map_y = undistortion_map(lens, coefficients)
     straight = cv2.remap(image.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR)
@@ -148,7 +148,7 @@ def test_a_dataset_item_carries_its_undistortion_map(tmp_path):
     import OpenEXR
 
     from spectral_cam.apps.dataset import generate_dataset, load_spec
-    from spectral_cam.lenses.distortion import distort
+    from spectral_cam.optics.distortion import distort
 
     spec = tmp_path / "spec.toml"
     spec.write_text('[dataset]\noutputs = ["raw", "undistortion", "all_in_focus"]\n[scene]\npreset = "dof_targets"\n'

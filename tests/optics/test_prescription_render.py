@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_cam.lenses.prescription import PRESCRIPTION_NAMES, load_prescription
+from spectral_cam.optics.prescription import PRESCRIPTION_NAMES, load_prescription
 from spectral_cam.optics import ThinLens
 
 pytestmark = pytest.mark.timeout(300)
@@ -198,7 +198,7 @@ def test_a_prescription_says_which_scene_values_it_replaces():
 def test_a_broken_prescription_file_is_refused_naming_what_to_fix(tmp_path, header, content, message):
     """Issue 25 #12: a non-numeric header value raised ValueError, non-UTF-8 bytes UnicodeDecodeError."""
     from spectral_cam.errors import ConfigError
-    from spectral_cam.lenses.prescription import load_prescription
+    from spectral_cam.optics.prescription import load_prescription
 
     path = tmp_path / "lens.csv"
     if content is None:

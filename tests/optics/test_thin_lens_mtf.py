@@ -189,7 +189,7 @@ def test_diffraction_layout_changes_only_the_border_against_the_legacy_padding()
 
 
 def test_reflection_index_is_numpy_pads_symmetric_mode_at_any_width():
-    from spectral_cam.optics import _reflection_index
+    from spectral_cam.optics.thin_lens import _reflection_index
 
     for size in range(1, 7):
         for before in range(16):
@@ -217,7 +217,7 @@ def test_pocketfft_gives_the_same_bytes_for_any_number_of_workers():
 
 
 def test_diffraction_gives_the_same_bytes_for_any_workers_grouping_and_input_layout(monkeypatch):
-    from spectral_cam import optics
+    from spectral_cam.optics import thin_lens as optics
 
     height, width = 45, 70
     lens = _lens(height, width)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_cam.lenses.prescription import load_prescription
+from spectral_cam.optics.prescription import load_prescription
 
 
 def _passing(lens, field_deg, grid=121):

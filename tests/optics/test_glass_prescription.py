@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_cam.lenses.glass import LINES_NM
-from spectral_cam.lenses.prescription import load_prescription
+from spectral_cam.optics.glass import LINES_NM
+from spectral_cam.optics.prescription import load_prescription
 
 NAME = "dgauss_f2_100mm_glass"
 
@@ -33,7 +33,7 @@ def test_the_derived_clear_apertures_pass_the_stated_pupil_and_field():
         origins = np.stack([gx[keep], gy[keep], np.full(keep.sum(), pupil_z)], axis=1) - direction * (pupil_z + 1.0)
         from dataclasses import replace
 
-        from spectral_cam.lenses.prescription import Prescription
+        from spectral_cam.optics.prescription import Prescription
 
         stop_only = Prescription(NAME, "", "", tuple(
             s if s.stop else replace(s, semi_diameter_m=1.0) for s in lens.surfaces))

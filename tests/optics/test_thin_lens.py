@@ -127,7 +127,7 @@ def test_depth_of_field_limits_put_the_circle_of_confusion_at_its_limit():
 
 
 def coc_for(lens, depth):
-    """c = A·f·|z − z_f| / (z·(z_f − f)), A = f/N, written out independently of optics.py."""
+    """c = A·f·|z − z_f| / (z·(z_f − f)), A = f/N, written out independently of optics/thin_lens.py."""
     f, zf = lens.focal_length_m, lens.focus_distance_m
     return (f / lens.f_number) * f * abs(depth - zf) / (depth * (zf - f))
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_cam.lenses.glass import LINES_NM, glass, singlet_focal_length
+from spectral_cam.optics.glass import LINES_NM, glass, singlet_focal_length
 from spectral_cam.optics import ThinLens
 
 pytestmark = pytest.mark.timeout(300)

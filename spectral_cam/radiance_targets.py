@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from . import spectra
-from .colorimetry import WHITE_PATCH, white_patch_index
+from .colour_ground_truth import WHITE_PATCH, white_patch_index
 from .errors import ConfigError
 from .image import SpectralImage
 from .presets import Patch
