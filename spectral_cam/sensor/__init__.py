@@ -158,26 +158,16 @@ def expose(
     timings: dict[str, float] = {}
     config = _with_scene_light(config, radiance)
     sensor, exposure = config.sensor, config.exposure
-    _check_sensor(sensor)
-    validate_radiance(radiance, sensor)
     frame_seed = config.render.seed if frame_seed is None else frame_seed
-    if not (isinstance(frame_seed, (int, np.integer)) and not isinstance(frame_seed, bool) and frame_seed >= 0):
-        raise SensorError(f"frame_seed {frame_seed!r} must be a whole number >= 0")
-    if shot_noise_method not in SHOT_NOISE_METHODS:
-        raise SensorError(f"shot_noise_method {shot_noise_method!r}; valid: {', '.join(SHOT_NOISE_METHODS)}")
-    monochrome = sensor.cfa == "none"
+    _check_expose_arguments(radiance, sensor, frame_seed, shot_noise_method)
     model = signal_model(radiance, config)
-    weights, cos4, qe = model.weights, model.cos4, model.qe
-    n_w, area, trans_specs = model.working_f_number, model.pixel_area_m2, model.transmission_specs
     timings["setup"] = time.perf_counter() - started
 
     t0 = time.perf_counter()
-    auto = exposure.time_s == "auto"
-    rate = electron_rates(radiance.data, weights, cfa=sensor.cfa, cos4=cos4, workers=workers)
+    rate = electron_rates(radiance.data, model.weights, cfa=sensor.cfa, cos4=model.cos4, workers=workers)
     timings["electron_rates"] = time.perf_counter() - t0
 
     gain = system_gain(sensor, exposure.iso)
-    saturation_e = saturation_electrons(sensor, gain)
     t0 = time.perf_counter()
     exposure_s, reference_rate = resolve_exposure(radiance, config, model, white_mask=white_mask)
     timings["auto_exposure"] = time.perf_counter() - t0
@@ -189,23 +179,67 @@ def expose(
 
     t0 = time.perf_counter()
     index = exposure_index(config)
-    black, white = sensor.black_level_dn, 2 ** sensor.bit_depth - 1
-    sigma_d = dark_noise_electrons(sensor, exposure_s)
-    if monochrome:
-        neutral = matrix = matrix_a = None
-    else:
-        response = white_response(radiance, config, model)
-        neutral = response / response.max() if response.max() > 0 else None
-        matrix = _colour_matrix(sensor.model, trans_specs) if sensor.model != "ideal" else None
-        matrix_a = _colour_matrix(sensor.model, trans_specs, "A") if matrix is not None else None
-    forward = forward_a = None
-    if not monochrome and matrix is not None:
-        forward, forward_a = _forward_matrix(sensor.model, trans_specs), _forward_matrix(sensor.model, trans_specs, "A")
+    colour = _colour_metadata(radiance, config, model)
     timings["colour"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - started
 
-    peak_per_channel = qe.max(axis=0)
-    meta = {
+    meta = _exposure_record(config, model, radiance, gain=gain, exposure_s=exposure_s, reference_rate=reference_rate,
+                            index=index, frame_seed=int(frame_seed), shot_noise_method=shot_noise_method)
+    meta.update({"timings_s": timings, "noise_chain_cpu_s": chain_cpu})
+    if colour["matrix"] is not None:
+        meta.update(_fitted_corrections(sensor.model, config.illuminant.spd, model.transmission_specs))
+    black, white = sensor.black_level_dn, 2 ** sensor.bit_depth - 1
+    return RawImage(
+        mosaic=mosaic,
+        cfa=sensor.cfa,
+        black_level=float(black),
+        white_level=int(white),
+        color_matrix=colour["matrix"],
+        as_shot_neutral=colour["neutral"],
+        noise_profile=noise_profile(gain, sensor.read_noise_e, black, white),
+        camera_model=f"spectral_cam {sensor.model}",
+        meta=meta,
+        color_matrix_2=colour["matrix_a"],
+        forward_matrix=colour["forward"],
+        forward_matrix_2=colour["forward_a"],
+        crop=radiance.frame_window if hasattr(radiance, "frame_window") else None,
+        baseline_exposure=index["baseline_exposure_ev"],
+        profile_tone_curve=profile_tone_curve(config.isp.tone),
+    )
+
+
+def _check_expose_arguments(radiance, sensor, frame_seed, shot_noise_method: str) -> None:
+    """Refuse an invalid sensor, radiance, frame seed or shot-noise method before any work."""
+    _check_sensor(sensor)
+    validate_radiance(radiance, sensor)
+    if not (isinstance(frame_seed, (int, np.integer)) and not isinstance(frame_seed, bool) and frame_seed >= 0):
+        raise SensorError(f"frame_seed {frame_seed!r} must be a whole number >= 0")
+    if shot_noise_method not in SHOT_NOISE_METHODS:
+        raise SensorError(f"shot_noise_method {shot_noise_method!r}; valid: {', '.join(SHOT_NOISE_METHODS)}")
+
+
+def _colour_metadata(radiance, config, model) -> dict:
+    """The colour tags of the RAW: AsShotNeutral (the sensor's own response to the light's
+    white, max 1), ColorMatrix1/2 (XYZ → camera under D65 and A) and ForwardMatrix1/2; all
+    None for a monochrome sensor, the matrices None for an ``"ideal"`` one."""
+    sensor, specs = config.sensor, model.transmission_specs
+    colour = dict.fromkeys(("neutral", "matrix", "matrix_a", "forward", "forward_a"))
+    if sensor.cfa == "none":
+        return colour
+    response = white_response(radiance, config, model)
+    colour["neutral"] = response / response.max() if response.max() > 0 else None
+    if sensor.model != "ideal":
+        colour.update(matrix=_colour_matrix(sensor.model, specs), matrix_a=_colour_matrix(sensor.model, specs, "A"),
+                      forward=_forward_matrix(sensor.model, specs), forward_a=_forward_matrix(sensor.model, specs, "A"))
+    return colour
+
+
+def _exposure_record(config, model, radiance, *, gain: float, exposure_s: float, reference_rate, index: dict,
+                     frame_seed: int, shot_noise_method: str) -> dict:
+    """``RawImage.meta``: what the sensor was and did (gain, exposure, noise parameters, seeds)."""
+    sensor, exposure = config.sensor, config.exposure
+    auto = exposure.time_s == "auto"
+    return {
         "K_dn_per_e": gain,
         "exposure_s": exposure_s,
         "exposure_auto": auto,
@@ -215,46 +249,25 @@ def expose(
         "tone_black_render": config.isp.tone == "adobe",
         "iso": exposure.iso,
         "base_iso": sensor.base_iso,
-        "saturation_e": saturation_e,
+        "saturation_e": saturation_electrons(sensor, gain),
         "full_well_e": sensor.full_well_e,
-        "sigma_dark_e": sigma_d,
+        "sigma_dark_e": dark_noise_electrons(sensor, exposure_s),
         "read_noise_e": sensor.read_noise_e,
         "dark_current_e_per_s": sensor.dark_current_e_per_s,
         "dsnu_e": sensor.dsnu_e,
         "prnu": sensor.prnu,
         "peak_qe": sensor.peak_qe,
-        "peak_qe_per_channel": [float(v) for v in peak_per_channel],
+        "peak_qe_per_channel": [float(v) for v in model.qe.max(axis=0)],
         "input": "camera channels (photon-weighted film)" if model.camera_channels else
                  f"{len(radiance.wavelengths_nm)} spectral bands",
         "bit_depth": sensor.bit_depth,
-        "working_f_number": n_w,
-        "pixel_area_m2": area,
+        "working_f_number": model.working_f_number,
+        "pixel_area_m2": model.pixel_area_m2,
         "vignetting": bool(sensor.vignetting),
         "shot_noise": bool(sensor.shot_noise),
         "shot_noise_method": shot_noise_method,
-        "seeds": {"sensor": int(sensor.seed), "frame": int(frame_seed)},
+        "seeds": {"sensor": int(sensor.seed), "frame": frame_seed},
         "model": sensor.model,
         "f_number": config.lens.f_number,
         "focal_length_mm": config.lens.focal_length_mm,
-        "timings_s": timings,
-        "noise_chain_cpu_s": chain_cpu,
     }
-    if matrix is not None:
-        meta.update(_fitted_corrections(sensor.model, config.illuminant.spd, trans_specs))
-    return RawImage(
-        mosaic=mosaic,
-        cfa=sensor.cfa,
-        black_level=float(black),
-        white_level=int(white),
-        color_matrix=matrix,
-        as_shot_neutral=neutral,
-        noise_profile=noise_profile(gain, sensor.read_noise_e, black, white),
-        camera_model=f"spectral_cam {sensor.model}",
-        meta=meta,
-        color_matrix_2=matrix_a,
-        forward_matrix=forward,
-        forward_matrix_2=forward_a,
-        crop=radiance.frame_window if hasattr(radiance, "frame_window") else None,
-        baseline_exposure=index["baseline_exposure_ev"],
-        profile_tone_curve=profile_tone_curve(config.isp.tone),
-    )
