@@ -95,7 +95,6 @@ def bokeh_study(settings: StressSettings) -> dict:
     .. [2] Potmesil & Chakravarty (1981); Kraus & Strengert (2007) (the remedy).
     """
     from ...optics import ThinLens
-    from ...render import render
 
     size = settings.bokeh_px
     case = dict(BOKEH_CASE, width_px=size)
@@ -107,59 +106,91 @@ def bokeh_study(settings: StressSettings) -> dict:
     if disc.sum() < 20:
         raise ConfigError(f"bokeh_px = {size} leaves too few pixels inside the {coc:.3g}-px blur disc")
 
-    def thin(spp, seed):
-        started = time.perf_counter()
-        image = render(bokeh_scene(model="thin", spp=spp, seed=seed, **case), with_depth=False)
-        return image, time.perf_counter() - started
-
     # warm-up: Mitsuba compiles its kernels on first use; not part of any method's time
-    thin(settings.bokeh_thin_spp[0], 1)
+    _thin_render(case, settings.bokeh_thin_spp[0], 1)
     render_layered(bokeh_scene(model="pinhole", spp=settings.bokeh_remedy_spp[0], seed=2, **case))
     light_trace(base, spp=settings.bokeh_tracer_spp[0], seed=3)
 
-    reference_a, _ = thin(settings.bokeh_reference_spp, settings.seed_for(6, 1))
-    reference_b, _ = thin(settings.bokeh_reference_spp, settings.seed_for(6, 2))
-    ref_a, ref_b = band_sum(reference_a), band_sum(reference_b)
-    reference = 0.5 * (ref_a + ref_b)
-    reference_var = float(np.mean((0.5 * (ref_a - ref_b))[disc] ** 2))
-    ref_mean = float(reference[disc].mean())
-    spectrum_a, spectrum_b = reference_a.data[disc].mean(axis=0), reference_b.data[disc].mean(axis=0)
-    ref_spectrum = 0.5 * (spectrum_a + spectrum_b)
-    # relative variance of the reference's per-band disc means, from its two halves
-    ref_band_var = float(np.mean((0.5 * (spectrum_a - spectrum_b) / ref_spectrum) ** 2))
-    data: dict = {
-        "coc_px": coc, "aperture_fraction": p, "disc_pixels": int(disc.sum()),
-        "reference_spp": 2 * settings.bokeh_reference_spp,
-        "reference_noise": math.sqrt(reference_var) / ref_mean,
-        "reference_level_noise": math.sqrt(reference_var / disc.sum()) / ref_mean,
-        "reference_band_noise": math.sqrt(ref_band_var),
-        # the corrected per-pixel error is known to about ±(var_ref·√(2/N))^½
-        "error_floor": math.sqrt(reference_var * math.sqrt(2.0 / disc.sum())) / ref_mean,
-        "predicted_noise_coefficient": math.sqrt((1.0 - p) / p),
-        "thin": {"spp": [], "seconds": [], "noise": [], "error": [], "error_corrected": []},
-        "tracer": {"spp": [], "seconds": [], "noise": []},
-        "remedy": {"spp": [], "seconds": [], "error": [], "error_corrected": [], "level_error": [],
-                   "spectral_error": [], "repeats": BOKEH_REMEDY_REPEATS},
-        "wavelengths_nm": [float(w) for w in reference_a.wavelengths_nm],
-        "reference_spectrum": ref_spectrum.tolist(),
-    }
-    images = {"reference": reference}
+    reference = _BokehReference(settings, case, disc)
+    data: dict = {"coc_px": coc, "aperture_fraction": p, "disc_pixels": int(disc.sum()), **reference.record,
+                  "predicted_noise_coefficient": math.sqrt((1.0 - p) / p)}
+    images = {"reference": reference.image}
+    data["thin"] = _thin_series(settings, case, reference, disc, images)
+    data["tracer"] = _tracer_series(settings, base, disc, images)
+    data["remedy"], data["remedy_spectrum"] = _remedy_series(settings, case, reference, disc, images)
+    data.update(_noise_fits(data))
+    rows = _bokeh_rows(data, case, lens)
+    return {"rows": rows, "data": data, "images": images}
+
+
+def _thin_render(case: dict, spp: int, seed: int):
+    """The thin-lens path-traced image of the case and its render time (s)."""
+    from ...render import render
+
+    started = time.perf_counter()
+    image = render(bokeh_scene(model="thin", spp=spp, seed=seed, **case), with_depth=False)
+    return image, time.perf_counter() - started
+
+
+class _BokehReference:
+    """The converged thin lens: two independent renders of ``bokeh_reference_spp``, their
+    mean, and their own noise (from the halves' difference) to subtract in quadrature."""
+
+    def __init__(self, settings: StressSettings, case: dict, disc: np.ndarray):
+        image_a, _ = _thin_render(case, settings.bokeh_reference_spp, settings.seed_for(6, 1))
+        image_b, _ = _thin_render(case, settings.bokeh_reference_spp, settings.seed_for(6, 2))
+        sum_a, sum_b = band_sum(image_a), band_sum(image_b)
+        self.image = 0.5 * (sum_a + sum_b)
+        self.variance = float(np.mean((0.5 * (sum_a - sum_b))[disc] ** 2))
+        self.mean = float(self.image[disc].mean())
+        spectrum_a, spectrum_b = image_a.data[disc].mean(axis=0), image_b.data[disc].mean(axis=0)
+        self.spectrum = 0.5 * (spectrum_a + spectrum_b)
+        # relative variance of the reference's per-band disc means, from its two halves
+        self.band_variance = float(np.mean((0.5 * (spectrum_a - spectrum_b) / self.spectrum) ** 2))
+        self.record = {
+            "reference_spp": 2 * settings.bokeh_reference_spp,
+            "reference_noise": math.sqrt(self.variance) / self.mean,
+            "reference_level_noise": math.sqrt(self.variance / disc.sum()) / self.mean,
+            "reference_band_noise": math.sqrt(self.band_variance),
+            # the corrected per-pixel error is known to about ±(var_ref·√(2/N))^½
+            "error_floor": math.sqrt(self.variance * math.sqrt(2.0 / disc.sum())) / self.mean,
+            "wavelengths_nm": [float(w) for w in image_a.wavelengths_nm],
+            "reference_spectrum": self.spectrum.tolist(),
+        }
+
+
+def _thin_series(settings: StressSettings, case: dict, reference: _BokehReference, disc, images: dict) -> dict:
+    """Thin-lens path tracing at each spp of the series: noise and error inside the disc."""
+    entry = {"spp": [], "seconds": [], "noise": [], "error": [], "error_corrected": []}
     for index, spp in enumerate(settings.bokeh_thin_spp):
-        image, seconds = thin(spp, settings.seed_for(7, index))
+        image, seconds = _thin_render(case, spp, settings.seed_for(7, index))
         total = band_sum(image)
-        raw, corrected = _relative_error(total, reference, disc, reference_var)
-        entry = data["thin"]
+        raw, corrected = _relative_error(total, reference.image, disc, reference.variance)
         entry["spp"].append(spp), entry["seconds"].append(seconds)
         entry["noise"].append(float(total[disc].std() / total[disc].mean()))
         entry["error"].append(raw), entry["error_corrected"].append(corrected)
         images[f"thin lens, {spp} spp"] = total
+    return entry
+
+
+def _tracer_series(settings: StressSettings, base, disc, images: dict) -> dict:
+    """The light tracer (luminance film) at each spp of its series: noise inside the disc."""
+    entry = {"spp": [], "seconds": [], "noise": []}
     for index, spp in enumerate(settings.bokeh_tracer_spp):
         image, seconds = light_trace(base, spp=spp, seed=settings.seed_for(8, index))
-        entry = data["tracer"]
         entry["spp"].append(spp), entry["seconds"].append(seconds)
         entry["noise"].append(float(image[disc].std() / image[disc].mean()))
         images[f"light tracer (luminance), {spp} spp"] = image
-    remedy_spectrum = None
+    return entry
+
+
+def _remedy_series(settings: StressSettings, case: dict, reference: _BokehReference, disc,
+                   images: dict) -> tuple[dict, list | None]:
+    """The layered model at each spp, :data:`BOKEH_REMEDY_REPEATS` seeds each: per-pixel,
+    disc-level and per-band error against the reference; and its last disc spectrum."""
+    entry = {"spp": [], "seconds": [], "error": [], "error_corrected": [], "level_error": [],
+             "spectral_error": [], "repeats": BOKEH_REMEDY_REPEATS}
+    spectrum = None
     for index, spp in enumerate(settings.bokeh_remedy_spp):
         seconds, squared, levels, spectral = [], [], [], []
         for repeat in range(BOKEH_REMEDY_REPEATS):
@@ -168,35 +199,37 @@ def bokeh_study(settings: StressSettings) -> dict:
                                                 seed=settings.seed_for(9, index, repeat), **case))
             seconds.append(time.perf_counter() - started)
             total = band_sum(remedy)
-            squared.append(float(np.mean((total[disc] - reference[disc]) ** 2)))
-            levels.append(float(total[disc].mean() / ref_mean - 1.0))
+            squared.append(float(np.mean((total[disc] - reference.image[disc]) ** 2)))
+            levels.append(float(total[disc].mean() / reference.mean - 1.0))
             spectrum = remedy.data[disc].mean(axis=0)
-            spectral.append(float(np.mean((spectrum / ref_spectrum - 1.0) ** 2)))
+            spectral.append(float(np.mean((spectrum / reference.spectrum - 1.0) ** 2)))
         mse = float(np.mean(squared))
-        entry = data["remedy"]
         entry["spp"].append(spp), entry["seconds"].append(float(np.mean(seconds)))
-        entry["error"].append(math.sqrt(mse) / ref_mean)
-        entry["error_corrected"].append(math.sqrt(max(mse - reference_var, 0.0)) / ref_mean)
+        entry["error"].append(math.sqrt(mse) / reference.mean)
+        entry["error_corrected"].append(math.sqrt(max(mse - reference.variance, 0.0)) / reference.mean)
         entry["level_error"].append(float(np.sqrt(np.mean(np.square(levels)))))
-        entry["spectral_error"].append(math.sqrt(max(float(np.mean(spectral)) - ref_band_var, 0.0)))
+        entry["spectral_error"].append(math.sqrt(max(float(np.mean(spectral)) - reference.band_variance, 0.0)))
         images[f"remedy, {spp} spp"] = total
-        remedy_spectrum = spectrum
-    data["remedy_spectrum"] = None if remedy_spectrum is None else remedy_spectrum.tolist()
+    return entry, None if spectrum is None else spectrum.tolist()
 
-    # thin-lens noise follows b/√spp and a/√t: fit the constants through the measurements
-    thin_data = data["thin"]
-    spp_arr, sec_arr = np.asarray(thin_data["spp"], float), np.asarray(thin_data["seconds"], float)
-    noise_arr = np.asarray(thin_data["noise"])
-    b = float(np.exp(np.mean(np.log(noise_arr * np.sqrt(spp_arr)))))
-    a = float(np.exp(np.mean(np.log(np.asarray(thin_data["error_corrected"]).clip(1e-9) * np.sqrt(sec_arr)))))
-    seconds_per_spp = float(np.exp(np.mean(np.log(sec_arr / spp_arr))))
+
+def _noise_fits(data: dict) -> dict:
+    """Thin-lens noise follows b/√spp and its error a/√t: the constants fitted through the
+    measurements, the spp and time for 1 % noise, the thin lens's error at the remedy's times."""
+    thin = data["thin"]
+    spp, seconds = np.asarray(thin["spp"], float), np.asarray(thin["seconds"], float)
+    b = float(np.exp(np.mean(np.log(np.asarray(thin["noise"]) * np.sqrt(spp)))))
+    a = float(np.exp(np.mean(np.log(np.asarray(thin["error_corrected"]).clip(1e-9) * np.sqrt(seconds)))))
+    seconds_per_spp = float(np.exp(np.mean(np.log(seconds / spp))))
     spp_one_percent = (b / 0.01) ** 2
-    data.update({"thin_noise_coefficient": b, "thin_error_time_coefficient": a,
-                 "thin_spp_for_1_percent": spp_one_percent,
-                 "thin_seconds_for_1_percent": spp_one_percent * seconds_per_spp})
-    equal_time = [a / math.sqrt(t) for t in data["remedy"]["seconds"]]
-    data["remedy"]["thin_error_at_equal_time"] = equal_time
+    data["remedy"]["thin_error_at_equal_time"] = [a / math.sqrt(t) for t in data["remedy"]["seconds"]]
+    return {"thin_noise_coefficient": b, "thin_error_time_coefficient": a, "thin_spp_for_1_percent": spp_one_percent,
+            "thin_seconds_for_1_percent": spp_one_percent * seconds_per_spp}
 
+
+def _bokeh_rows(data: dict, case: dict, lens) -> list[dict]:
+    """The study's summary rows."""
+    coc, p = data["coc_px"], data["aperture_fraction"]
     rows = [
         summary_row("bokeh", "scene", "blur-disc (CoC) diameter", coc, "px",
                     f"source image {2 * case['source_radius_m'] * lens.image_distance_m / case['source_depth_m'] / lens.pixel_pitch_m:.2g} px"),
@@ -205,22 +238,25 @@ def bokeh_study(settings: StressSettings) -> dict:
         summary_row("bokeh", "thin-lens reference", "per-pixel noise of the reference", data["reference_noise"], "relative",
                     f"{data['reference_spp']} spp; subtracted in quadrature from the errors below"),
     ]
-    for spp, noise, seconds in zip(thin_data["spp"], thin_data["noise"], thin_data["seconds"]):
+    thin = data["thin"]
+    for spp, noise, seconds in zip(thin["spp"], thin["noise"], thin["seconds"]):
         rows.append(summary_row("bokeh", f"thin-lens path tracer, {spp} spp", "per-pixel noise inside the blur disc",
                                 noise, "relative", f"{seconds:.2f} s"))
     rows.append(summary_row("bokeh", "thin-lens path tracer", "spp for 1 % per-pixel noise (fit b/√spp)",
-                            spp_one_percent, "spp", f"≈ {data['thin_seconds_for_1_percent']:.3g} s at this size"))
+                            data["thin_spp_for_1_percent"], "spp",
+                            f"≈ {data['thin_seconds_for_1_percent']:.3g} s at this size"))
     for spp, noise, seconds in zip(data["tracer"]["spp"], data["tracer"]["noise"], data["tracer"]["seconds"]):
         rows.append(summary_row("bokeh", f"light tracer (luminance film only), {spp} spp",
                                 "per-pixel noise inside the blur disc", noise, "relative", f"{seconds:.2f} s"))
     remedy = data["remedy"]
     for spp, err, level, spec, seconds, eq in zip(remedy["spp"], remedy["error_corrected"], remedy["level_error"],
-                                                  remedy["spectral_error"], remedy["seconds"], equal_time):
+                                                  remedy["spectral_error"], remedy["seconds"],
+                                                  remedy["thin_error_at_equal_time"]):
         rows.append(summary_row("bokeh", f"remedy (pinhole {spp} spp + depth layers)",
                                 "per-pixel RMS error vs converged thin lens", err, "relative",
                                 f"{seconds:.2f} s (thin lens at equal time: {eq:.3g}); disc level error {level:.3g}; "
                                 f"per-band error {spec:.3g}; estimation floor ±{data['error_floor']:.2g}"))
-    return {"rows": rows, "data": data, "images": images}
+    return rows
 
 
 def plot_bokeh(result: dict, directory: Path) -> list[str]:

@@ -194,22 +194,35 @@ def optics_study(settings: StressSettings) -> dict:
     .. [2] Hecht (2017), Optics, §10.2.5 (Airy disc 2.44·λ·N).
     .. [3] Goodman (2005), Introduction to Fourier Optics, §6.3.2 (diffraction MTF).
     """
-    from ...metrics.blur import disc_diameter_from_moments
-    from ...optics import MTF_TOLERANCE, ThinLens, defocus_mtf, diffraction_mtf, pixel_mtf
-    from ...render import render
-
     rows: list[dict] = []
-    data: dict = {}
-    pitch = _CHART_PITCH_UM * 1e-6
+    data = {"coc_vs_distance": _coc_vs_distance(),
+            "regime_map": _regime_map(rows),
+            "diffraction_cost": _diffraction_cost(rows),
+            **_focus_and_field(rows)}
+    renders, images = _rendered_blur(settings, rows)
+    data["renders"] = renders
+    return {"rows": rows, "data": data, "images": images}
+
+
+def _coc_vs_distance() -> dict:
+    """CoC diameter against object distance for each f-number of :data:`F_NUMBERS` (50 mm at
+    2 m), with each one's Airy diameter."""
     distances = np.logspace(-1, 3, 240)
     curves = {}
     for n in F_NUMBERS:
         lens = chart_lens(_CHART_FOCAL_MM, n, _CHART_FOCUS_M)
         curves[f"{n:g}"] = {"coc_um": (lens.coc_diameter_m(distances) * 1e6).tolist(),
                             "airy_um": float(lens.airy_diameter_m(_GREEN_NM) * 1e6)}
-    data["coc_vs_distance"] = {"focal_length_mm": _CHART_FOCAL_MM, "focus_m": _CHART_FOCUS_M,
-                               "distances_m": distances.tolist(), "curves": curves}
+    return {"focal_length_mm": _CHART_FOCAL_MM, "focus_m": _CHART_FOCUS_M,
+            "distances_m": distances.tolist(), "curves": curves}
 
+
+def _regime_map(rows: list) -> dict:
+    """The dominant blur (pixel, defocus, diffraction) and the MTF at Nyquist over f-number
+    and distance for the default 8-mm lens; its shares appended to ``rows``."""
+    from ...optics import defocus_mtf, diffraction_mtf, pixel_mtf
+
+    pitch = _CHART_PITCH_UM * 1e-6
     n_grid = np.logspace(np.log10(0.95), np.log10(64.0), 120)
     z_grid = np.logspace(-1, 3, 120)
     nyquist = 0.5 / pitch
@@ -224,14 +237,21 @@ def optics_study(settings: StressSettings) -> dict:
                      * pixel_mtf(nyquist, pitch))
     # the blur that dominates: the pixel aperture, the CoC or the Airy disc (largest diameter)
     regime = np.argmax(np.stack([np.full_like(coc, pitch), coc, airy]), axis=0)  # 0 pixel, 1 defocus, 2 diffraction
-    data["regime_map"] = {"focal_length_mm": _REGIME_FOCAL_MM, "focus_m": _CHART_FOCUS_M,
-                          "f_numbers": n_grid.tolist(), "distances_m": z_grid.tolist(),
-                          "regime": regime.tolist(), "mtf_at_nyquist": mtf.tolist(),
-                          "labels": ["pixel", "defocus", "diffraction"]}
+    regime_map = {"focal_length_mm": _REGIME_FOCAL_MM, "focus_m": _CHART_FOCUS_M,
+                  "f_numbers": n_grid.tolist(), "distances_m": z_grid.tolist(),
+                  "regime": regime.tolist(), "mtf_at_nyquist": mtf.tolist(),
+                  "labels": ["pixel", "defocus", "diffraction"]}
     for label, code in (("pixel", 0), ("defocus", 1), ("diffraction", 2)):
         rows.append(summary_row("optics", f"{_REGIME_FOCAL_MM:g} mm focused at {_CHART_FOCUS_M:g} m, f/0.95-f/64, 0.1-1000 m",
                                 f"share of the (N, z) map where {label} dominates", float(np.mean(regime == code)), "fraction",
                                 "largest of pixel pitch, CoC and Airy diameter (550 nm)"))
+    return regime_map
+
+
+def _diffraction_cost(rows: list) -> dict:
+    """MTF lost at Nyquist to diffraction against f-number (2 and 6 µm pixels, three
+    wavelengths), and the f-numbers where the render starts applying the Airy PSF."""
+    from ...optics import MTF_TOLERANCE, diffraction_mtf
 
     n_fine = np.logspace(np.log10(0.95), np.log10(64.0), 200)
     cost = {}
@@ -239,16 +259,23 @@ def optics_study(settings: StressSettings) -> dict:
         for wl in (450.0, _GREEN_NM, _RED_NM):
             cost[f"{pitch_um:g} um, {wl:g} nm"] = (1.0 - diffraction_mtf(0.5 / (pitch_um * 1e-6), wl, n_fine)).tolist()
     limits = {f"{p:g}": diffraction_limit_f_number(p, _RED_NM) for p in (6.0, 4.0, 2.0)}
-    data["diffraction_cost"] = {"f_numbers": n_fine.tolist(), "cost": cost, "tolerance": MTF_TOLERANCE,
-                                "limit_f_number_700nm": limits}
+    cost_record = {"f_numbers": n_fine.tolist(), "cost": cost, "tolerance": MTF_TOLERANCE,
+                   "limit_f_number_700nm": limits}
     half = {f"{p:g}": diffraction_limit_f_number(p, _GREEN_NM, tolerance=0.5) for p in (6.0, 4.0, 2.0)}
-    data["diffraction_cost"]["half_mtf_f_number_550nm"] = half
+    cost_record["half_mtf_f_number_550nm"] = half
     for p, n in limits.items():
         rows.append(summary_row("optics", f"{p}-um pixels", "f-number where diffraction costs 0.03 MTF at Nyquist (700 nm)",
                                 n, "N_w", "above it the render applies the per-band Airy PSF (render.diffraction = auto)"))
         rows.append(summary_row("optics", f"{p}-um pixels", "f-number where diffraction halves the MTF at Nyquist (550 nm)",
                                 half[p], "N_w", "diffraction-limited beyond"))
+    return cost_record
 
+
+def _focus_and_field(rows: list) -> dict:
+    """The working f-number from 1:1 macro to 10⁶ m focus, the field of view from 4 to 600
+    mm, and the CoC and Airy extremes (rows)."""
+    pitch = _CHART_PITCH_UM * 1e-6
+    data: dict = {}
     focus = {}
     for f_mm in (8.0, 50.0, 600.0):
         zf = np.logspace(np.log10(1.05 * f_mm * 1e-3), 6, 200)
@@ -277,8 +304,17 @@ def optics_study(settings: StressSettings) -> dict:
     rows.append(summary_row("optics", "8 mm f/1.4 focused at 1e6 m", "CoC of a point at 1 m (limit A·f/z)",
                             float(far.coc_diameter_px(1.0)), "px",
                             f"A·f/z = {far.aperture_radius_m * 2 * far.focal_length_m / 1.0 / far.pixel_pitch_m:.4g} px"))
+    return data
 
-    # ------------------------------------------------------------------ renders
+
+def _rendered_blur(settings: StressSettings, rows: list) -> tuple[list, dict]:
+    """One small source through a thin lens and a pinhole of the same geometry per case of
+    :data:`OPTICS_RENDERS`: the blur diameter measured from second moments against the
+    thin-lens CoC (and the peak with and without diffraction)."""
+    from ...metrics.blur import disc_diameter_from_moments
+    from ...optics import ThinLens
+    from ...render import render
+
     size, spp = settings.optics_px, settings.optics_spp
     images: dict[str, np.ndarray] = {}
     cache: dict = {}
@@ -324,8 +360,7 @@ def optics_study(settings: StressSettings) -> dict:
                                 measured / predicted if predicted > 1.0 else None, "ratio",
                                 f"predicted {predicted:.3g} px, measured {measured:.3g} ± {uncertainty:.2g} px"
                                 + ("" if predicted > 1.0 else " (below 1 px: in focus)")))
-    data["renders"] = renders
-    return {"rows": rows, "data": data, "images": images}
+    return renders, images
 
 
 def plot_optics(result: dict, directory: Path) -> list[str]:
