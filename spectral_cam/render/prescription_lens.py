@@ -40,7 +40,7 @@ from ..optics.aperture import rounded_boundary
 from ..optics.prescription import Prescription, sag_and_slope
 from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
 
-__all__ = ["PLUGIN", "register", "plugin_dict", "pupil_bounds"]
+__all__ = ["PLUGIN", "register", "plugin_dict", "pupil_bounds", "trace_surfaces"]
 
 PLUGIN = "prescription_lens"
 TABLE_NM = np.arange(360.0, 831.0, 5.0)
@@ -112,11 +112,14 @@ def register(mi) -> None:
     register_once(mi, PLUGIN, _sensor_class)
 
 
-def _sensor_class(mi):
-    import drjit as dr
+def _floats(props, key) -> list[float]:
+    return [float(v) for v in props.get(key).split(",")]
 
-    def floats(props, key):
-        return [float(v) for v in props.get(key).split(",")]
+
+def _sensor_class(mi):
+    """The ``mi.Sensor`` subclass for the current variant (Mitsuba's Python plugins subclass
+    the variant's own ``mi.Sensor``); the optics it calls are the module's functions."""
+    import drjit as dr
 
     class PrescriptionLens(mi.Sensor):
         def __init__(self, props):
@@ -128,98 +131,24 @@ def _sensor_class(mi):
             self.scale = props.get("radiance_scale")
             self.max_radius = props.get("max_radius")
             self.disperses = props.get("disperses")
-            self.radii, self.vertices = floats(props, "radii"), floats(props, "vertices")
-            self.semi_diameters, self.stops = floats(props, "semi_diameters"), floats(props, "stops")
+            self.radii, self.vertices = _floats(props, "radii"), _floats(props, "vertices")
+            self.semi_diameters, self.stops = _floats(props, "semi_diameters"), _floats(props, "stops")
             self.indices = [props.get(f"index_{i}") for i in range(len(self.radii))]
-            self.conics = floats(props, "conics")
+            self.conics = _floats(props, "conics")
             self.blades = props.get("blades", 0)
             self.blade_rotation = props.get("blade_rotation", 0.0)
             self.blade_rounding = props.get("blade_rounding", 0.0)
-            self.aspheric = np.asarray(floats(props, "aspheric")).reshape(-1, 4).tolist()
-            bounds = np.asarray(floats(props, "bounds")).reshape(-1, 4)
+            self.aspheric = np.asarray(_floats(props, "aspheric")).reshape(-1, 4).tolist()
+            bounds = np.asarray(_floats(props, "bounds")).reshape(-1, 4)
             self.bounds = [mi.Float(bounds[:, k].astype(np.float32)) for k in range(4)]
             self.bins = len(bounds)
             self.rear_distance = -self.sensor_z
 
-        def _film_point(self, position_sample):
-            u, v = film_uv(self, position_sample)
-            return (2.0 * u - 1.0) * self.half_width, (2.0 * v - 1.0) * self.half_height
-
-        def _trace(self, o, d, wavelengths, active):
-            si = dr.zeros(mi.SurfaceInteraction3f)
-            si.wavelengths = wavelengths
-            n_before = mi.Float(1.0)
-            for radius, z0, semi, stop, index, conic, aspheric in zip(
-                    self.radii, self.vertices, self.semi_diameters, self.stops, self.indices, self.conics,
-                    self.aspheric):
-                if conic != 0.0 or any(aspheric):
-                    p, normal, hit = self._asphere(o, d, radius, z0, conic, aspheric)
-                    active &= hit
-                    t = mi.Float(0.0)
-                elif radius == 0.0:
-                    t = (z0 - o.z) / d.z
-                    p = o + t * d
-                    normal = mi.Vector3f(0.0, 0.0, 1.0)
-                else:
-                    centre = mi.Point3f(0.0, 0.0, z0 + radius)
-                    oc = o - centre
-                    b = dr.dot(oc, d)
-                    disc = b * b - (dr.dot(oc, oc) - radius * radius)
-                    active &= disc >= 0.0
-                    root = dr.safe_sqrt(disc)
-                    closer = (d.z > 0.0) ^ (radius < 0.0)
-                    t = dr.select(closer, -b - root, -b + root)
-                    p = o + t * d
-                    normal = dr.normalize(p - centre)
-                if stop and self.blades >= 3:  # the opening the blades leave (as the thin lens's)
-                    active &= (t >= 0.0) & (dr.sqrt(p.x * p.x + p.y * p.y) <= semi * self._blade_boundary(p))
-                else:
-                    active &= (t >= 0.0) & (p.x * p.x + p.y * p.y <= semi * semi)
-                o = p
-                n_after = index.eval(si)[0]
-                if not stop:
-                    normal = dr.select(dr.dot(normal, d) > 0.0, -normal, normal)  # face the ray
-                    mu = n_before / n_after
-                    cos_i = -dr.dot(d, normal)
-                    sin2_t = mu * mu * (1.0 - cos_i * cos_i)
-                    active &= sin2_t <= 1.0
-                    cos_t = dr.safe_sqrt(1.0 - sin2_t)
-                    d = dr.normalize(mu * d + (mu * cos_i - cos_t) * normal)
-                n_before = n_after
-            return o, d, active
-
-        def _blade_boundary(self, p):
-            """Radius of the bladed opening (fraction of the stop's) at the point's angle from +y
-            towards +x: the regular polygon blended with the circle by the rounding."""
-            return rounded_boundary(dr.atan2(p.x, p.y), self.blades, self.blade_rotation, self.blade_rounding, xp=dr)
-
-        @staticmethod
-        def _asphere(o, d, radius, z0, conic, aspheric):
-            """Newton's method on F = sag(ρ) − (z − z0) along each ray (as the NumPy tracer)."""
-            c = 0.0 if radius == 0.0 else 1.0 / radius
-
-            def sag_slope(rho):
-                return sag_and_slope(rho, radius, conic, aspheric, xp=dr)
-
-            t = (z0 - o.z) / d.z
-            for _ in range(12):
-                p = o + t * d
-                rho = p.x * p.x + p.y * p.y
-                sag, slope = sag_slope(rho)
-                f = sag - (p.z - z0)
-                dfdt = 2.0 * p.x * slope * d.x + 2.0 * p.y * slope * d.y - d.z
-                t = t - f / dfdt
-            p = o + t * d
-            rho = p.x * p.x + p.y * p.y
-            sag, slope = sag_slope(rho)
-            hit = (1.0 - (1.0 + conic) * c * c * rho >= 0.0) & (dr.abs(sag - (p.z - z0)) < 1e-7) & (t >= 0.0)
-            normal = dr.normalize(mi.Vector3f(2.0 * p.x * slope, 2.0 * p.y * slope, -1.0))
-            return p, normal, hit
-
         def sample_ray(self, time, wavelength_sample, position_sample, aperture_sample, active=True):
             wavelengths, weight = self.sample_wavelengths(dr.zeros(mi.SurfaceInteraction3f), wavelength_sample,
                                                           active)
-            x, y = self._film_point(position_sample)
+            u, v = film_uv(self, position_sample)
+            x, y = (2.0 * u - 1.0) * self.half_width, (2.0 * v - 1.0) * self.half_height
             radius = dr.sqrt(x * x + y * y)
             index = mi.UInt32(dr.minimum(radius / self.max_radius * self.bins, self.bins - 1))
             x0, x1, y0, y1 = (dr.gather(mi.Float, b, index) for b in self.bounds)
@@ -232,7 +161,7 @@ def _sensor_class(mi):
             cos2 = direction.z * direction.z
             area = (x1 - x0) * (y1 - y0)
             geometry = area * cos2 * cos2 / (self.rear_distance * self.rear_distance) * self.scale
-            o, d, passed = self._trace(origin, direction, wavelengths, mi.Bool(active))
+            o, d, passed = trace_surfaces(mi, dr, self, origin, direction, wavelengths, mi.Bool(active))
             o = mi.Point3f(o.x, o.y, o.z - self.pupil_offset)  # camera origin at the entrance pupil
             to_world = self.world_transform()
             # d as a direction (a Point3f would take the camera's translation: an XML camera off the origin)
@@ -246,3 +175,85 @@ def _sensor_class(mi):
             return f"PrescriptionLens[surfaces={len(self.radii)}, sensor_z={self.sensor_z}]"
 
     return with_ray_differential(mi, PrescriptionLens)
+
+
+def trace_surfaces(mi, dr, lens, o, d, wavelengths, active):
+    """Real rays from the sensor through every surface of the rear-first prescription held by
+    the plugin ``lens`` (``radii``, ``vertices``, ``semi_diameters``, ``stops``, ``indices``,
+    ``conics``, ``aspheric``, blades): intersect, clip at the clear aperture (the stop's
+    bladed opening), refract by Snell's law at the ray's wavelength. Returns the last
+    surface's point, the outgoing direction and the rays still alive."""
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.wavelengths = wavelengths
+    n_before = mi.Float(1.0)
+    for radius, z0, semi, stop, index, conic, aspheric in zip(
+            lens.radii, lens.vertices, lens.semi_diameters, lens.stops, lens.indices, lens.conics, lens.aspheric):
+        if conic != 0.0 or any(aspheric):
+            p, normal, hit = _asphere_hit(mi, dr, o, d, radius, z0, conic, aspheric)
+            active &= hit
+            t = mi.Float(0.0)
+        elif radius == 0.0:
+            t = (z0 - o.z) / d.z
+            p = o + t * d
+            normal = mi.Vector3f(0.0, 0.0, 1.0)
+        else:
+            t, p, normal, hit = _sphere_hit(mi, dr, o, d, radius, z0)
+            active &= hit
+        if stop and lens.blades >= 3:  # the opening the blades leave (as the thin lens's)
+            boundary = rounded_boundary(dr.atan2(p.x, p.y), lens.blades, lens.blade_rotation, lens.blade_rounding,
+                                        xp=dr)
+            active &= (t >= 0.0) & (dr.sqrt(p.x * p.x + p.y * p.y) <= semi * boundary)
+        else:
+            active &= (t >= 0.0) & (p.x * p.x + p.y * p.y <= semi * semi)
+        o = p
+        n_after = index.eval(si)[0]
+        if not stop:
+            d, refracted = _refract(dr, d, normal, n_before / n_after)
+            active &= refracted
+        n_before = n_after
+    return o, d, active
+
+
+def _sphere_hit(mi, dr, o, d, radius, z0):
+    """The ray's intersection with the sphere of ``radius`` whose vertex is at ``z0``, on
+    the side the surface faces: distance, point, outward normal, whether it hit."""
+    centre = mi.Point3f(0.0, 0.0, z0 + radius)
+    oc = o - centre
+    b = dr.dot(oc, d)
+    disc = b * b - (dr.dot(oc, oc) - radius * radius)
+    root = dr.safe_sqrt(disc)
+    closer = (d.z > 0.0) ^ (radius < 0.0)
+    t = dr.select(closer, -b - root, -b + root)
+    p = o + t * d
+    return t, p, dr.normalize(p - centre), disc >= 0.0
+
+
+def _refract(dr, d, normal, mu):
+    """Snell's law for the direction ``d`` at a surface of ``normal`` with index ratio
+    ``mu`` = n_before/n_after: the refracted direction and whether it escaped total internal
+    reflection."""
+    normal = dr.select(dr.dot(normal, d) > 0.0, -normal, normal)  # face the ray
+    cos_i = -dr.dot(d, normal)
+    sin2_t = mu * mu * (1.0 - cos_i * cos_i)
+    cos_t = dr.safe_sqrt(1.0 - sin2_t)
+    return dr.normalize(mu * d + (mu * cos_i - cos_t) * normal), sin2_t <= 1.0
+
+
+def _asphere_hit(mi, dr, o, d, radius, z0, conic, aspheric):
+    """Newton's method on F = sag(ρ) − (z − z0) along each ray (as the NumPy tracer):
+    point, normal and whether it converged onto the surface."""
+    c = 0.0 if radius == 0.0 else 1.0 / radius
+    t = (z0 - o.z) / d.z
+    for _ in range(12):
+        p = o + t * d
+        rho = p.x * p.x + p.y * p.y
+        sag, slope = sag_and_slope(rho, radius, conic, aspheric, xp=dr)
+        f = sag - (p.z - z0)
+        dfdt = 2.0 * p.x * slope * d.x + 2.0 * p.y * slope * d.y - d.z
+        t = t - f / dfdt
+    p = o + t * d
+    rho = p.x * p.x + p.y * p.y
+    sag, slope = sag_and_slope(rho, radius, conic, aspheric, xp=dr)
+    hit = (1.0 - (1.0 + conic) * c * c * rho >= 0.0) & (dr.abs(sag - (p.z - z0)) < 1e-7) & (t >= 0.0)
+    normal = dr.normalize(mi.Vector3f(2.0 * p.x * slope, 2.0 * p.y * slope, -1.0))
+    return p, normal, hit
