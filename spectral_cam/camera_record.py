@@ -139,15 +139,14 @@ def illuminant_record(spd: str, neutral, *, sensor_model: str, emitter: str = ""
     .. [2] Robertson, A. R. (1968). Computation of correlated color temperature and distribution
        temperature. JOSA 58(11), 1528–1535.
     """
-    import colour
-
+    from .cie import cct_robertson1968, xy_to_uv_1960, xyz_to_xy
     from .colour_ground_truth import illuminant_white_xyz
 
     rgb = np.asarray(neutral, dtype=float)
-    xy = colour.XYZ_to_xy(illuminant_white_xyz(spd))
+    xy = xyz_to_xy(illuminant_white_xyz(spd))
     # Robertson's isotemperature lines: Ohno's method builds a Planckian table of 55 MB for a
     # 0.6 K difference at D65
-    cct, duv = colour.temperature.uv_to_CCT_Robertson1968(colour.xy_to_UCS_uv(xy))
+    cct, duv = cct_robertson1968(xy_to_uv_1960(xy))
     return {"spd": spd, "emitter": emitter or None, "illuminance_lux": illuminance_lux, "sensor_model": sensor_model,
             "camera_rgb": (rgb / rgb.max()).tolist(), "camera_rgb_g1": (rgb / rgb[1]).tolist(),
             "camera_rgb_unit": (rgb / np.linalg.norm(rgb)).tolist(), "xy": [float(v) for v in xy],

@@ -78,9 +78,9 @@ _GRID_NM = np.arange(360.0, 831.0, 1.0)
 
 
 def _cmfs():
-    import colour
+    from . import cie
 
-    return colour.MSDS_CMFS[CMFS_NAME]
+    return cie.cmfs_1931()
 
 
 def band_cmfs(band_edges_nm) -> np.ndarray:
@@ -160,15 +160,13 @@ def reflectance_list(reflectances) -> list:
 
 
 def _xyz_of(rho: np.ndarray, power: np.ndarray) -> np.ndarray:
-    import colour
-    from colour.colorimetry import sd_to_XYZ_integration
-
-    cmfs = colour.MSDS_CMFS[CMFS_NAME]
-    shape = colour.SpectralShape(_GRID_NM[0], _GRID_NM[-1], 1.0)
-    illum = colour.SpectralDistribution(dict(zip(_GRID_NM, power)), name="illuminant")
+    """XYZ = Σ ρ·S·x̄ / Σ S·ȳ on the CMFs' 1-nm grid: CIE 15:2004's integration as colour-science's
+    ``sd_to_XYZ_integration`` computes it on that grid (tests/test_cie.py compares the two)."""
     if not np.any(power > 0):
         raise ConfigError("the illuminant has no power in 360–830 nm")
-    return np.asarray(sd_to_XYZ_integration(rho, cmfs, illum, shape=shape)) / 100.0
+    cmfs = spectra.sample(_cmfs(), _GRID_NM, outside=0.0)
+    weighted = power[:, None] * cmfs
+    return (np.asarray(rho, dtype=np.float64) @ weighted) / weighted[:, 1].sum()
 
 
 def reflectance_xyz(illuminant_spd, reflectances=None) -> np.ndarray:
@@ -207,9 +205,9 @@ def illuminant_white_xyz(illuminant_spd) -> np.ndarray:
 
 
 def _d65_white() -> np.ndarray:
-    import colour
+    from . import cie
 
-    return colour.xy_to_XYZ(colour.models.RGB_COLOURSPACE_sRGB.whitepoint)
+    return cie.xy_to_xyz(cie.SRGB_WHITE_XY)
 
 
 def adapt_to_d65(xyz: np.ndarray, white_xyz) -> np.ndarray:
@@ -232,11 +230,10 @@ def adapt_to_d65(xyz: np.ndarray, white_xyz) -> np.ndarray:
     .. [1] Lam (1985); CIE 160:2004. colour-science ``chromatic_adaptation(...,
        method="Von Kries", transform="Bradford")``.
     """
-    import colour
+    from . import cie
 
     white = np.asarray(white_xyz, dtype=float)
-    return colour.chromatic_adaptation(np.asarray(xyz, dtype=float), white / white[1], _d65_white(),
-                                       method="Von Kries", transform="Bradford")
+    return np.asarray(xyz, dtype=float) @ cie.bradford_adaptation(white / white[1], _d65_white()).T
 
 
 def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:
@@ -246,10 +243,9 @@ def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:
     ----------
     .. [1] IEC 61966-2-1:1999.
     """
-    import colour
+    from . import cie
 
-    matrix = np.asarray(colour.models.RGB_COLOURSPACE_sRGB.matrix_XYZ_to_RGB)
-    return np.asarray(xyz, dtype=float) @ matrix.T
+    return np.asarray(xyz, dtype=float) @ cie.XYZ_TO_SRGB.T
 
 
 def patch_linear_srgb(illuminant_spd, reflectances=None) -> np.ndarray:
@@ -277,9 +273,9 @@ def patch_linear_srgb(illuminant_spd, reflectances=None) -> np.ndarray:
 
 def _luminance_weights() -> np.ndarray:
     """Y row of colour-science's sRGB → XYZ matrix (≈ 0.2126, 0.7152, 0.0722)."""
-    import colour
+    from . import cie
 
-    return np.asarray(colour.models.RGB_COLOURSPACE_sRGB.matrix_RGB_to_XYZ)[1]
+    return cie.SRGB_TO_XYZ[1].copy()
 
 
 def match_exposure(image: np.ndarray, reference: np.ndarray, region) -> np.ndarray:

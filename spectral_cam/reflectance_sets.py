@@ -40,7 +40,7 @@ class ReflectanceSet:
         Provenance.
     names : tuple of str
         Patch names.
-    sds : tuple of colour.SpectralDistribution
+    sds : tuple of spectral_cam.spectra.Spectrum
         The reflectances.
     """
 
@@ -58,37 +58,12 @@ def _colorchecker():
     return list(patches.keys()), list(patches.values())
 
 
-def _rawtoaces():
-    import colour
+def _shipped(key: str):
+    """A set of colour-science's, shipped as package data (:func:`spectral_cam.cie.dataset`)."""
+    from . import cie
 
-    msds = colour.characterisation.read_training_data_rawtoaces_v1()
-    sds = msds.to_sds()
+    sds = [sd.copy() for sd in cie.dataset(key)]
     return [sd.name for sd in sds], sds
-
-
-def _cie2017():
-    from colour.quality import cfi2017
-
-    msds = cfi2017.load_TCS_CIE2017(cfi2017.SPECTRAL_SHAPE_CIE2017)
-    sds = msds.to_sds()
-    return [sd.name for sd in sds], sds
-
-
-def _named_mapping(mapping, key: str):
-    table = mapping[key] if key in mapping else mapping  # colour-science < 0.4.5 had a flat table
-    return list(table.keys()), [sd.copy() for sd in table.values()]
-
-
-def _cri():
-    import colour
-
-    return _named_mapping(colour.quality.SDS_TCS, "CIE 1995")
-
-
-def _cqs():
-    import colour
-
-    return _named_mapping(colour.quality.SDS_VS, "NIST CQS 9.0")
 
 
 USGS_FOLDER = Path(__file__).parent / "data" / "usgs_splib07"
@@ -96,24 +71,23 @@ USGS_FOLDER = Path(__file__).parent / "data" / "usgs_splib07"
 
 def _usgs(prefixes: tuple[str, ...]):
     """The USGS splib07 spectra whose files start with one of ``prefixes``, named by file."""
-    import colour
-
     names, sds = [], []
     for path in sorted(USGS_FOLDER.glob("*.csv")):
         if path.name.startswith(prefixes):
             data = np.loadtxt(path, delimiter=",", skiprows=1)
             names.append(path.stem)
-            sds.append(colour.SpectralDistribution(dict(zip(data[:, 0], data[:, 1])), name=path.stem))
+            sds.append(spectra.Spectrum(data[:, 0], data[:, 1], path.stem))
     return names, sds
 
 
 #: Built-in reflectance sets: name -> (description, loader).
 REFLECTANCE_SETS: dict[str, tuple[str, Callable]] = {
     "colorchecker": ("24 ColorChecker patches, BabelColor average of 30 charts (Pascale 2006)", _colorchecker),
-    "rawtoaces": ("190 training reflectances of AMPAS rawtoaces (colour-science)", _rawtoaces),
-    "cie2017": ("99 colour samples of the CIE 2017 colour fidelity index (CIE 224:2017)", _cie2017),
-    "cri": ("14 test colour samples of CIE 13.3-1995 (colour rendering index)", _cri),
-    "cqs": ("15 samples of the NIST colour quality scale 9.0 (Davis & Ohno 2010)", _cqs),
+    "rawtoaces": ("190 training reflectances of AMPAS rawtoaces (colour-science)",
+                  functools.partial(_shipped, "rawtoaces")),
+    "cie2017": ("99 colour samples of the CIE 2017 colour fidelity index (CIE 224:2017)", functools.partial(_shipped, "cie2017")),
+    "cri": ("14 test colour samples of CIE 13.3-1995 (colour rendering index)", functools.partial(_shipped, "cri")),
+    "cqs": ("15 samples of the NIST colour quality scale 9.0 (Davis & Ohno 2010)", functools.partial(_shipped, "cqs")),
     "usgs_vegetation": ("4 green and 2 dry leaf/grass spectra, 350-1000 nm, USGS splib07 (Kokaly et al. 2017)",
                         functools.partial(_usgs, ("green_", "dry_"))),
     "usgs_soils": ("3 soils (dry sand, wet sand, dry playa mud), 350-1000 nm, USGS splib07 (Kokaly et al. 2017)",
@@ -127,8 +101,6 @@ REFLECTANCE_SETS: dict[str, tuple[str, Callable]] = {
 
 def _csv_set(path: Path) -> tuple[list[str], list]:
     """A reflectance table: ``wavelength_nm, name1, name2, ...`` with a header row."""
-    import colour
-
     if not path.is_file():
         raise ConfigError(f"reflectance set {str(path)!r}: file does not exist")
     try:
@@ -151,8 +123,7 @@ def _csv_set(path: Path) -> tuple[list[str], list]:
         raise ConfigError(f"reflectance set {path}: reflectances must be fractions in [0, 2] "
                           "(per cent? divide by 100)")
     names = header[1:]
-    sds = [colour.SpectralDistribution(dict(zip(body[:, 0], values[:, i])), name=name)
-           for i, name in enumerate(names)]
+    sds = [spectra.Spectrum(body[:, 0], values[:, i], name) for i, name in enumerate(names)]
     return names, sds
 
 

@@ -1,19 +1,19 @@
 """Spectral data: wavelength bands, illuminants, reflectances, camera sensitivities, filters.
 
-Everything here is a plain function returning :class:`colour.SpectralDistribution` or
-:class:`colour.MultiSpectralDistributions` objects, or NumPy arrays sampled on a band grid.
-Wavelengths are in nm throughout.
+Everything here is a plain function returning :class:`Spectrum` objects (tabulated
+wavelengths and values, ``.to_colour()`` for colour-science), or NumPy arrays sampled on a band
+grid. Wavelengths are in nm throughout.
 
-The ``validate_*`` functions check a name, number or CSV the way the loaders would, without
-building a spectrum: scene validation uses them, so loading a scene does not import
-colour-science (~1 s: it imports matplotlib and scipy). colour-science's names are written out
-here for that (:data:`COLOUR_ILLUMINANT_KEYS`, :data:`COLOUR_LIGHT_SOURCE_KEYS`,
+Nothing here imports colour-science (0.5–1 s and ~77 MB per process): its datasets are package
+data read by :mod:`spectral_cam.cie`. The ``validate_*`` functions check a name, number or CSV
+the way the loaders would, without building a spectrum; colour-science's names are written
+out for them (:data:`COLOUR_ILLUMINANT_KEYS`, :data:`COLOUR_LIGHT_SOURCE_KEYS`,
 :data:`COLORCHECKER_PATCH_NAMES`, :data:`COLOUR_CAMERA_KEYS`); tests/test_spectra.py checks
-them against colour-science. The spectra themselves load on first use.
+them and the spectra against colour-science.
 
 Sources
 -------
-- Illuminants and light sources: colour-science (CIE 15:2004 tables and others).
+- Illuminants and light sources: colour-science's datasets (CIE 15:2004 tables and others).
 - ColorChecker reflectances: BabelColor average of 30 charts (colour-science
   ``SDS_COLOURCHECKERS["BabelColor Average"]``).
 - Camera sensitivities: the 17 measured cameras shipped in ``spectral_cam/data/cameras``
@@ -39,8 +39,11 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
+from .spectrum import Spectrum, as_colour
 
 __all__ = [
+    "Spectrum",
+    "as_colour",
     "BandGrid",
     "parse_bands",
     "illuminant",
@@ -73,7 +76,6 @@ MAX_BANDS = 941
 #: Maximum luminous efficacy of photopic vision (lm/W), CIE 15:2004.
 K_M_LM_PER_W = 683.0
 COLORCHECKER_SET = "BabelColor Average"
-_CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
 
 
 # ----------------------------------------------------------------------------- bands
@@ -139,7 +141,7 @@ def _looks_like_path(spec: str) -> bool:
     return spec.lower().endswith(".csv") or Path(spec).is_file()
 
 
-def load_spectrum_csv(path: str | Path, *, maximum: float | None = None) -> "colour.SpectralDistribution":  # noqa: F821
+def load_spectrum_csv(path: str | Path, *, maximum: float | None = None) -> Spectrum:
     """Read a two-column CSV ``wavelength_nm,value``.
 
     A header line is allowed before the data: a first line whose first cell is not a
@@ -157,11 +159,9 @@ def load_spectrum_csv(path: str | Path, *, maximum: float | None = None) -> "col
     >>> sd.wavelengths.tolist(), sd.values.tolist()
     ([400.0, 700.0], [0.1, 0.9])
     """
-    import colour
-
     path = Path(path)
     wavelengths, values = _read_spectrum_csv(path, maximum=maximum)
-    return colour.SpectralDistribution(dict(zip(wavelengths, values)), name=path.stem)
+    return Spectrum(wavelengths, values, path.stem)
 
 
 def _read_spectrum_csv(path: Path, *, maximum: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -246,13 +246,13 @@ DAYLIGHT_RANGE_K = (4000.0, 25000.0)
 
 
 @functools.lru_cache(maxsize=1)
-def _illuminant_table() -> dict[str, object]:
-    import colour
+def _illuminant_table() -> dict[str, Spectrum]:
+    from . import cie
 
     table = {}
-    for mapping in (colour.SDS_LIGHT_SOURCES, colour.SDS_ILLUMINANTS):
-        for name, sd in mapping.items():
-            table[name] = sd
+    for key in ("light_sources", "illuminants"):  # an illuminant wins over a light source of its name
+        for sd in cie.dataset(key):
+            table[sd.name] = sd
     return table
 
 
@@ -308,7 +308,7 @@ def validate_illuminant(spec: str) -> None:
         _read_spectrum_csv(Path(value))
 
 
-def illuminant(spec: str) -> "colour.SpectralDistribution":  # noqa: F821
+def illuminant(spec: str) -> Spectrum:
     """Relative spectral power distribution of a named illuminant.
 
     Parameters
@@ -321,24 +321,20 @@ def illuminant(spec: str) -> "colour.SpectralDistribution":  # noqa: F821
 
     References
     ----------
-    .. [1] CIE 15:2004, Colorimetry, 3rd ed., §3 (standard illuminants, the daylight series:
-       ``colour.sd_CIE_illuminant_D_series``) and Planck's law (``colour.sd_blackbody``).
+    .. [1] CIE 15:2004, Colorimetry, 3rd ed., §3 (standard illuminants, the daylight series,
+       Planck's law): :func:`spectral_cam.cie.daylight`, :func:`spectral_cam.cie.blackbody`.
     """
-    import colour
+    from . import cie
 
     kind, value = _resolve_illuminant(spec)
     if kind == "blackbody":
-        return colour.sd_blackbody(value, colour.SpectralShape(360, 830, 1))
+        wavelengths = np.arange(MITSUBA_RANGE_NM[0], MITSUBA_RANGE_NM[1] + 1.0)
+        return Spectrum(wavelengths, cie.blackbody(value, wavelengths), f"blackbody:{value:g}")
     if kind == "daylight":
-        xy = colour.temperature.CCT_to_xy_CIE_D(value)
-        return colour.sd_CIE_illuminant_D_series(xy).align(colour.SpectralShape(360, 830, 1))
+        return cie.daylight(value)
     if kind == "csv":
         return load_spectrum_csv(value)
-    table = _illuminant_table()
-    if value not in table:  # the written-out names and the installed colour-science disagree
-        raise ConfigError(f"illuminant {value!r} is not in colour-science {colour.__version__}; "
-                          "valid here: 'blackbody:<K>', a CSV path, or one of " + ", ".join(sorted(table)))
-    return table[value].copy()
+    return _illuminant_table()[value].copy()
 
 
 def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, np.ndarray]:
@@ -352,13 +348,13 @@ def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, 
     -------
     wavelengths_nm, irradiance_w_m2_nm
     """
-    import colour
+    from . import cie
 
     if not np.isfinite(illuminance_lux) or illuminance_lux <= 0:
         raise ConfigError(f"illuminant.illuminance_lux = {illuminance_lux!r}: must be > 0")
     wavelengths = np.arange(MITSUBA_RANGE_NM[0], MITSUBA_RANGE_NM[1] + 1.0)
     relative = sample(illuminant(spec), wavelengths, outside=0.0)
-    ybar = sample(colour.MSDS_CMFS[_CMFS_NAME], wavelengths, outside=0.0)[:, 1]
+    ybar = sample(cie.cmfs_1931(), wavelengths, outside=0.0)[:, 1]
     luminous = K_M_LM_PER_W * np.sum(relative * ybar)  # 1-nm steps
     if luminous <= 0:
         raise ConfigError(f"illuminant {spec!r} has no visible power; cannot set its illuminance")
@@ -383,11 +379,11 @@ COLORCHECKER_PATCH_NAMES = (
 )
 
 
-def colorchecker_reflectances() -> dict[str, "colour.SpectralDistribution"]:  # noqa: F821
+def colorchecker_reflectances() -> dict[str, Spectrum]:
     """The 24 ColorChecker patches (BabelColor average), in chart reading order."""
-    import colour
+    from . import cie
 
-    return {name: sd.copy() for name, sd in colour.SDS_COLOURCHECKERS[COLORCHECKER_SET].items()}
+    return {sd.name: sd.copy() for sd in cie.dataset("colorchecker")}
 
 
 def _resolve_reflectance(spec: float | str) -> tuple[str, object]:
@@ -424,14 +420,12 @@ def validate_reflectance(spec: float | str) -> None:
         _read_spectrum_csv(Path(value), maximum=1.0)
 
 
-def reflectance(spec: float | str) -> "colour.SpectralDistribution":  # noqa: F821
+def reflectance(spec: float | str) -> Spectrum:
     """A reflectance spectrum: a number in [0, 1] (flat), a ColorChecker patch name
     (``"dark skin"`` ... ``"black 2 (1.5 D)"``) or a CSV path."""
-    import colour
-
     kind, value = _resolve_reflectance(spec)
     if kind == "flat":
-        return colour.SpectralDistribution({360.0: value, 830.0: value}, name=f"flat {value:g}")
+        return Spectrum([360.0, 830.0], [value, value], f"flat {value:g}")
     if kind == "csv":
         return load_spectrum_csv(value, maximum=1.0)
     return colorchecker_reflectances()[value]
@@ -467,27 +461,23 @@ def camera_names() -> list[str]:
 
 
 @functools.lru_cache(maxsize=None)
-def _camera_sensitivities_cached(slug: str):
-    import colour
+def _camera_sensitivities_cached(slug: str) -> Spectrum:
+    from . import cie
 
     source = _camera_sources()[slug]
     if isinstance(source, str):
-        msds = colour.MSDS_CAMERA_SENSITIVITIES[source].copy()
-        msds.labels = ("r", "g", "b")
-        msds.name = slug
-        return msds
+        curves = cie.camera_curves(source.split(" (")[0].lower().replace(" ", "_"))
+        return Spectrum(curves.wavelengths, curves.values, slug, labels=("r", "g", "b"))
     with source.open() as handle:
         rows = list(csv.reader(handle))
     header, body = rows[0], np.asarray(rows[1:], dtype=float)
     # The 720 nm row of the pbrt-v4 data holds one fill value in r, g and b (see the
     # data README): it is not a measurement, so the curves end at 710 nm.
     body = body[body[:, 0] <= 710.0]
-    return colour.MultiSpectralDistributions(
-        dict(zip(body[:, 0], body[:, 1:])), labels=tuple(header[1:]), name=slug
-    )
+    return Spectrum(body[:, 0], body[:, 1:], slug, labels=tuple(header[1:]))
 
 
-def camera_sensitivities(name: str) -> "colour.MultiSpectralDistributions":  # noqa: F821
+def camera_sensitivities(name: str) -> Spectrum:
     """Relative spectral sensitivities (per unit energy) of a measured camera's r, g, b
     channels.
 
@@ -518,15 +508,13 @@ def validate_camera(name: str) -> str:
 
 
 # ----------------------------------------------------------------------------- filters
-def ir_cut_filter(cutoff_nm: float, *, width_nm: float = 8.0) -> "colour.SpectralDistribution":  # noqa: F821
+def ir_cut_filter(cutoff_nm: float, *, width_nm: float = 8.0) -> Spectrum:
     """An idealised IR-cut (hot-mirror) filter: T(λ) = 1 / (1 + exp((λ − λ_c)/w)), 50 % at
     ``cutoff_nm``, falling from 90 % to 10 % over 4.4·w nm (typical camera filters cut at
     630–670 nm with a 20–40 nm slope)."""
-    import colour
-
     wavelengths = np.arange(MITSUBA_RANGE_NM[0], MITSUBA_RANGE_NM[1] + 1.0)
     values = 1.0 / (1.0 + np.exp((wavelengths - cutoff_nm) / width_nm))
-    return colour.SpectralDistribution(dict(zip(wavelengths, values)), name=f"ir_cut:{cutoff_nm:g}")
+    return Spectrum(wavelengths, values, f"ir_cut:{cutoff_nm:g}")
 
 
 def _resolve_transmission(spec: float | str | None) -> tuple[str, object]:
@@ -574,7 +562,7 @@ def validate_transmission(spec: float | str | None) -> None:
         _check_transmission_values(spec, _read_spectrum_csv(Path(value))[1])
 
 
-def transmission(spec: float | str | None) -> "colour.SpectralDistribution | None":  # noqa: F821
+def transmission(spec: float | str | None) -> Spectrum | None:
     """A filter/lens transmission: ``None``/``1`` (none), a number in (0, 1], a CSV path, or
     ``"ir_cut:<nm>"`` (an idealised IR-cut filter, see :func:`ir_cut_filter`)."""
     kind, value = _resolve_transmission(spec)

@@ -25,6 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from ..isp.encode import write_image
     from ..raw import read_raw
     from ..scene import parse_override, section_from_table
+    from . import keep_large_blocks
 
     overrides = dict(parse_override(item) for item in args.set or [])
     wrong = [key for key in overrides if not key.startswith("isp.")]
@@ -35,7 +36,9 @@ def run(args: argparse.Namespace) -> int:
     output = Path(args.output)
     if output.exists() and not args.force:
         raise ConfigError(f"{output} exists; pass --force to overwrite it")
-    developed = develop(read_raw(args.raw), config)
+    raw = read_raw(args.raw)
+    keep_large_blocks(raw.mosaic.size)
+    developed = develop(raw, config)
     write_image(developed, output, quality=config.jpeg_quality)
     if not args.quiet:
         print(f"wrote {output} in {developed.total_s:.2f} s", file=sys.stderr)

@@ -29,7 +29,10 @@ def run(args: argparse.Namespace) -> int:
     from ..progress import spp_progress
     from ..scene import load_scene
 
+    from . import keep_large_blocks
+
     config = load_scene(args.scene, overrides=args.set or [])
+    keep_large_blocks(config.sensor.width_px * config.sensor.height_px)
     if args.dry_run:
         plan = plan_render_job(config, measure=True)
         if args.json:

@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..cie import (SRGB_TO_XYZ, SRGB_WHITE_XY, XYZ_TO_SRGB, bradford_adaptation, root_polynomial_terms,
+                   xy_to_xyz)
 from ..errors import ConfigError
 from ..registry import Registry
 
@@ -53,19 +55,7 @@ ROOT_POLYNOMIAL_TERMS = {3: 1, 6: 2, 13: 3, 22: 4}
 # colour-science: ``import colour`` loads matplotlib and scipy (0.8–1.1 s), which a ``develop``
 # of a DNG must not pay. tests/isp/test_colour_constants.py checks each against colour-science.
 
-#: sRGB white (CIE 1931 xy), IEC 61966-2-1:1999 Table 1.
-SRGB_WHITE_XY = np.array([0.3127, 0.3290])
-
-#: Bradford cone-response matrix (Lam 1985; CIE 159:2004, non-linear part dropped).
-BRADFORD = np.array([[0.8951, 0.2664, -0.1614],
-                     [-0.7502, 1.7135, 0.0367],
-                     [0.0389, -0.0685, 1.0296]])
-
-
-def xy_to_xyz(xy) -> np.ndarray:
-    """CIE xy → XYZ at Y = 1."""
-    x, y = (float(v) for v in np.asarray(xy, dtype=np.float64).reshape(2))
-    return np.array([x / y, 1.0, (1.0 - x - y) / y])
+# (the sRGB white and matrices, Bradford and xy → XYZ: spectral_cam.cie, shared with the ground truth)
 
 
 def xyz_d65_white() -> np.ndarray:
@@ -93,16 +83,8 @@ def mccamy_cct(xyz) -> float:
     return 449.0 * n ** 3 + 3525.0 * n ** 2 + 6823.3 * n + 5520.33
 
 
-def von_kries_bradford(xyz_source_white, xyz_target_white) -> np.ndarray:
-    """(3, 3) von Kries adaptation in Bradford cone space from one white to another.
-
-    References
-    ----------
-    .. [1] Lam, K. M. (1985), PhD thesis, University of Bradford; CIE 159:2004.
-    """
-    source = BRADFORD @ np.asarray(xyz_source_white, dtype=np.float64)
-    target = BRADFORD @ np.asarray(xyz_target_white, dtype=np.float64)
-    return np.linalg.inv(BRADFORD) @ np.diag(target / source) @ BRADFORD
+#: (3, 3) von Kries adaptation in Bradford cone space from one white to another (Lam 1985).
+von_kries_bradford = bradford_adaptation
 
 
 #: Correlated colour temperatures (K) of the DNG calibration illuminants D65 and A.
@@ -224,7 +206,7 @@ def camera_to_xyz(rgb: np.ndarray, transform) -> np.ndarray:
         (..., 3) white-balanced camera RGB (linear).
     transform
         (3, 3) matrix; (3, N) root-polynomial matrix with N in 6, 13, 22 (degrees 2–4,
-        Finlayson 2015, applied with colour-science); or a callable ``f(rgb) -> xyz``.
+        Finlayson 2015, :func:`spectral_cam.cie.root_polynomial_terms`); or a callable ``f(rgb) -> xyz``.
 
     Returns
     -------
@@ -252,12 +234,8 @@ def camera_to_xyz(rgb: np.ndarray, transform) -> np.ndarray:
                           f"got shape {matrix.shape}")
     if matrix.shape[1] == 3:
         return _apply_3x3(rgb, matrix)
-    import colour
-
     degree = ROOT_POLYNOMIAL_TERMS[matrix.shape[1]]
-    flat = rgb.reshape(-1, 3).astype(np.float64)
-    xyz = colour.characterisation.apply_matrix_colour_correction_Finlayson2015(
-        flat, matrix, degree=degree, root_polynomial_expansion=True)
+    xyz = root_polynomial_terms(rgb.reshape(-1, 3), degree) @ matrix.T
     return np.asarray(xyz, dtype=np.float32).reshape(rgb.shape)
 
 
@@ -299,11 +277,6 @@ def camera_to_linear_srgb(rgb: np.ndarray, transform) -> np.ndarray:
             return _apply_3x3(rgb, to_rgb @ matrix)
     return xyz_to_linear_srgb(camera_to_xyz(rgb, transform))
 
-
-#: IEC 61966-2-1:1999 eq. (7) and its amendment's inverse, as the standard tabulates them
-#: (4 decimals; the two are not exact inverses, and the standard, like colour-science, keeps both).
-SRGB_TO_XYZ = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
-XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]])
 
 
 def _srgb_matrices() -> tuple[np.ndarray, np.ndarray]:

@@ -49,13 +49,12 @@ def camera_film(config: SceneConfig, width: int, height: int) -> dict:
     """A 6-channel ``specfilm``: the photon-weighted camera curves η_c(λ)·T(λ)·λ/λ_ref
     (:func:`spectral_cam.sensor.film_curves`) and the CIE 1931 2° CMFs, so one render
     integrates the camera's response exactly and gives the XYZ ground truth too."""
-    import colour
-
+    from ..cie import cmfs_1931
     from ..sensor import CAMERA_CHANNELS, film_curves
 
     lo, hi = spectra.MITSUBA_RANGE_NM
     wl = np.arange(lo, hi + 0.5, CAMERA_FILM_STEP_NM)
-    cmfs = spectra.sample(colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"], wl, outside=0.0)
+    cmfs = spectra.sample(cmfs_1931(), wl, outside=0.0)
     curves = np.concatenate([film_curves(config, wl), cmfs], axis=1)
     film = {"type": "specfilm", "width": width, "height": height, "component_format": "float32",
             "rfilter": {"type": "box"}}

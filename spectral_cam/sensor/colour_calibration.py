@@ -256,11 +256,9 @@ class RootPolynomialCorrection:
         self.degree = int(degree)
 
     def __call__(self, rgb) -> np.ndarray:
-        import colour
+        from ..cie import root_polynomial_terms
 
-        return np.asarray(colour.characterisation.apply_matrix_colour_correction(
-            np.asarray(rgb, dtype=float), self.ccm, method="Finlayson 2015",
-            degree=self.degree, root_polynomial_expansion=True))
+        return root_polynomial_terms(rgb, self.degree) @ self.ccm.T
 
     def __repr__(self) -> str:
         return f"RootPolynomialCorrection(degree={self.degree}, terms={self.ccm.shape[1]})"
@@ -312,7 +310,7 @@ def camera_to_xyz_d65(
     .. [2] Lam (1985), Bradford chromatic adaptation (colour-science
        ``matrix_chromatic_adaptation_VonKries(..., "Bradford")``).
     """
-    import colour
+    from ..cie import bradford_adaptation, root_polynomial_terms
 
     if method not in CORRECTION_METHODS:
         raise ConfigError(f"colour correction method {method!r}; valid: {', '.join(CORRECTION_METHODS)}")
@@ -322,19 +320,15 @@ def camera_to_xyz_d65(
     xyz = reflectance_xyz(illuminant_spd, reflectances)
     white_xyz = illuminant_white_xyz(illuminant_spd)
     white_d65 = illuminant_white_xyz("D65")
-    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white_xyz, white_d65, "Bradford")
-    xyz_d65 = xyz @ np.asarray(cat).T
+    xyz_d65 = xyz @ bradford_adaptation(white_xyz, white_d65).T
     if method == "linear":
         return _white_preserving_fit(rgb, xyz_d65, np.ones(3), white_d65)
     if not 1 <= int(degree) <= 4:
         raise ConfigError(f"root-polynomial degree {degree!r}; valid: 1, 2, 3, 4")
     # the same white-preserving least squares on the root-polynomial terms, so the white
     # (1, 1, 1) still maps exactly onto D65's white (an unconstrained fit misses it by ~0.8 ΔE)
-    from colour.characterisation import polynomial_expansion_Finlayson2015
-
     def expand(values):
-        return np.asarray(polynomial_expansion_Finlayson2015(values, degree=int(degree),
-                                                             root_polynomial_expansion=True))
+        return root_polynomial_terms(values, int(degree))
 
     ccm = _white_preserving_fit(expand(rgb), xyz_d65, expand(np.ones(3)), white_d65)
     return RootPolynomialCorrection(ccm, int(degree))

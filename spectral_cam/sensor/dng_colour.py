@@ -52,15 +52,12 @@ def _forward_matrix(model: str, specs: tuple, illuminant: str = "D65") -> np.nda
     """White-balanced camera RGB → XYZ(D50) under ``illuminant`` (DNG ForwardMatrix): the
     white-preserving fit of :func:`spectral_cam.sensor.colour_calibration.camera_to_xyz_d65`, Bradford-adapted from
     D65 to D50, so camera white (1, 1, 1) maps onto the D50 white as the DNG spec requires."""
-    import colour
-
+    from ..cie import bradford_adaptation, illuminant_xy, xy_to_xyz
     from . import colour_calibration
 
     try:
         to_d65 = np.asarray(colour_calibration.camera_to_xyz_d65(model, illuminant, transmission=list(specs)), float)
     except ConfigError:
         return None
-    d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
-    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(d65, D50_WHITE_XYZ, transform="Bradford")
-    forward = np.asarray(cat, float) @ to_d65
+    forward = bradford_adaptation(xy_to_xyz(illuminant_xy("D65")), D50_WHITE_XYZ) @ to_d65
     return forward * (D50_WHITE_XYZ / (forward @ np.ones(3)))[:, None]  # exact D50 white, row by row

@@ -14,7 +14,7 @@ import pytest
 
 from spectral_cam import render
 from spectral_cam.presets import colorchecker_patches
-from spectral_cam.spectra import colorchecker_reflectances
+from spectral_cam.spectra import as_colour, colorchecker_reflectances
 
 LUX = 1000.0
 
@@ -24,7 +24,7 @@ def reference_band_radiance(bands_edges, reflectance, illuminant="D65"):
     shape = colour.SpectralShape(360, 830, 1)
     spd = colour.SDS_ILLUMINANTS[illuminant].copy().align(shape, interpolator=colour.LinearInterpolator)
     spd = spd * (LUX / colour.luminous_flux(spd))
-    rho = reflectance.copy().align(shape, interpolator=colour.LinearInterpolator)
+    rho = as_colour(reflectance).copy().align(shape, interpolator=colour.LinearInterpolator)
     radiance = rho.values * spd.values / np.pi
     wl = shape.wavelengths
     out = []

@@ -297,3 +297,14 @@ def test_noise_profile_predicts_the_temporal_variance_with_strong_dark_current()
     scale, offset = a.noise_profile
     predicted = scale * np.mean((xa + xb) / 2) + offset
     assert measured == pytest.approx(predicted, rel=0.02)
+
+
+def test_photon_constants_are_codatas():
+    """h and c are written out (scipy.constants costs 70 ms of every run's start): exact SI values."""
+    import scipy.constants
+
+    from spectral_cam.sensor.radiometry import PLANCK_J_S, SPEED_OF_LIGHT_M_S, photons_per_joule
+
+    assert PLANCK_J_S == scipy.constants.h and SPEED_OF_LIGHT_M_S == scipy.constants.c
+    assert float(photons_per_joule(550.0)) == pytest.approx(550e-9 / (scipy.constants.h * scipy.constants.c),
+                                                            rel=1e-15)
