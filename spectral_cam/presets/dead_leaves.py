@@ -147,6 +147,49 @@ def dead_leaves_layout(config: "SceneConfig", lens: "ThinLens", names: tuple[str
                       far * 1.25, domain)
 
 
+#: Largest distance (px on the sensor) between a disc's polygon and its circle.
+POLYGON_TOLERANCE_PX = 0.05
+
+
+def disc_polygons(column_px, row_px, radius_px, depth_m, width_px: int, height_px: int, pixel: float):
+    """Discs facing the camera as one triangle mesh: each a regular polygon of as many sides as
+    keep its edge within :data:`POLYGON_TOLERANCE_PX` of the circle (16–256), its circumradius
+    enlarged so its area is the disc's (the Boolean model's coverage is kept), fanned from its
+    centre, wound so its normal faces the camera (−z: an area emitter emits on its normal's side).
+
+    Camera space: +x is the image's left, +y up, +z the view; column c at depth z lies at
+    x = −(c − W/2)·pixel·z, ``pixel`` being metres per pixel per metre of depth.
+
+    Returns
+    -------
+    vertices : numpy.ndarray
+        (V, 3) float32 positions, metres.
+    faces : numpy.ndarray
+        (F, 3) uint32 vertex indices.
+    """
+    radius_px = np.asarray(radius_px, dtype=np.float64)
+    sides = np.clip(np.ceil(np.pi / np.arccos(1.0 - np.minimum(POLYGON_TOLERANCE_PX / radius_px, 1.0))), 16, 256)
+    sides = sides.astype(np.int64)
+    area_scale = np.sqrt(2.0 * np.pi / (sides * np.sin(2.0 * np.pi / sides)))
+    depth = np.asarray(depth_m, dtype=np.float64)
+    x0 = -(np.asarray(column_px, dtype=np.float64) - width_px / 2) * pixel * depth
+    y0 = -(np.asarray(row_px, dtype=np.float64) - height_px / 2) * pixel * depth
+    metres = radius_px * area_scale * pixel * depth
+    disc = np.repeat(np.arange(len(sides)), sides)  # the disc of each rim vertex
+    first = np.concatenate([[0], np.cumsum(sides)[:-1]])
+    step = np.arange(len(disc)) - np.repeat(first, sides)  # the rim vertex's number on its disc
+    angle = 2.0 * np.pi * step / sides[disc]
+    rim = np.stack([x0[disc] + metres[disc] * np.cos(angle), y0[disc] + metres[disc] * np.sin(angle), depth[disc]],
+                   axis=1)
+    centres = np.stack([x0, y0, depth], axis=1)
+    vertices = np.concatenate([centres, rim]).astype(np.float32)
+    rim_index = len(centres) + np.arange(len(disc))
+    following = len(centres) + np.repeat(first, sides) + (step + 1) % sides[disc]
+    # (centre, next, this): clockwise seen from the camera, so the normal points towards it (−z)
+    faces = np.stack([disc, following, rim_index], axis=1).astype(np.uint32)
+    return vertices, faces
+
+
 @PRESETS.register("dead_leaves", options=("depths_m", "leaf_radius_px", "leaf_coverage", "leaf_reflectances",
                                           "leaf_seed"),
                   description="occluding discs (r^-3 radii) at depths over depths_m: texture and depth of field")
@@ -168,20 +211,25 @@ def dead_leaves(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
             else np.full(len(wavelengths), reflectance)
         return mi.load_dict(spectrum_dict((wavelengths, rho * irradiance / np.pi)))
 
-    radiances = [radiance(sd) for sd in samples.sds]  # one object per sample, shared by its discs
-    black = mi.load_dict({"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}})
     pixel = lens.pixel_pitch_m / lens.image_distance_m  # metres per pixel per metre of depth
-    centre_column, centre_row = lens.width_px / 2, lens.height_px / 2
-    rotate = mi.ScalarTransform4f().rotate([0, 1, 0], 180.0)  # facing the camera (normal −z)
+    black = mi.load_dict({"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}})
     objects = {}
-    for n, (c, r, size, z, i) in enumerate(zip(layout.column_px, layout.row_px, layout.radius_px,
-                                                layout.depth_m, layout.reflectance_index)):
-        # camera-space +x is image-left and +y image-up: column c maps to x = −(c − W/2)·pixel·z
-        x, y = -(c - centre_column) * pixel * z, -(r - centre_row) * pixel * z
-        to_world = mi.ScalarTransform4f().translate([float(x), float(y), float(z)]) @ rotate @ \
-            mi.ScalarTransform4f().scale([float(size * pixel * z)] * 2 + [1.0])
-        objects[f"leaf_{n}"] = {"type": "disk", "to_world": to_world, "bsdf": black,
-                                "emitter": {"type": "area", "radiance": radiances[i]}}
+    # one emitting mesh per reflectance sample, holding all its discs: Mitsuba records a render
+    # call's kernel once per shape and emitter, so 8,900 separate discs cost 2.8 s a call and 99
+    # meshes 0.06 s (docs/design.md, "The capture plan")
+    for index in np.unique(layout.reflectance_index):
+        chosen = layout.reflectance_index == index
+        vertices, faces = disc_polygons(layout.column_px[chosen], layout.row_px[chosen], layout.radius_px[chosen],
+                                        layout.depth_m[chosen], lens.width_px, lens.height_px, pixel)
+        props = mi.Properties()
+        props["bsdf"] = black
+        props["emitter"] = mi.load_dict({"type": "area", "radiance": radiance(samples.sds[int(index)])})
+        mesh = mi.Mesh(f"leaves_{int(index)}", len(vertices), len(faces), props=props)
+        params = mi.traverse(mesh)
+        params["vertex_positions"] = mi.Float(vertices.ravel())
+        params["faces"] = mi.UInt32(faces.ravel())
+        params.update()
+        objects[f"leaves_{int(index)}"] = mesh
     back = layout.backdrop_depth_m
     half_w = (layout.domain_px[2] - layout.domain_px[0]) * pixel * back
     half_h = (layout.domain_px[3] - layout.domain_px[1]) * pixel * back

@@ -126,3 +126,30 @@ def test_every_dataset_label_of_a_defocused_dead_leaves_scene(make_scene, tmp_pa
     f, z_f = lens.focal_length_m, lens.focus_distance_m
     expected = 2 * lens.aperture_radius_m * f * (z - z_f) / (z * (z_f - f)) / lens.pixel_pitch_m
     np.testing.assert_allclose(coc, expected, rtol=1e-4, atol=1e-6)
+
+
+def test_disc_polygons_keep_each_discs_area_and_outline():
+    """Each disc is a regular polygon of its own area (πr², so the Boolean model's coverage is
+    unchanged) whose edge stays within POLYGON_TOLERANCE_PX of the circle, facing the camera."""
+    from spectral_cam.presets.dead_leaves import POLYGON_TOLERANCE_PX, disc_polygons
+
+    radius = np.array([1.0, 3.0, 40.0, 120.0])
+    pixel = 1e-3  # metres per pixel per metre of depth
+    depth = np.array([1.0, 2.0, 3.0, 4.0])
+    vertices, faces = disc_polygons(np.array([10.0, 20.0, 30.0, 40.0]), np.array([5.0, 6.0, 7.0, 8.0]), radius, depth,
+                                    64, 48, pixel)
+    v = vertices.astype(np.float64)
+    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    normal = np.cross(b - a, c - a)
+    assert np.all(normal[:, 2] < 0)  # towards the camera at the origin (area emitters are one-sided)
+    owner = faces[:, 0]  # the fan's centre is the disc's own vertex
+    area_px = np.bincount(owner, weights=0.5 * np.linalg.norm(normal, axis=1)) / (pixel * depth) ** 2
+    np.testing.assert_allclose(area_px, np.pi * radius ** 2, rtol=1e-5)
+    for disc in range(len(radius)):  # the polygon lies between its inscribed circle and circumcircle
+        rim = c[owner == disc][:, :2] / (pixel * depth[disc])
+        centre = a[owner == disc][0, :2] / (pixel * depth[disc])
+        circumradius = np.linalg.norm(rim - centre, axis=1)
+        sides = len(rim)
+        inradius = circumradius * np.cos(np.pi / sides)
+        assert np.all(circumradius - radius[disc] <= POLYGON_TOLERANCE_PX + 1e-4)
+        assert np.all(radius[disc] - inradius <= POLYGON_TOLERANCE_PX + 1e-4)
