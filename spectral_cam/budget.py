@@ -59,8 +59,8 @@ def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str
 #: the job's memory beyond the probe's resident set in bytes per pixel-channel and per pixel. The
 #: adaptive median of means adds its median (seconds per megapixel) and holds its K group means
 #: and this many more cubes while it takes it.
-MEASURED_MODEL = {"start_s": 1.3, "pipeline_s_per_mp": 2.7, "amon_s_per_mp": 8.0, "bytes_per_pixel_channel": 4.0,
-                  "bytes_per_pixel": 290.0, "amon_extra_cubes": 4}
+MEASURED_MODEL = {"start_s": 0.57, "pipeline_s_per_mp": 0.96, "amon_s_per_mp": 8.0, "bytes_per_pixel_channel": 4.0,
+                  "bytes_per_pixel": 363.0, "amon_extra_cubes": 4}
 
 
 def measured_budget(cost: dict, pixels: float, spp: int, channels: int, depth_s: float,

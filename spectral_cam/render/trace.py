@@ -204,123 +204,166 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
 
     width, height = lens.width_px, lens.height_px  # the frame, or the frame and its margin
     decisions = dict(decisions or {})
-    spectral_spec = config.render.spectral_bands
-    bands = spectra.parse_bands(spectral_spec)
-    diffract, use_camera = diffraction, camera_film
-    if use_camera:
-        from ..sensor import CAMERA_CHANNELS
-
-        channels = CAMERA_CHANNELS
-        wavelengths, edges = np.array([]), np.asarray(spectra.MITSUBA_RANGE_NM)
-    else:
-        channels = None
-        wavelengths, edges = np.asarray(bands.centres_nm), np.asarray(bands.edges_nm)
-    n_channels = len(channels) if channels else len(bands)
-
-    auto_spp = config.render.spp == "auto"
-    target_spp = config.render.max_spp if auto_spp else config.render.spp
-    tiles = frame_tiles(width, height)
-    lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
-    sampler = config.render.sampler
-    lane_cap = max(lanes // (width * max(end - first for first, end in tiles)), 1)
-    spp_per_pass = exact_pass_spp(sampler, min(auto_spp_per_pass(sampler) if auto_spp else target_spp, lane_cap))
-    monitor = None
-    if auto_spp:  # rounds of equal passes, growing: each round's spread estimates its noise
-        monitor = NoiseMonitor(config, wavelengths, edges, channels, lens)
+    film = _Film(config, camera_film)
+    passes = _PassSchedule(config, variant, width, frame_tiles(width, height))
+    monitor = NoiseMonitor(config, film.wavelengths, film.edges, film.channels, lens) if passes.auto else None
 
     started = time.perf_counter()
-    camera = configured_camera(mi, config, lens, lens_model, render_film(config, use_camera, width, height),
-                               spp_per_pass)
-    integrator = {"type": "path", "max_depth": config.render.max_depth}
-    scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
+    camera = configured_camera(mi, config, lens, lens_model, render_film(config, film.use_camera, width, height),
+                               passes.spp_per_pass)
+    scene, sensor, integrator = build_scene(mi, config, lens, camera,
+                                            {"type": "path", "max_depth": config.render.max_depth})
     load_s = time.perf_counter() - started
     # the pose of the render (camera.json): the exposure's start for a moving camera
     camera_to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
-
-    tiled = len(tiles) > 1
-    data = np.empty((height, width, n_channels), np.float32) if tiled else None
-    done, seeds, radiance_range = 0, [], _RadianceRange()
     mover = None
     if config.motion.moving and config.motion.object:
         mover = ObjectMotion(mi, scene, sensor, config)
         decisions["motion"] = {**decisions.get("motion", {}), "object": {"name": config.motion.object,
                                                                          "shapes": mover.keys}}
-    robust_shares = []
-    for tile, rows, tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
-        accumulated = _PassMean()
-        done, index = 0, 0
-        # the adaptive median of means keeps K equal groups of passes apart (no sub-frames then)
-        group_means = np.empty((groups, rows[1] - rows[0], width, n_channels), np.float32) if groups > 1 else None
-        group = 0
-        for subframe in range(subframes):
-            frame_camera = tile_camera if subframes == 1 else moved_sensor(
-                mi, tile_camera, camera, subframe_transform(mi, config, subframe, subframes))
-            if mover is not None:
-                mover.place(subframe, subframes)
-            share = target_spp // subframes // groups
-            passes = (_auto_passes(sampler, target_spp, lane_cap) if auto_spp else
-                      itertools.chain.from_iterable(_fixed_passes(sampler, share, lane_cap) for _ in range(groups)))
-            for spp in passes:
-                seed = pass_seed(config.render.seed, index, seed_key)
-                image = np.asarray(mi.render(scene, sensor=frame_camera, integrator=integrator, seed=seed, spp=spp),
-                                   dtype=np.float32).reshape(rows[1] - rows[0], width, n_channels)
-                accumulated.add(image, spp)  # equal samples per sub-frame: equal time shares
-                done += spp
-                index += 1
-                seeds.append(seed)
-                if progress is not None:
-                    _report(progress, done, target_spp, time.perf_counter() - started, tile, len(tiles))
-                if monitor is not None and monitor.add(image, spp) and monitor.converged(accumulated.peek()):
-                    break
-                if group_means is not None and accumulated.spp == share:  # a group complete
-                    group_means[group] = accumulated.mean()
-                    accumulated, group = _PassMean(), group + 1
-        del image
-        if mover is not None:
-            mover.restore()
-        if group_means is not None:
-            estimate, median_share = adaptive_median_of_means(group_means)
-            robust_shares.append(median_share)
-        else:
-            estimate = accumulated.mean()
-        if tiled:
-            data[rows[0]:rows[1]] = radiance_range.clear_rounding(estimate)
-        else:
-            data = radiance_range.clear_rounding(estimate)
-    release_render_memory()
-    radiance_range.check()
-    if robust_shares:
-        decisions["estimator"] = {**decisions.get("estimator", {}), "median_share": float(np.mean(robust_shares))}
+    tiler = _TileRenderer(mi, config, scene, integrator, camera, passes, film.count, groups=groups,
+                          subframes=subframes, mover=mover, monitor=monitor, progress=progress, started=started)
+    data = tiler.render_frame(sensor, width, height)
+    if tiler.robust_shares:
+        decisions["estimator"] = {**decisions.get("estimator", {}), "median_share": float(np.mean(tiler.robust_shares))}
     if monitor is not None:
-        decisions["spp"] = monitor.record(done, config.render.max_spp)
-        if progress is not None and done < target_spp:
-            progress(done, done, time.perf_counter() - started)
+        decisions["spp"] = monitor.record(tiler.done, config.render.max_spp)
+        if progress is not None and tiler.done < passes.target_spp:
+            progress(tiler.done, tiler.done, time.perf_counter() - started)
     radiance_s = time.perf_counter() - started - load_s
 
     t0 = time.perf_counter()
-    if diffract:
-        data = lens.apply_diffraction(data, bands.centres_nm, out=data if data.dtype == np.float32 else None)
+    if diffraction:
+        data = lens.apply_diffraction(data, film.bands.centres_nm, out=data if data.dtype == np.float32 else None)
     diffraction_s = time.perf_counter() - t0
 
     meta = {
         "variant": variant,
         "lens_model": lens_model,
-        "spp": done,
-        "spp_per_pass": spp_per_pass if groups == 1 else config.render.spp // groups,
-        "sampler": sampler,
-        "passes": index,
-        "pass_seeds": seeds,
-        "tiles": [list(rows) for rows in tiles],
-        "bands": "camera" if use_camera else spectral_spec,
-        "bands_nm": list(wavelengths),
-        "channels": list(channels) if channels else None,
+        "spp": tiler.done,
+        "spp_per_pass": passes.spp_per_pass if groups == 1 else config.render.spp // groups,
+        "sampler": passes.sampler,
+        "passes": tiler.index,
+        "pass_seeds": tiler.seeds,
+        "tiles": [list(rows) for rows in passes.tiles],
+        "bands": "camera" if film.use_camera else config.render.spectral_bands,
+        "bands_nm": list(film.wavelengths),
+        "channels": list(film.channels) if film.channels else None,
         "optics": frame_optics(lens),
         "camera_to_world": camera_to_world.tolist(),
         "model_decisions": decisions,
         "timings_s": {"scene_load": load_s, "radiance": radiance_s, "depth": depth_s,
                       "diffraction": diffraction_s},
     }
-    return SpectralImage(data, wavelengths, edges, depth, meta, channels, lens)
+    return SpectralImage(data, film.wavelengths, film.edges, depth, meta, film.channels, lens)
+
+
+class _Film:
+    """What the film integrates: the spectral bands (``render.bands``) or the camera's own
+    channels (6: r, g, b and X, Y, Z, photon-weighted)."""
+
+    def __init__(self, config: SceneConfig, camera_film: bool):
+        self.use_camera = camera_film
+        self.bands = spectra.parse_bands(config.render.spectral_bands)
+        if camera_film:
+            from ..sensor import CAMERA_CHANNELS
+
+            self.channels = CAMERA_CHANNELS
+            self.wavelengths, self.edges = np.array([]), np.asarray(spectra.MITSUBA_RANGE_NM)
+        else:
+            self.channels = None
+            self.wavelengths, self.edges = np.asarray(self.bands.centres_nm), np.asarray(self.bands.edges_nm)
+        self.count = len(self.channels) if self.channels else len(self.bands)
+
+
+class _PassSchedule:
+    """The frame's tiles and its passes' sizes: as few Mitsuba calls as the lane cap allows, or
+    ``spp = "auto"``'s growing rounds."""
+
+    def __init__(self, config: SceneConfig, variant: str, width: int, tiles: list):
+        self.auto = config.render.spp == "auto"
+        self.target_spp = config.render.max_spp if self.auto else config.render.spp
+        self.tiles = tiles
+        self.sampler = config.render.sampler
+        lanes = SCALAR_LANES_PER_PASS if variant.startswith("scalar") else LANES_PER_PASS
+        self.lane_cap = max(lanes // (width * max(end - first for first, end in tiles)), 1)
+        self.spp_per_pass = exact_pass_spp(self.sampler, min(auto_spp_per_pass(self.sampler) if self.auto
+                                                             else self.target_spp, self.lane_cap))
+
+    def sizes(self, subframes: int, groups: int):
+        """The pass sizes of one sub-frame (its share of the samples, in ``groups`` groups)."""
+        if self.auto:
+            return _auto_passes(self.sampler, self.target_spp, self.lane_cap)
+        share = self.target_spp // subframes // groups
+        return itertools.chain.from_iterable(_fixed_passes(self.sampler, share, self.lane_cap) for _ in range(groups))
+
+
+class _TileRenderer:
+    """Renders the frame tile by tile, pass by pass: each pass its own seed, motion's
+    sub-frames in time order, the adaptive median of means over K groups of passes, and
+    ``spp = "auto"``'s monitor judging each round."""
+
+    def __init__(self, mi, config, scene, integrator, camera, passes: _PassSchedule, n_channels: int, *,
+                 groups: int, subframes: int, mover, monitor, progress, started: float):
+        self.mi, self.config, self.scene, self.integrator, self.camera = mi, config, scene, integrator, camera
+        self.passes, self.n_channels, self.groups, self.subframes = passes, n_channels, groups, subframes
+        self.mover, self.monitor, self.progress, self.started = mover, monitor, progress, started
+        self.done, self.index, self.seeds, self.robust_shares = 0, 0, [], []
+
+    def render_frame(self, sensor, width: int, height: int) -> np.ndarray:
+        """(H, W, channels) float32: each tile's estimate, Mitsuba's rounding below zero cleared."""
+        tiles = self.passes.tiles
+        data = np.empty((height, width, self.n_channels), np.float32) if len(tiles) > 1 else None
+        radiance_range = _RadianceRange()
+        for tile, rows, tile_camera, seed_key in tile_sensors(self.mi, sensor, self.camera, tiles):
+            estimate = radiance_range.clear_rounding(self._render_tile(tile, rows, tile_camera, seed_key, width))
+            if data is None:
+                data = estimate
+            else:
+                data[rows[0]:rows[1]] = estimate
+        release_render_memory()
+        radiance_range.check()
+        return data
+
+    def _render_tile(self, tile: int, rows: tuple, tile_camera, seed_key, width: int) -> np.ndarray:
+        mi, groups = self.mi, self.groups
+        accumulated = _PassMean()
+        self.done, self.index = 0, 0  # a tile's passes count from 0 (its seeds differ by its seed key)
+        # the adaptive median of means keeps K equal groups of passes apart (no sub-frames then)
+        group_means = np.empty((groups, rows[1] - rows[0], width, self.n_channels), np.float32) if groups > 1 else None
+        group, share = 0, self.passes.target_spp // self.subframes // groups
+        for subframe in range(self.subframes):
+            frame_camera = tile_camera if self.subframes == 1 else moved_sensor(
+                mi, tile_camera, self.camera, subframe_transform(mi, self.config, subframe, self.subframes))
+            if self.mover is not None:
+                self.mover.place(subframe, self.subframes)
+            for spp in self.passes.sizes(self.subframes, groups):
+                image = self._one_pass(frame_camera, spp, seed_key, rows, width)
+                accumulated.add(image, spp)  # equal samples per sub-frame: equal time shares
+                if self.progress is not None:
+                    _report(self.progress, self.done, self.passes.target_spp, time.perf_counter() - self.started,
+                            tile, len(self.passes.tiles))
+                if self.monitor is not None and self.monitor.add(image, spp) and \
+                        self.monitor.converged(accumulated.peek()):
+                    break
+                if group_means is not None and accumulated.spp == share:  # a group complete
+                    group_means[group] = accumulated.mean()
+                    accumulated, group = _PassMean(), group + 1
+        if self.mover is not None:
+            self.mover.restore()
+        if group_means is None:
+            return accumulated.mean()
+        estimate, median_share = adaptive_median_of_means(group_means)
+        self.robust_shares.append(median_share)
+        return estimate
+
+    def _one_pass(self, frame_camera, spp: int, seed_key, rows: tuple, width: int) -> np.ndarray:
+        seed = pass_seed(self.config.render.seed, self.index, seed_key)
+        image = self.mi.render(self.scene, sensor=frame_camera, integrator=self.integrator, seed=seed, spp=spp)
+        self.done += spp
+        self.index += 1
+        self.seeds.append(seed)
+        return np.asarray(image, dtype=np.float32).reshape(rows[1] - rows[0], width, self.n_channels)
 
 
 def light_trace(config: SceneConfig, *, spp: int, seed: int, lens: ThinLens | None = None) -> tuple[np.ndarray, float]:
