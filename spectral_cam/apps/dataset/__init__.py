@@ -79,10 +79,18 @@ Dask thread each, Mitsuba's thread pool sized to the worker's share of the cores
 workers must have spectral_cam installed and see DIR at the same path (a shared file
 system). ``--scheduler inline`` runs the items one after another in this process.
 
+``DIR/metadata.jsonl`` holds one row per finished item with a ``file_name`` column (the developed
+image, relative to DIR), its seed, sampled parameters and every label's path
+(``<label>_file``): Hugging Face ``datasets.load_dataset("imagefolder", data_dir=DIR)`` reads it
+as it is. ``DIR/README.md`` is the dataset card (spec, counts, labels with units, layout, sources
+and licences). :class:`~.loader.SyntheticDataset` serves the items as NumPy arrays, a map-style
+dataset PyTorch's ``DataLoader`` takes as it is.
+
 Modules: :mod:`.spec` (the spec, distributions, sweeps, item plans), :mod:`.labels` (what an
 item writes: :data:`~.labels.LABELS`, the defocus map, clean camera RGB, blur against depth),
 :mod:`.run` (the run: executor, Dask cluster, manifest, resume, retries, lock), :mod:`.sheets`
-(contact sheet, blur chart). The command line is :mod:`spectral_cam.cli.dataset`.
+(contact sheet, blur chart), :mod:`.card` (metadata.jsonl, the dataset card), :mod:`.loader`
+(reading items back). The command line is :mod:`spectral_cam.cli.dataset`.
 
 Cluster recipes
 ---------------
@@ -152,6 +160,8 @@ from .run import (
                      plan_dataset,
                      render_item,
 )
+from .card import write_card, write_metadata
+from .loader import LOADABLE_LABELS, SyntheticDataset, read_item
 from .sheets import CONTACT_SHEET_MAX, write_blur_chart, write_contact_sheet
 from .spec import (
                      DISTRIBUTIONS,
@@ -166,6 +176,11 @@ from .spec import (
 )
 
 __all__ = [
+    "LOADABLE_LABELS",
+    "SyntheticDataset",
+    "read_item",
+    "write_card",
+    "write_metadata",
     "DISTRIBUTIONS", "FORMAT_VERSION", "Distribution", "Sweep", "parse_sweep", "DatasetSpec", "ItemPlan",
     "spec_from_dict", "load_spec",
     "LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "defocus_map_px", "clean_camera_rgb",

@@ -40,6 +40,7 @@ from ...records import json_ready, read_json, write_json
 from ...render.variants import set_render_threads
 from ...scene import scene_from_dict
 from .labels import file_check, write_item
+from .card import write_card, write_metadata
 from .sheets import write_blur_chart, write_contact_sheet
 from .spec import DatasetSpec, ItemPlan
 
@@ -633,6 +634,8 @@ def generate_dataset(
         summary.failed = sum(1 for r in rows.values() if r["status"] == "failed")
         summary.errors = {r["id"]: r["error"] for r in sorted(rows.values(), key=lambda r: r["index"])
                           if r["status"] == "failed"}
+        write_metadata(output, rows)  # what loaders read: Hugging Face's ImageFolder, the card's readers
+        write_card(output, spec, rows, spec_hash=spec.hash)
         if any(r["status"] == "done" for r in rows.values()):
             _write_summaries(output, sweeps=bool(spec.sweeps))
     summary.seconds = time.perf_counter() - started

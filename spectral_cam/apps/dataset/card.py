@@ -1,0 +1,136 @@
+"""What a dataset folder tells the tools that read it: ``metadata.jsonl`` (one row per finished
+item, with a ``file_name`` column: Hugging Face ``datasets``' ImageFolder reads it as it is) and a
+dataset card ``README.md`` (the spec, counts, every label with its units, sources and licences).
+
+References
+----------
+.. [1] Hugging Face ``datasets``, "Create an image dataset" (ImageFolder, ``metadata.jsonl``,
+   ``file_name``, ``drop_labels``); "Dataset cards" (the README's YAML header).
+.. [2] Gebru, T., et al. (2021). Datasheets for datasets. Commun. ACM 64(12), 86–92.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Mapping, Sequence
+
+from ...io import atomic_path
+from ...records import json_ready
+
+__all__ = ["write_metadata", "write_card", "LABEL_UNITS", "DATA_SOURCES"]
+
+#: Each label's file and what its values are, in the units the file holds (the card's table).
+LABEL_UNITS = {
+    "raw": ("raw.dng", "the simulated RAW: CFA mosaic, uint16 DN with its black and white levels, DNG 1.4 colour "
+                       "tags (read by LibRaw, dcraw, darktable, Adobe's SDK)"),
+    "image": ("image.png", "developed sRGB, 8 bit (each isp.outputs format)"),
+    "radiance": ("radiance.exr", "spectral radiance, W·m⁻²·sr⁻¹·nm⁻¹, one channel per band (Fichet et al. 2021)"),
+    "depth": ("depth.exr", "camera-space z, metres (channel Z; inf where no surface)"),
+    "camera": ("camera.json", "intrinsics K in pixels of the frame (pixel centres at integers), OpenCV distortion "
+                              "(k1, k2, p1, p2, k3), pose world → camera as 4×4 in OpenCV and OpenGL axes, focus, "
+                              "aperture, exposure"),
+    "illuminant": ("illuminant.json", "the light's camera RGB (max 1, green 1, unit length), CIE 1931 xy, CCT (K) "
+                                      "and Duv"),
+    "defocus": ("defocus.exr", "signed thin-lens circle of confusion diameter, pixels (+ behind focus; channel CoC)"),
+    "all_in_focus": ("all_in_focus.png", "the same pose through an ideal pinhole at the same exposure, sRGB"),
+    "clean_rgb": ("clean_rgb.exr", "noise-free linear camera RGB, 1 = white level − black level"),
+    "undistortion": ("undistortion.exr", "cv2.remap maps (map_x, map_y) from undistorted to rendered pixels"),
+    "health": ("health.exr", "chlorophyll a+b (µg/cm², channel cab) and health state (channel state)"),
+}
+
+#: The data every item may draw on, and the terms each comes under.
+DATA_SOURCES = (
+    ("camera spectral sensitivities (17 cameras)", "pbrt-v4 / PhysLight measurements", "Apache-2.0"),
+    ("illuminants, CIE 1931 CMFs, ColorChecker, CIE 2017, CRI and CQS samples, rawtoaces training set",
+     "colour-science datasets (CIE 15:2004, CIE 224:2017, CIE 13.3, NIST, BabelColor, AMPAS)", "BSD-3-Clause"),
+    ("leaf, dry vegetation, soil, wood and stone reflectances", "USGS Spectral Library Version 7 (Kokaly et al. 2017)",
+     "public domain"),
+    ("leaf reflectance and transmittance", "PROSPECT-D (Féret et al. 2017), computed by the `prosail` package",
+     "generated at render time (the package's licence covers its code)"),
+    ("lens prescriptions", "ISET/iset3d-v3; ray-optics; optiland (see spectral_cam/data/lenses)", "MIT / BSD-3-Clause"),
+    ("Adobe's default tone curve", "Adobe DNG SDK 1.7", "DNG SDK License Agreement (royalty free, any purpose)"),
+)
+
+
+def _image_name(files: Sequence[str]) -> str | None:
+    for name in files:
+        if Path(name).stem == "image" and Path(name).suffix.lower() in (".png", ".jpg", ".jpeg", ".tif", ".tiff"):
+            return name
+    return None
+
+
+def metadata_rows(rows: Mapping[int, dict]) -> list[dict]:
+    """One row per finished item, in index order: ``file_name`` (the developed image, relative
+    to the dataset folder), ``id``, ``index``, ``seed``, every sampled parameter (its scene key)
+    and ``<label>_file`` for every file the item holds."""
+    out = []
+    for index in sorted(rows):
+        row = rows[index]
+        if row.get("status") != "done":
+            continue
+        files = list(row.get("files") or [])  # relative to the dataset folder
+        entry = {"file_name": _image_name(files), "id": row["id"], "index": row["index"],
+                 "seed": row.get("seed"), "exposure_s": row.get("exposure_s")}
+        entry.update(row.get("params") or {})
+        entry.update({f"{Path(name).stem}_file": name for name in files})
+        out.append(entry)
+    return out
+
+
+def write_metadata(output: Path, rows: Mapping[int, dict]) -> Path:
+    """``output/metadata.jsonl`` (:func:`metadata_rows`), atomically."""
+    path = Path(output) / "metadata.jsonl"
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding="utf-8") as handle:
+            for entry in metadata_rows(rows):
+                handle.write(json.dumps(json_ready(entry), ensure_ascii=False, allow_nan=False, default=str) + "\n")
+    return path
+
+
+def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) -> Path:
+    """``output/README.md``: the dataset card (a YAML header Hugging Face reads, then the spec,
+    counts, labels with units, layout, how to load it, sources and licences)."""
+    done = [r for r in rows.values() if r.get("status") == "done"]
+    failed = sum(1 for r in rows.values() if r.get("status") == "failed")
+    outputs = list(spec.outputs)
+    lines = ["---", "pretty_name: spectral_cam synthetic camera dataset",
+             "tags: [synthetic, raw, spectral, depth, camera-simulation]",
+             "configs:", "- config_name: default", "  drop_labels: true", "---", "",
+             "# Synthetic camera dataset (spectral_cam)", "",
+             f"{len(done)} items rendered ({failed} failed, {len(rows)} planned) from a spectral scene through a "
+             "thin lens, a simulated sensor (photons, shot, read and dark noise, ADC) and an ISP, by "
+             "spectral_cam. Spec hash `" + spec_hash[:16] + "`; `dataset.json` holds the whole spec, "
+             "`manifest.jsonl` every item's status, seed and parameters.", "",
+             "## Labels", "", "| label | file | values and units |", "|---|---|---|"]
+    for name in outputs:
+        file, units = LABEL_UNITS.get(name, (f"{name}.*", "described in each item's meta.json"))
+        lines.append(f"| `{name}` | `{file}` | {units} |")
+    lines += ["", "Every item folder also holds `meta.json`: the resolved scene, optics, sensor (gain, exposure, "
+              "noise parameters, seeds), the model decisions and the sampled parameters.", "",
+              "## Sampled parameters", ""]
+    if spec.distributions:
+        lines += [f"- `{key}`: {json.dumps(json_ready(value.to_dict()))}" for key, value in sorted(spec.distributions.items())]
+    if spec.sweeps:
+        lines += [f"- sweep `{sweep.key}`: {json.dumps(json_ready(list(sweep.values)))}" for sweep in spec.sweeps]
+    if not spec.distributions and not spec.sweeps:
+        lines.append("None: every item is the same scene with its own noise and sample seeds.")
+    lines += ["", "## Layout", "", "    metadata.jsonl        one row per item: file_name (the image), id, seed, "
+              "parameters, <label>_file paths",
+              "    manifest.jsonl        every planned item: status, seed, parameters, files, errors",
+              "    items/NNNNNN/         one folder per item: the labels above and meta.json", "",
+              "## Loading", "", "```python",
+              "from spectral_cam.apps.dataset import SyntheticDataset   # NumPy arrays per item",
+              "item = SyntheticDataset('.')[0]                          # item['image'], item['depth'], ...",
+              "", "import datasets                                          # Hugging Face, reads metadata.jsonl",
+              "data = datasets.load_dataset('imagefolder', data_dir='.', split='train')", "```", "",
+              "`SyntheticDataset` is a map-style dataset: `torch.utils.data.DataLoader` takes it as it is "
+              "(pass `transform=` to make tensors).", "",
+              "## Sources and licences", "", "| data | source | licence |", "|---|---|---|"]
+    lines += [f"| {what} | {source} | {licence} |" for what, source, licence in DATA_SOURCES]
+    lines += ["", "Images, labels and metadata here were generated by spectral_cam; they carry no third-party "
+              "image content.", ""]
+    path = Path(output) / "README.md"
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text("\n".join(lines), encoding="utf-8")
+    return path
