@@ -215,8 +215,8 @@ def dead_leaves(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     black = mi.load_dict({"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}})
     objects = {}
     # one emitting mesh per reflectance sample, holding all its discs: Mitsuba records a render
-    # call's kernel once per shape and emitter, so 8,900 separate discs cost 2.8 s a call and 99
-    # meshes 0.06 s (docs/design.md, "The capture plan")
+    # call's kernel once per shape and emitter, so 8,900 separate discs cost 2.8 s a call and
+    # 99 meshes 0.08 s (docs/design.md, "The capture plan")
     for index in np.unique(layout.reflectance_index):
         chosen = layout.reflectance_index == index
         vertices, faces = disc_polygons(layout.column_px[chosen], layout.row_px[chosen], layout.radius_px[chosen],
