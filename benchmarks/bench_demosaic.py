@@ -9,7 +9,7 @@ random colour texture with a little noise, in [0, 1] (quantised for OpenCV).
 - **warm**: every method at a size is timed in turn, the order rotated each round, after one
   warm-up call each; the median of ``--repeats`` rounds.
 - **first call**: each of our methods in a fresh Python process, with glibc's large-block setting
-  that the CLI makes (``spectral_cam.cli._keep_large_blocks``) and the imports done first, so the
+  that the CLI makes (``spectral_cam.cli.keep_large_blocks``) and the imports done first, so the
   time is the call's own, page faults of its fresh arrays included; the median of
   ``--first-calls`` processes.
 - ``--baseline REV`` adds our methods as they were at git revision ``REV`` (its ``isp/demosaic.py``
@@ -126,9 +126,9 @@ def first_call_seconds(method: str, megapixels: float, baseline: str | None) -> 
 
 
 def _first_call(method: str, megapixels: float, baseline: str | None) -> None:
-    from spectral_cam.cli import _keep_large_blocks
+    from spectral_cam.cli import keep_large_blocks
 
-    _keep_large_blocks()
+    keep_large_blocks()
     table = methods(baseline)
     data = mosaics(megapixels)
     small = {k: np.ascontiguousarray(v[:64, :64]) for k, v in data.items()}
@@ -224,9 +224,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     from spectral_cam.apps.bench.common import write_rows
-    from spectral_cam.cli import _keep_large_blocks
+    from spectral_cam.cli import keep_large_blocks
 
-    _keep_large_blocks()
+    keep_large_blocks()
     table = methods(args.baseline)
     ours = [name for name in table if name in OURS or "@" in name]
     rows = []

@@ -78,9 +78,9 @@ print(json.dumps({"render_s": render_s}))
 OURS_STAGE = r"""
 import json, sys
 import spectral_cam as sc
-from spectral_cam.cli import _keep_large_blocks
-_keep_large_blocks()
+from spectral_cam.cli import keep_large_blocks
 scene = sc.load_scene(sys.argv[1], overrides=json.loads(sys.argv[2]))
+keep_large_blocks(scene.sensor.width_px * scene.sensor.height_px)  # as spectral-cam render does
 image = sc.render(scene, with_depth=False)
 print(json.dumps({"render_s": image.meta["timings_s"]["radiance"], "variant": image.meta["variant"]}))
 """

@@ -32,9 +32,10 @@ __all__ = ["render", "execute", "render_layered", "render_shape_map", "choose_va
            "SCALAR_LANES_PER_PASS"]
 
 
-def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None) -> tuple:
+def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None, with_materials: bool = False) -> tuple:
     """Which shape each pixel sees (:func:`.depth.render_shape_index`): (H, W) int32 indices,
-    −1 for none, and the shapes' names. The lens is the frame's (default: built from the config).
+    −1 for none, and the shapes' names (with ``with_materials``, records of name and material:
+    :func:`.depth.render_shapes`). The lens is the frame's (default: built from the config).
 
     References
     ----------
@@ -42,11 +43,11 @@ def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None) -> tu
     """
     import mitsuba as mi
 
-    from .depth import render_shape_index
+    from .depth import render_shape_index, render_shapes
 
     mi.set_variant(choose_variant(config.render.variant))
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
-    return render_shape_index(mi, config, lens)
+    return (render_shapes if with_materials else render_shape_index)(mi, config, lens)
 
 
 def render(

@@ -57,12 +57,28 @@ def render_shape_index(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndar
     ----------
     .. [1] Jakob, W., et al. (2022). Mitsuba 3, plugin ``aov`` (shape_index).
     """
+    index, shapes = render_shapes(mi, config, lens)
+    return index, [shape["name"] for shape in shapes]
+
+
+def _material(shape) -> str:
+    """The Mitsuba class of a shape's BSDF ("SmoothDiffuse", "Principled", …), "emitter" for an
+    emitting shape whose BSDF is black, from the object's own description."""
+    bsdf = str(shape.bsdf()).split("[", 1)[0].strip() if shape.bsdf() is not None else "none"
+    return f"emitter ({bsdf})" if shape.is_emitter() else bsdf
+
+
+def render_shapes(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, list[dict]]:
+    """:func:`render_shape_index` with each shape's record: ``name`` (the scene dict's key or
+    the XML id), ``material`` (its BSDF's Mitsuba class, or ``emitter (…)``)."""
     width, height = lens.width_px, lens.height_px
     film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
             "pixel_format": "luminance", "component_format": "float32"}
     camera = camera_dict(mi, lens, "pinhole", film, 1)
-    scene, sensor, integrator = build_scene(mi, config, lens, camera, {"type": "aov", "aovs": "index:shape_index"})
-    names = [shape.id() for shape in scene.shapes()]
+    scene, sensor, integrator = build_scene(mi, config, lens, camera, {"type": "aov", "aovs": "index:shape_index"},
+                                            optimize=False)
+    shapes = [{"name": shape.id(), "material": _material(shape)} for shape in scene.shapes()]
+    names = [shape["name"] for shape in shapes]
     try:  # vectorised variants: registry ids
         import drjit as dr
 
@@ -78,4 +94,4 @@ def render_shape_index(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndar
         value = np.rint(image.reshape(end - first, width, -1)[..., -1]).astype(np.int64)
         index[first:end] = lookup[np.clip(value, 0, len(lookup) - 1)]
     release_render_memory()
-    return index, names
+    return index, shapes

@@ -172,10 +172,12 @@ def configured_camera(mi, config: SceneConfig, lens: ThinLens, model: str, film:
                        distortion=section.distortion)
 
 
-def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrator: dict):
+def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrator: dict, *, optimize: bool = True):
     """Load (scene, sensor, integrator). Presets are built as one scene dict; a user's
     Mitsuba XML scene keeps its shapes, emitters and its first sensor's pose, while our
-    camera (lens, film, sampler) and integrator replace its own."""
+    camera (lens, film, sampler) and integrator replace its own. ``optimize=False`` keeps
+    every shape its own (Mitsuba otherwise merges shapes it finds alike: a segmentation
+    needs them apart)."""
     from ..presets import build_objects
     from .leaf_bsdf import register as register_leaf
 
@@ -183,10 +185,10 @@ def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrato
     if not config.scene.mitsuba_xml:
         scene = {"type": "scene", "integrator": integrator, "sensor": camera}
         scene.update(build_objects(config, lens.layout_lens, mi))  # laid out for the frame
-        loaded = load_dict(mi, scene)
+        loaded = load_dict(mi, scene, optimize=optimize)
         return loaded, loaded.sensors()[0], loaded.integrator()
     try:
-        loaded = mi.load_file(config.scene.mitsuba_xml)
+        loaded = mi.load_file(config.scene.mitsuba_xml, optimize=optimize)
     except Exception as exc:
         raise RenderError(f"Mitsuba could not load {config.scene.mitsuba_xml}: {exc}") from None
     pose = mi.ScalarTransform4f()
@@ -206,9 +208,9 @@ def camera_move(mi, config: SceneConfig):
             .rotate([0, 1, 0], yaw).rotate([1, 0, 0], -pitch).rotate([0, 0, 1], roll))
 
 
-def load_dict(mi, scene_dict: dict):
+def load_dict(mi, scene_dict: dict, *, optimize: bool = True):
     try:
-        return mi.load_dict(scene_dict)
+        return mi.load_dict(scene_dict, optimize=optimize)
     except Exception as exc:  # Mitsuba raises plain RuntimeError on bad scenes
         raise RenderError(f"Mitsuba could not load the scene: {exc}") from exc
 

@@ -36,6 +36,9 @@ LABEL_UNITS = {
     "all_in_focus": ("all_in_focus.png", "the same pose through an ideal pinhole at the same exposure, sRGB"),
     "clean_rgb": ("clean_rgb.exr", "noise-free linear camera RGB, 1 = white level − black level"),
     "undistortion": ("undistortion.exr", "cv2.remap maps (map_x, map_y) from undistorted to rendered pixels"),
+    "segmentation": ("segmentation.png", "16-bit instance id per pixel (0: nothing) in the all-in-focus view; "
+                                         "meta.json's segmentation.instances names each id's shape, class, material "
+                                         "and reflectance source"),
     "health": ("health.exr", "chlorophyll a+b (µg/cm², channel cab) and health state (channel state)"),
 }
 

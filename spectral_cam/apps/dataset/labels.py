@@ -261,6 +261,70 @@ def _health(item: Item, folder: Path) -> list[Path]:
     return [path]
 
 
+def shape_class(name: str) -> str:
+    """A shape's class: its name without the index its preset numbers it by (``patch_07`` →
+    ``patch``, ``plant_3`` → ``plant``); an XML scene's shape id as it is."""
+    stem, _, tail = name.rpartition("_")
+    return stem if stem and tail.isdigit() else name
+
+
+def shape_reflectance(config: SceneConfig, name: str) -> str | None:
+    """Where a preset shape's reflectance comes from, where its preset names it by it (the
+    ColorChecker patches, dead-leaves samples, plants, depth-target checkers); None otherwise
+    (an XML scene's materials are its own)."""
+    from ...spectra import COLORCHECKER_PATCH_NAMES
+
+    scene = config.scene
+    if scene.mitsuba_xml:
+        return None
+    kind, number = shape_class(name), name.rpartition("_")[2]
+    if kind in ("patch", "chart_patch") and number.isdigit() and int(number) < len(COLORCHECKER_PATCH_NAMES):
+        return f"ColorChecker '{COLORCHECKER_PATCH_NAMES[int(number)]}' (BabelColor average)"
+    if kind == "leaves" and scene.preset == "dead_leaves":
+        from ...reflectance_sets import reflectance_set
+
+        return f"{scene.leaf_reflectances}: {reflectance_set(scene.leaf_reflectances).names[int(number)]}"
+    if kind == "backdrop" and scene.preset == "dead_leaves":
+        from ...presets.dead_leaves import BACKDROP_REFLECTANCE
+
+        return f"flat {BACKDROP_REFLECTANCE:g}"
+    if kind == "plant":
+        return "PROSPECT-D leaf (health state in health.exr)" if scene.plant_reflectances == "prospect" \
+            else f"reflectance set {scene.plant_reflectances}"
+    if kind == "plane" and scene.preset == "dof_targets":
+        return "checkerboard of flat 0.1 and 0.8"
+    return None
+
+
+@LABELS.register("segmentation", options=("segmentation",),
+                 description="segmentation.png: per pixel, the 16-bit instance id of the shape its centre ray meets "
+                             "through an ideal pinhole (the all-in-focus view; 0: nothing); meta.json maps each id "
+                             "to the shape's name, class, material, reflectance source and pixel count")
+def _segmentation(item: Item, folder: Path) -> list[Path]:
+    import cv2
+
+    from ...render import render_shape_map
+
+    t0 = time.perf_counter()
+    index, shapes = render_shape_map(item.config, lens=item.sim.lens, with_materials=True)
+    if len(shapes) >= 65535:
+        raise ConfigError(f"{len(shapes)} shapes do not fit a 16-bit segmentation (at most 65534)")
+    ids = (index + 1).astype(np.uint16)  # 0: no shape
+    path = folder / "segmentation.png"
+    if not cv2.imwrite(str(path), ids):
+        raise OSError(f"could not write {path}")
+    counts = np.bincount(ids.ravel(), minlength=len(shapes) + 1)
+    table = [{"id": k + 1, "name": shape["name"], "class": shape_class(shape["name"]), "material": shape["material"],
+              "reflectance": shape_reflectance(item.config, shape["name"]), "pixels": int(counts[k + 1])}
+             for k, shape in enumerate(shapes)]
+    item.records["segmentation"] = {
+        "file": "segmentation.png", "dtype": "uint16", "background_id": 0, "pixels_unlabelled": int(counts[0]),
+        "view": "ideal pinhole through the frame (the all-in-focus view), one ray per pixel centre",
+        "instances": table}
+    item.timings["segmentation"] = time.perf_counter() - t0
+    return [path]
+
+
 #: Outputs of an item unless the spec's ``[dataset] outputs`` says otherwise (the spectral
 #: cube, 31 float32 channels, is opt-in).
 DEFAULT_OUTPUTS = ("raw", "image", "depth", "defocus", "all_in_focus", "clean_rgb")

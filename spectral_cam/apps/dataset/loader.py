@@ -17,6 +17,7 @@ key                 value
 ``radiance``        (H, W, B) float32 spectral radiance per nm; ``radiance_nm``: the B wavelengths
 ``undistortion``    (H, W, 2) float32 cv2.remap maps (map_x, map_y)
 ``health``          (H, W, 2) float32 chlorophyll (µg/cm²) and health state
+``segmentation``    (H, W) uint16 instance ids (0: nothing; meta["segmentation"] names them)
 ``camera``          camera.json as a dict, ``K`` and the poses as NumPy arrays
 ``illuminant``      illuminant.json as a dict
 ``meta``            meta.json (sampled parameters under ``dataset.params``)
@@ -133,6 +134,7 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "radiance": ("radiance.exr", _radiance),
     "undistortion": ("undistortion.exr", lambda p: {"undistortion": _stack(p, ("map_x", "map_y"))}),
     "health": ("health.exr", lambda p: {"health": _stack(p, ("cab", "state"))}),
+    "segmentation": ("segmentation.png", lambda p: {"segmentation": _image(p)}),
     "camera": ("camera.json", lambda p: {"camera": _camera(p)}),
     "illuminant": ("illuminant.json", lambda p: {"illuminant": json.loads(p.read_text(encoding="utf-8"))}),
 }

@@ -76,7 +76,7 @@ def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
         name: (tmp_path / "item" / name).stat().st_size for name in ("defocus.exr", "raw.dng")}
     assert meta["defocus"]["channel"] == "CoC"
     recorded = {key for entry in LABELS.values() for key in entry.options}
-    assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb", "undistortion", "health"}
+    assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb", "undistortion", "health", "segmentation"}
     assert all(meta[key] is None for key in recorded - {"defocus"})
     assert json.loads((tmp_path / "item" / "meta.json").read_text())["files"] == meta["files"]
 
@@ -101,3 +101,40 @@ def test_blur_beyond_the_checker_period_is_reported_as_not_measurable():
     assert float(lens.coc_diameter_px(0.5)) > 8
     assert rows[0.5]["measured_coc_px"] is None and "exceeds the checker period 8 px" in rows[0.5]["note"]
     assert rows[2.0]["note"] is None or "exceeds" not in rows[2.0]["note"]
+
+
+@pytest.mark.timeout(300)
+def test_segmentation_instances_coincide_with_the_depth_labels_planes(make_scene, tmp_path):
+    """dof_targets: three planes at 1, 2 and 4 m in vertical stripes. Each plane's instance mask
+    and the mask of pixels whose depth label is that plane's depth agree (IoU ≥ 0.98); the table
+    names each instance's shape, class, material and reflectance."""
+    import cv2
+
+    depths = [1.0, 2.0, 4.0]
+    config = make_scene(scene={"preset": "dof_targets", "depths_m": depths}, sensor={"width_px": 48, "height_px": 32},
+                        render={"spp": 2}, lens={"model": "pinhole"})
+    meta = write_item(config, tmp_path / "item", outputs=["depth", "segmentation"])
+    ids = cv2.imread(str(tmp_path / "item" / "segmentation.png"), cv2.IMREAD_UNCHANGED)
+    depth = read_exr(tmp_path / "item" / "depth.exr")["Z"]
+    assert ids.dtype == np.uint16 and ids.shape == depth.shape == (32, 48)
+    table = {row["name"]: row for row in meta["segmentation"]["instances"]}
+    for index, z in enumerate(depths):
+        row = table[f"plane_{index}"]
+        assert row["class"] == "plane" and row["reflectance"] == "checkerboard of flat 0.1 and 0.8"
+        assert "Diffuse" in row["material"]
+        instance = ids == row["id"]
+        geometric = np.abs(depth - z) < 1e-3 * z
+        iou = (instance & geometric).sum() / (instance | geometric).sum()
+        assert iou >= 0.98 and row["pixels"] == int(instance.sum()) > 0, (index, iou)
+    assert meta["segmentation"]["pixels_unlabelled"] == int((ids == 0).sum())
+
+
+@pytest.mark.timeout(300)
+def test_segmentation_names_colorchecker_patches_by_their_reflectance(make_scene, tmp_path):
+    config = make_scene(scene={"preset": "colorchecker"}, sensor={"width_px": 60, "height_px": 40},
+                        render={"spp": 2})
+    meta = write_item(config, tmp_path / "item", outputs=["segmentation"])
+    table = {row["name"]: row for row in meta["segmentation"]["instances"]}
+    assert table["patch_00"]["reflectance"] == "ColorChecker 'dark skin' (BabelColor average)"
+    assert table["patch_18"]["reflectance"].startswith("ColorChecker 'white 9.5")
+    assert all(table[f"patch_{k:02d}"]["pixels"] > 0 for k in range(24))
