@@ -33,18 +33,19 @@ MITSUBA_TO_OPENCV = np.diag([-1.0, -1.0, 1.0, 1.0])
 MITSUBA_TO_OPENGL = np.diag([-1.0, 1.0, -1.0, 1.0])
 
 
-def intrinsics_matrix(lens: ThinLens) -> np.ndarray:
-    """K (3 × 3) of the frame's lens in pixels, pixel centres at integers: fx = fy = v/p,
-    (cx, cy) = (W/2 − ½, H/2 − ½)."""
+def intrinsics_matrix(lens: ThinLens, focal_length_m: float | None = None) -> np.ndarray:
+    """K (3 × 3) of the frame's lens in pixels, pixel centres at integers: fx = fy = v/p (or
+    ``focal_length_m``/p: a prescription's traced scale), (cx, cy) = (W/2 − ½, H/2 − ½)."""
     frame = lens.layout_lens
-    focal_px = frame.image_distance_m / frame.pixel_pitch_m
+    focal_px = (frame.image_distance_m if focal_length_m is None else focal_length_m) / frame.pixel_pitch_m
     return np.array([[focal_px, 0.0, frame.width_px / 2 - 0.5],
                      [0.0, focal_px, frame.height_px / 2 - 0.5],
                      [0.0, 0.0, 1.0]])
 
 
 def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0, 0.0, 0.0),
-                  lens_model: str = "thin", exposure_s: float | None = None, iso: float | None = None) -> dict:
+                  lens_model: str = "thin", exposure_s: float | None = None, iso: float | None = None,
+                  fitted: dict | None = None) -> dict:
     """The content of ``camera.json``.
 
     Parameters
@@ -56,8 +57,11 @@ def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0,
     distortion
         (k1, k2, p1, p2, k3), OpenCV's convention.
     lens_model
-        The lens model the render used (a prescription's real distortion is not fitted here:
-        its coefficients stay zero and ``distortion_fitted`` says so).
+        The lens model the render used.
+    fitted
+        A prescription's fit (:meth:`spectral_cam.optics.prescription.Prescription.opencv_distortion`):
+        its traced focal scale sets K, its coefficients the distortion, its residual (in pixels)
+        is recorded.
     exposure_s, iso
         The exposure the sensor used.
 
@@ -74,11 +78,14 @@ def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0,
     opencv = MITSUBA_TO_OPENCV @ world_to_mitsuba
     opengl = MITSUBA_TO_OPENGL @ world_to_mitsuba
     return {
-        "K": intrinsics_matrix(frame).tolist(),
+        "K": intrinsics_matrix(frame, None if fitted is None else fitted["focal_length_m"]).tolist(),
         "image_size": [int(frame.width_px), int(frame.height_px)],
-        "distortion": [float(c) for c in distortion],
+        "distortion": [float(c) for c in (distortion if fitted is None else fitted["coefficients"])],
         "distortion_model": "opencv (k1, k2, p1, p2, k3)",
-        "distortion_fitted": lens_model != "prescription",
+        "distortion_source": ("fitted to the prescription's chief rays (least squares over the field to the "
+                              "sensor's corner)" if fitted is not None else
+                              "the configured lens.distortion (exact: the renderer applies this model)"),
+        "distortion_residual_px": None if fitted is None else fitted["residual_m"] / frame.pixel_pitch_m,
         "world_to_camera_opencv": opencv.tolist(),
         "world_to_camera_opengl": opengl.tolist(),
         "camera_to_world_opencv": np.linalg.inv(opencv).tolist(),
@@ -105,9 +112,17 @@ def capture_camera_record(radiance, config, raw) -> dict | None:
     image rendered before poses were recorded."""
     if "camera_to_world" not in radiance.meta:
         return None
+    lens_model = radiance.meta.get("lens_model", config.lens.model)
+    fitted = None
+    if lens_model == "prescription":
+        from .optics.prescription import load_prescription
+
+        frame = radiance.lens.layout_lens
+        fitted = load_prescription(config.lens.prescription).opencv_distortion(
+            frame.focus_distance_m, 0.5 * float(np.hypot(frame.sensor_width_m, frame.sensor_height_m)))
     return camera_record(radiance.lens, radiance.meta["camera_to_world"], distortion=config.lens.distortion,
-                         lens_model=radiance.meta.get("lens_model", config.lens.model),
-                         exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso"))
+                         lens_model=lens_model, exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso"),
+                         fitted=fitted)
 
 
 def illuminant_record(spd: str, neutral, *, sensor_model: str, emitter: str = "",

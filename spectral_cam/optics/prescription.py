@@ -295,6 +295,50 @@ class Prescription:
                 high = middle
         return 2.0 * low
 
+    def sensor_distance_m(self, focus_distance_m: float, wavelength_nm: float = LINES_NM["d"]) -> float:
+        """Where the sensor sits behind the last vertex when the lens is focused on an object
+        ``focus_distance_m`` in front of the entrance pupil (best focus, as the render places it)."""
+        return self.focus_image_distance_m(focus_distance_m - self.entrance_pupil(wavelength_nm)[0], wavelength_nm)
+
+    def opencv_distortion(self, focus_distance_m: float, half_diagonal_m: float, *, samples: int = 48,
+                          wavelength_nm: float = LINES_NM["d"]) -> dict:
+        """The lens's distortion as OpenCV's radial model, fitted to the real chief rays.
+
+        A distant point at angle θ from the axis, seen from the entrance pupil (the camera's
+        origin), lands at h(θ) on the sensor (:meth:`image_height_m`). OpenCV maps the
+        undistorted normalised radius r_u = tan θ to r_d = r_u·(1 + k1·r_u² + k2·r_u⁴ + k3·r_u⁶) and
+        scales it by the focal length f_px: so f = h/tan θ as θ → 0 (the chief rays' paraxial
+        scale, traced at 0.01°), and k1, k2, k3 are the least-squares fit of h/(f·tan θ) − 1 over
+        ``samples`` fields up to the sensor's corner (``half_diagonal_m``); p1 = p2 = 0 (the lens
+        is rotationally symmetric). The chief ray of a near point through the pupil's centre is
+        the same ray, so the fit holds at any object distance.
+
+        Returns
+        -------
+        dict
+            ``focal_length_m`` (the scale f, m per unit tan θ), ``coefficients`` (k1, k2, p1, p2,
+            k3), ``residual_m`` (largest |h − fitted h| over the fields), ``max_field_deg``.
+
+        References
+        ----------
+        .. [1] Brown, D. C. (1966). Decentering distortion of lenses. Photogrammetric
+           Engineering 32(3), 444–462 (the radial polynomial OpenCV uses).
+        .. [2] OpenCV, "Camera Calibration and 3D Reconstruction" (``projectPoints``' model).
+        """
+        sensor = self.sensor_distance_m(focus_distance_m, wavelength_nm)
+        small = 0.01
+        scale = self.image_height_m(small, sensor, wavelength_nm) / np.tan(np.radians(small))
+        corner = 0.5 * self.field_of_view_deg(half_diagonal_m, sensor, wavelength_nm)
+        fields = np.linspace(corner / samples, corner, samples)
+        heights = np.array([self.image_height_m(f, sensor, wavelength_nm) for f in fields])
+        keep = np.isfinite(heights)
+        r_u = np.tan(np.radians(fields[keep]))
+        design = np.stack([r_u ** 2, r_u ** 4, r_u ** 6], axis=1)
+        (k1, k2, k3), *_ = np.linalg.lstsq(design, heights[keep] / (scale * r_u) - 1.0, rcond=None)
+        fitted = scale * r_u * (1.0 + design @ np.array([k1, k2, k3]))
+        return {"focal_length_m": float(scale), "coefficients": [float(k1), float(k2), 0.0, 0.0, float(k3)],
+                "residual_m": float(np.max(np.abs(fitted - heights[keep]))), "max_field_deg": float(corner)}
+
     def describe(self, focus_distance_m: float, sensor_width_m: float) -> dict:
         """What a render through this lens records (meta.json): focal length, f-numbers, the
         sensor's place and the field of view from the trace, next to the thin lens's."""
