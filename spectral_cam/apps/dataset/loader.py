@@ -213,10 +213,10 @@ class SyntheticDataset:
 
     Examples
     --------
-    >>> data = SyntheticDataset("out/")             # doctest: +SKIP
-    >>> item = data[0]                              # doctest: +SKIP
-    >>> item["image"].shape, item["depth"].dtype    # doctest: +SKIP
-    ((320, 480, 3), dtype('float32'))
+    A dataset written by ``spectral-cam dataset spec.toml -n 100 -o out``::
+
+        data = SyntheticDataset("out/", labels=("image", "depth"))
+        item = data[0]     # item["image"]: (H, W, 3) uint8, item["depth"]: (H, W) float32 metres
     """
 
     def __init__(self, root: str | Path, *, labels: Iterable[str] | None = None, transform: Callable | None = None):
