@@ -29,7 +29,8 @@ import numpy as np
 from ..optics import ThinLens
 from ..scene import SceneConfig
 
-__all__ = ["motion_blur_px", "plan_subframes", "subframe_transform", "ObjectMotion"]
+__all__ = ["motion_blur_px", "plan_subframes", "subframe_transform", "ObjectMotion", "camera_move_matrix",
+           "motion_flow_px"]
 
 #: Largest image motion (px) one sub-frame stands for.
 PX_PER_SUBFRAME = 0.5
@@ -82,6 +83,70 @@ def subframe_transform(mi, config: SceneConfig, index: int, count: int):
     offset = [float(v) for v in _relative_velocity(config) * t]
     return (mi.ScalarTransform4f().translate(offset).rotate([0, 1, 0], yaw).rotate([1, 0, 0], -pitch)
             .rotate([0, 0, 1], roll))
+
+
+def _rotation(axis, degrees: float) -> np.ndarray:
+    """4 × 4 right-handed rotation about a unit axis (Rodrigues), as Mitsuba's ``rotate``."""
+    x, y, z = axis
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    out = np.eye(4)
+    out[:3, :3] = np.eye(3) + s * k + (1.0 - c) * (k @ k)
+    return out
+
+
+def camera_move_matrix(config: SceneConfig, t: float) -> np.ndarray:
+    """:func:`subframe_transform` at time ``t`` (s from the exposure's middle) as a NumPy 4 × 4
+    in the camera's own frame (Mitsuba's axes)."""
+    yaw, pitch, roll = (float(w) * t for w in config.motion.camera_angular_velocity_dps)
+    move = np.eye(4)
+    move[:3, 3] = _relative_velocity(config) * t
+    return move @ _rotation((0, 1, 0), yaw) @ _rotation((1, 0, 0), -pitch) @ _rotation((0, 0, 1), roll)
+
+
+def motion_flow_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray, moving: np.ndarray | None = None
+                   ) -> np.ndarray:
+    """Forward optical flow over the exposure (px): where the point seen at each pixel centre at
+    the exposure's middle is imaged at the exposure's end, minus where it was at its start.
+
+    The point is the pixel's ray at its depth (``depth_m``, camera-space z at the middle; a
+    point at infinity moves with the rotation only); its camera-space position at time t is
+    M(t)⁻¹·(P + v_o·t), M(t) the camera's move (:func:`camera_move_matrix`), v_o the object's
+    velocity where ``moving`` marks the pixels of ``motion.object`` (zero elsewhere: the world is
+    static). Projected through the frame's pinhole (fx = v/p, pixel centres at integers). A
+    camera translating across the view at v past a plane at z moves its image by v·T·(v_img/z)/p.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W, 2) float32: (dx, dy) in pixels, x to the image's right, y down (OpenCV's).
+
+    References
+    ----------
+    .. [1] Baker, S., et al. (2011). A database and evaluation methodology for optical flow.
+       IJCV 92(1), 1–31 (forward flow, pixels).
+    """
+    frame = lens.layout_lens
+    height, width = depth_m.shape
+    focal = frame.image_distance_m / frame.pixel_pitch_m
+    cx, cy = frame.width_px / 2 - 0.5, frame.height_px / 2 - 0.5
+    columns, rows = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+    depth = np.where(np.isfinite(depth_m), depth_m, 1e9).astype(np.float64)  # infinity: rotation only
+    # Mitsuba's camera axes: +x image-left, +y up, +z the view
+    points = np.stack([-(columns - cx) / focal * depth, -(rows - cy) / focal * depth, depth, np.ones_like(depth)],
+                      axis=-1)
+    half = 0.5 * float(config.exposure.time_s)
+    object_velocity = np.asarray(config.motion.object_velocity_mps, dtype=float) if config.motion.object else np.zeros(3)
+    if moving is None:
+        moving = np.zeros(depth.shape, dtype=bool)
+
+    def image_at(t: float) -> np.ndarray:
+        shifted = points.copy()
+        shifted[moving, :3] += object_velocity * t
+        seen = shifted @ np.linalg.inv(camera_move_matrix(config, t)).T
+        return np.stack([cx - focal * seen[..., 0] / seen[..., 2], cy - focal * seen[..., 1] / seen[..., 2]], axis=-1)
+
+    return (image_at(half) - image_at(-half)).astype(np.float32)
 
 
 class ObjectMotion:

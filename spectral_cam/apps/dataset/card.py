@@ -39,6 +39,8 @@ LABEL_UNITS = {
     "segmentation": ("segmentation.png", "16-bit instance id per pixel (0: nothing) in the all-in-focus view; "
                                          "meta.json's segmentation.instances names each id's shape, class, material "
                                          "and reflectance source"),
+    "flow": ("flow.exr", "forward optical flow over the exposure, pixels (dx, dy; x right, y down), with the "
+                         "camera's and object's velocities in meta.json"),
     "health": ("health.exr", "chlorophyll a+b (µg/cm², channel cab) and health state (channel state)"),
 }
 

@@ -18,6 +18,7 @@ key                 value
 ``undistortion``    (H, W, 2) float32 cv2.remap maps (map_x, map_y)
 ``health``          (H, W, 2) float32 chlorophyll (µg/cm²) and health state
 ``segmentation``    (H, W) uint16 instance ids (0: nothing; meta["segmentation"] names them)
+``flow``            (H, W, 2) float32 forward flow over the exposure, px (x right, y down)
 ``camera``          camera.json as a dict, ``K`` and the poses as NumPy arrays
 ``illuminant``      illuminant.json as a dict
 ``meta``            meta.json (sampled parameters under ``dataset.params``)
@@ -135,6 +136,7 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "undistortion": ("undistortion.exr", lambda p: {"undistortion": _stack(p, ("map_x", "map_y"))}),
     "health": ("health.exr", lambda p: {"health": _stack(p, ("cab", "state"))}),
     "segmentation": ("segmentation.png", lambda p: {"segmentation": _image(p)}),
+    "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
     "camera": ("camera.json", lambda p: {"camera": _camera(p)}),
     "illuminant": ("illuminant.json", lambda p: {"illuminant": json.loads(p.read_text(encoding="utf-8"))}),
 }
