@@ -120,9 +120,23 @@ def capture_camera_record(radiance, config, raw) -> dict | None:
         frame = radiance.lens.layout_lens
         fitted = load_prescription(config.lens.prescription).opencv_distortion(
             frame.focus_distance_m, 0.5 * float(np.hypot(frame.sensor_width_m, frame.sensor_height_m)))
-    return camera_record(radiance.lens, radiance.meta["camera_to_world"], distortion=config.lens.distortion,
-                         lens_model=lens_model, exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso"),
-                         fitted=fitted)
+    record = camera_record(radiance.lens, radiance.meta["camera_to_world"], distortion=config.lens.distortion,
+                           lens_model=lens_model, exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso"),
+                           fitted=fitted)
+    motion = config.motion
+    record["pose_time"] = "the exposure's middle (a moving camera's motion blur spans ±exposure/2 about it)"
+    if motion.moving:
+        from .render.motion import relative_velocity
+
+        flip = np.array([-1.0, -1.0, 1.0])  # the camera's own axes (x image-left, y up) to OpenCV's
+        record["motion"] = {
+            "velocity_mps_opencv": (relative_velocity(config) * flip).tolist(),
+            "angular_velocity_dps": list(motion.camera_angular_velocity_dps),
+            "angular_axes": "yaw about the camera's up, pitch about its left (> 0 tilts up), roll about the view",
+            "object": motion.object or None,
+            "object_velocity_mps_opencv": (np.asarray(motion.object_velocity_mps, dtype=float) * flip).tolist()
+            if motion.object else None}
+    return record
 
 
 def illuminant_record(spd: str, neutral, *, sensor_model: str, emitter: str = "",

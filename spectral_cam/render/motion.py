@@ -30,14 +30,14 @@ from ..optics import ThinLens
 from ..scene import SceneConfig
 
 __all__ = ["motion_blur_px", "plan_subframes", "subframe_transform", "ObjectMotion", "camera_move_matrix",
-           "motion_flow_px"]
+           "relative_velocity", "motion_flow_px"]
 
 #: Largest image motion (px) one sub-frame stands for.
 PX_PER_SUBFRAME = 0.5
 MAX_AUTO_SUBFRAMES = 256
 
 
-def _relative_velocity(config: SceneConfig) -> np.ndarray:
+def relative_velocity(config: SceneConfig) -> np.ndarray:
     """The camera's velocity relative to the scene (the whole scene's motion folded in when no
     single object moves)."""
     m = config.motion
@@ -52,7 +52,7 @@ def motion_blur_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray | No
     near = float(finite.min()) if finite.size else lens.focus_distance_m
     scale = lens.image_distance_m / lens.pixel_pitch_m  # px per radian (small angles)
     corner = 0.5 * math.hypot(lens.width_px, lens.height_px)
-    vx, vy, vz = _relative_velocity(config)
+    vx, vy, vz = relative_velocity(config)
     yaw, pitch, roll = (math.radians(w) for w in config.motion.camera_angular_velocity_dps)
     if config.motion.object:  # the object's own motion, over the camera's
         ox, oy, oz = config.motion.object_velocity_mps
@@ -80,7 +80,7 @@ def subframe_transform(mi, config: SceneConfig, index: int, count: int):
     """The camera's move (in its own frame) at the middle of sub-frame ``index`` of ``count``."""
     t = ((index + 0.5) / count - 0.5) * float(config.exposure.time_s)
     yaw, pitch, roll = (float(w) * t for w in config.motion.camera_angular_velocity_dps)
-    offset = [float(v) for v in _relative_velocity(config) * t]
+    offset = [float(v) for v in relative_velocity(config) * t]
     return (mi.ScalarTransform4f().translate(offset).rotate([0, 1, 0], yaw).rotate([1, 0, 0], -pitch)
             .rotate([0, 0, 1], roll))
 
@@ -100,7 +100,7 @@ def camera_move_matrix(config: SceneConfig, t: float) -> np.ndarray:
     in the camera's own frame (Mitsuba's axes)."""
     yaw, pitch, roll = (float(w) * t for w in config.motion.camera_angular_velocity_dps)
     move = np.eye(4)
-    move[:3, 3] = _relative_velocity(config) * t
+    move[:3, 3] = relative_velocity(config) * t
     return move @ _rotation((0, 1, 0), yaw) @ _rotation((1, 0, 0), -pitch) @ _rotation((0, 0, 1), roll)
 
 

@@ -214,7 +214,7 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     scene, sensor, integrator = build_scene(mi, config, lens, camera,
                                             {"type": "path", "max_depth": config.render.max_depth})
     load_s = time.perf_counter() - started
-    # the pose of the render (camera.json): the exposure's start for a moving camera
+    # the pose of the render (camera.json): the exposure's middle (sub-frames move about it)
     camera_to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
     mover = None
     if config.motion.moving and config.motion.object:
