@@ -104,8 +104,8 @@ def camera_move_matrix(config: SceneConfig, t: float) -> np.ndarray:
     return move @ _rotation((0, 1, 0), yaw) @ _rotation((1, 0, 0), -pitch) @ _rotation((0, 0, 1), roll)
 
 
-def motion_flow_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray, moving: np.ndarray | None = None
-                   ) -> np.ndarray:
+def motion_flow_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray, moving: np.ndarray | None = None,
+                   *, exposure_s: float | None = None) -> np.ndarray:
     """Forward optical flow over the exposure (px): where the point seen at each pixel centre at
     the exposure's middle is imaged at the exposure's end, minus where it was at its start.
 
@@ -115,6 +115,8 @@ def motion_flow_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray, mov
     velocity where ``moving`` marks the pixels of ``motion.object`` (zero elsewhere: the world is
     static). Projected through the frame's pinhole (fx = v/p, pixel centres at integers). A
     camera translating across the view at v past a plane at z moves its image by v·T·(v_img/z)/p.
+    T is ``exposure_s`` (default ``exposure.time_s``; a scene without motion has no flow, whatever
+    its exposure).
 
     Returns
     -------
@@ -128,6 +130,8 @@ def motion_flow_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray, mov
     """
     frame = lens.layout_lens
     height, width = depth_m.shape
+    if not config.motion.moving:
+        return np.zeros((height, width, 2), np.float32)
     focal = frame.image_distance_m / frame.pixel_pitch_m
     cx, cy = frame.width_px / 2 - 0.5, frame.height_px / 2 - 0.5
     columns, rows = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
@@ -135,7 +139,7 @@ def motion_flow_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray, mov
     # Mitsuba's camera axes: +x image-left, +y up, +z the view
     points = np.stack([-(columns - cx) / focal * depth, -(rows - cy) / focal * depth, depth, np.ones_like(depth)],
                       axis=-1)
-    half = 0.5 * float(config.exposure.time_s)
+    half = 0.5 * float(config.exposure.time_s if exposure_s is None else exposure_s)
     object_velocity = np.asarray(config.motion.object_velocity_mps, dtype=float) if config.motion.object else np.zeros(3)
     if moving is None:
         moving = np.zeros(depth.shape, dtype=bool)

@@ -340,13 +340,14 @@ def _flow(item: Item, folder: Path) -> list[Path]:
         index, names = render_shape_map(config, lens=item.sim.lens)
         ids = [k for k, name in enumerate(names) if name == motion.object or name.startswith(motion.object + "_")]
         moving = np.isin(index, ids)
-    flow = motion_flow_px(config, item.sim.lens, np.asarray(item.sim.radiance.depth_m), moving)
+    flow = motion_flow_px(config, item.sim.lens, np.asarray(item.sim.radiance.depth_m), moving,
+                          exposure_s=item.exposure_s)
     path = write_exr_channels({"dx": flow[..., 0], "dy": flow[..., 1]}, folder / "flow.exr",
                               {"spectral_cam_units": "pixels, exposure start to end; x right, y down"})
     to_opencv = np.array([-1.0, -1.0, 1.0])  # Mitsuba's camera axes (x left, y up) to OpenCV's
     item.records["flow"] = {
         "file": "flow.exr", "channels": ["dx", "dy"], "units": "px over the whole exposure, x right, y down",
-        "exposure_s": float(config.exposure.time_s), "pose_of_points": "the exposure's middle (the depth label's)",
+        "exposure_s": item.exposure_s, "pose_of_points": "the exposure's middle (the depth label's)",
         "camera_velocity_mps_opencv": (np.asarray(motion.camera_velocity_mps) * to_opencv).tolist(),
         "camera_angular_velocity_dps": list(motion.camera_angular_velocity_dps),
         "object": motion.object or None,
