@@ -43,15 +43,16 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
 
 
 def render_shape_index(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, list[str]]:
-    """Which shape each pixel's centre ray meets first: (H, W) int32 indices into the scene's
+    """Which shape each pixel's ray meets first: (H, W) int32 indices into the scene's
     shape names (−1 where the ray escapes), and those names (the scene dict's keys: ``plant_3``,
     ``object_0``, an XML id).
 
     Mitsuba's ``shape_index`` AOV holds the shape's registry id in the vectorised variants (1, 2,
     … in creation order, 0 for a miss), not its place in ``scene.shapes()``: the ids are read
     from ``scene.shapes_dr()`` and mapped back to the names (measured: three rectangles listed
-    c, b, a carry ids 3, 2, 1). One sample per pixel: the shape at the pixel's centre, never a
-    blend across an edge.
+    c, b, a carry ids 3, 2, 1). One sample per pixel, through a random point of it as the depth
+    label's (a ray through the exact centre slips through the seams of a symmetric box), never
+    a blend across an edge.
 
     References
     ----------

@@ -205,7 +205,7 @@ WEED = -2
 
 
 def plant_map(config: SceneConfig, lens) -> tuple[np.ndarray, list[dict]] | None:
-    """Which plant each pixel's centre shows — an index into the returned plants' health
+    """Which plant each pixel's ray shows — an index into the returned plants' health
     records (:func:`spectral_cam.presets.vegetation.plant_health`), :data:`WEED` for a weed, −1
     for none — for a vegetation scene of PROSPECT-D plants through ``lens``; None for any
     other scene. The health label and the drift study's classifier both read it.
@@ -297,7 +297,7 @@ def shape_reflectance(config: SceneConfig, name: str) -> str | None:
 
 
 @LABELS.register("segmentation", options=("segmentation",),
-                 description="segmentation.png: per pixel, the 16-bit instance id of the shape its centre ray meets "
+                 description="segmentation.png: per pixel, the 16-bit instance id of the shape its ray meets "
                              "through an ideal pinhole (the all-in-focus view; 0: nothing); meta.json maps each id "
                              "to the shape's name, class, material, reflectance source and pixel count")
 def _segmentation(item: Item, folder: Path) -> list[Path]:
@@ -319,7 +319,8 @@ def _segmentation(item: Item, folder: Path) -> list[Path]:
              for k, shape in enumerate(shapes)]
     item.records["segmentation"] = {
         "file": "segmentation.png", "dtype": "uint16", "background_id": 0, "pixels_unlabelled": int(counts[0]),
-        "view": "ideal pinhole through the frame (the all-in-focus view), one ray per pixel centre",
+        "view": "ideal pinhole through the frame (the all-in-focus view), one ray per pixel through a random "
+                "point of it (as the depth label's)",
         "instances": table}
     item.timings["segmentation"] = time.perf_counter() - t0
     return [path]
