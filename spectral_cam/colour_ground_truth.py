@@ -7,7 +7,8 @@ the scene illuminant → Bradford chromatic adaptation from the illuminant's whi
 - :func:`groundtruth_linear_srgb`: from a rendered :class:`~spectral_cam.image.SpectralImage`
   (band integrals of radiance; each band weighted by the CMFs averaged over the band);
 - :func:`patch_linear_srgb`: analytically, from reflectance spectra and the illuminant's
-  SPD (colour-science integration on a 1-nm grid), for the ColorChecker patches.
+  SPD (CIE 15's integration on a 1-nm grid, equal to colour-science's ``sd_to_XYZ_integration``:
+  tests/test_cie.py), for the ColorChecker patches.
 
 Both are scaled so the perfect reflecting diffuser under the illuminant has Y = 1 (so a
 ColorChecker white patch has Y ≈ 0.9): the spectral route by matching its white patch to
@@ -143,8 +144,8 @@ def spectral_to_xyz(image) -> np.ndarray:
 
 
 def illuminant_sd(illuminant_spd):
-    """An illuminant name, ``blackbody:<K>`` or CSV path as a colour.SpectralDistribution
-    (a SpectralDistribution passes through)."""
+    """An illuminant name, ``blackbody:<K>`` or CSV path as a :class:`~spectral_cam.spectrum.Spectrum`
+    (a spectrum object, ours or colour-science's, passes through)."""
     return spectra.illuminant(illuminant_spd) if isinstance(illuminant_spd, str) else illuminant_spd
 
 
@@ -174,7 +175,7 @@ def reflectance_xyz(illuminant_spd, reflectances=None) -> np.ndarray:
 
     Parameters
     ----------
-    illuminant_spd : str or colour.SpectralDistribution
+    illuminant_spd : str or Spectrum
         Illuminant name or SPD (zero outside its table).
     reflectances : mapping, sequence or None
         As in :func:`camera_responses`; default the 24 ColorChecker patches.
@@ -182,8 +183,9 @@ def reflectance_xyz(illuminant_spd, reflectances=None) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        (N, 3) XYZ, computed by colour-science's integration method on the CMFs' 1-nm grid
-        (360–830 nm); reflectances hold their end values outside their tables.
+        (N, 3) XYZ, by CIE 15's integration on the CMFs' 1-nm grid (360–830 nm; colour-science's
+        ``sd_to_XYZ_integration`` gives the same); reflectances hold their end values outside
+        their tables.
 
     References
     ----------
@@ -254,7 +256,7 @@ def patch_linear_srgb(illuminant_spd, reflectances=None) -> np.ndarray:
     Parameters
     ----------
     illuminant_spd
-        Illuminant name or colour.SpectralDistribution.
+        Illuminant name or spectrum (ours or colour-science's).
     reflectances
         As in :func:`reflectance_xyz`; default the 24 ColorChecker patches.
 

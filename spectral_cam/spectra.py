@@ -334,7 +334,11 @@ def illuminant(spec: str) -> Spectrum:
         return cie.daylight(value)
     if kind == "csv":
         return load_spectrum_csv(value)
-    return _illuminant_table()[value].copy()
+    table = _illuminant_table()
+    if value not in table:  # the written-out names and the shipped tables disagree
+        raise ConfigError(f"illuminant {value!r} is not in the shipped colour-science tables; valid here: "
+                          "'blackbody:<K>', 'daylight:<K>', a CSV path, or one of " + ", ".join(sorted(table)))
+    return table[value].copy()
 
 
 def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, np.ndarray]:
