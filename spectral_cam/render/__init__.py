@@ -50,6 +50,19 @@ def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None, with_
     return (render_shapes if with_materials else render_shape_index)(mi, config, lens)
 
 
+def render_albedo_map(config: SceneConfig, *, lens: ThinLens | None = None, spp: int = 256):
+    """(H, W, B) band integrals of the diffuse reflectance each pixel sees
+    (:func:`.depth.render_albedo`) and the band grid; the lens is the frame's."""
+    import mitsuba as mi
+
+    from .. import spectra
+    from .depth import ALBEDO_BANDS, render_albedo
+
+    mi.set_variant(choose_variant(config.render.variant))
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    return render_albedo(mi, config, lens, spp=spp), spectra.parse_bands(ALBEDO_BANDS)
+
+
 def render(
     config,
     *,

@@ -96,3 +96,60 @@ def render_shapes(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, 
         index[first:end] = lookup[np.clip(value, 0, len(lookup) - 1)]
     release_render_memory()
     return index, shapes
+
+
+ALBEDO_INTEGRATOR = "spectral_cam_albedo"
+_ALBEDO_REGISTERED: set[str] = set()
+
+
+def _register_albedo(mi) -> None:
+    """A Mitsuba integrator returning, at each camera ray's first hit, its BSDF's diffuse
+    reflectance (``eval_diffuse_reflectance``) at the ray's wavelengths: on a band film, the band
+    integral of ρ(λ). (Mitsuba's own ``aov`` albedo aborts on a ``specfilm``: heap corruption in
+    3.9.1.) Registered once per variant."""
+    import drjit as dr
+
+    if mi.variant() in _ALBEDO_REGISTERED:
+        return
+
+    class Albedo(mi.SamplingIntegrator):
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            si = scene.ray_intersect(ray, active)
+            hit = si.is_valid()
+            value = si.bsdf(ray).eval_diffuse_reflectance(si, hit)
+            return dr.select(hit, value, 0.0), hit, []
+
+    mi.register_integrator(ALBEDO_INTEGRATOR, lambda props: Albedo(props))
+    _ALBEDO_REGISTERED.add(mi.variant())
+
+
+#: The albedo's bands: 5 nm over the camera curves' range (the render's 10-nm bands put the
+#: camera RGB of a ColorChecker patch up to 3.8 % off a 1-nm integral; 5 nm within 1 %).
+ALBEDO_BANDS = "380:720:5"
+
+
+def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = 256, bands: str = ALBEDO_BANDS) -> np.ndarray:
+    """(H, W, B) band integrals of the diffuse reflectance ρ(λ) seen through an ideal pinhole
+    over the frame (``spp`` rays per pixel, averaged over textures within the pixel), on
+    ``bands`` (:data:`ALBEDO_BANDS`). 0 where nothing is hit.
+
+    References
+    ----------
+    .. [1] Jakob, W., et al. (2022). Mitsuba 3, ``BSDF.eval_diffuse_reflectance``; custom
+       integrators in Python (``mi.SamplingIntegrator``).
+    """
+    from .. import spectra
+    from .films import band_film
+
+    _register_albedo(mi)
+    width, height = lens.width_px, lens.height_px
+    bands = spectra.parse_bands(bands)
+    camera = camera_dict(mi, lens, "pinhole", band_film(bands, width, height), spp)
+    scene, sensor, integrator = build_scene(mi, config, lens, camera, {"type": ALBEDO_INTEGRATOR})
+    out = np.empty((height, width, len(bands)), np.float32)
+    for _, (first, end), tile_camera, seed_key in tile_sensors(mi, sensor, camera, frame_tiles(width, height)):
+        seed = pass_seed(config.render.seed, 1 << 22, seed_key)
+        image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=spp))
+        out[first:end] = image.reshape(end - first, width, len(bands))
+    release_render_memory()
+    return out

@@ -41,6 +41,9 @@ LABEL_UNITS = {
                                          "and reflectance source"),
     "flow": ("flow.exr", "forward optical flow over the exposure, pixels (dx, dy; x right, y down), with the "
                          "camera's and object's velocities in meta.json"),
+    "albedo": ("albedo.exr, shading.exr", "reflectance as camera RGB under the light's white (1 = a white "
+                                          "diffuser) and as linear sRGB (D65); shading S: irradiance relative to the "
+                                          "light's, so clean camera RGB / the white's ≈ albedo × S"),
     "health": ("health.exr", "chlorophyll a+b (µg/cm², channel cab) and health state (channel state)"),
 }
 

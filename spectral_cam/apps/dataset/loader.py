@@ -19,6 +19,9 @@ key                 value
 ``health``          (H, W, 2) float32 chlorophyll (µg/cm²) and health state
 ``segmentation``    (H, W) uint16 instance ids (0: nothing; meta["segmentation"] names them)
 ``flow``            (H, W, 2) float32 forward flow over the exposure, px (x right, y down)
+``albedo``          (H, W, 3) float32 reflectance as camera RGB under the light's white (white = 1);
+                    ``albedo_srgb`` the same as linear sRGB (D65); ``shading`` (H, W) irradiance
+                    relative to the light's
 ``camera``          camera.json as a dict, ``K`` and the poses as NumPy arrays
 ``illuminant``      illuminant.json as a dict
 ``meta``            meta.json (sampled parameters under ``dataset.params``)
@@ -137,6 +140,8 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "health": ("health.exr", lambda p: {"health": _stack(p, ("cab", "state"))}),
     "segmentation": ("segmentation.png", lambda p: {"segmentation": _image(p)}),
     "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
+    "albedo": ("albedo.exr", lambda p: {"albedo": _clean_rgb(p), "albedo_srgb": _stack(p, ("sRGB_R", "sRGB_G", "sRGB_B")),
+                                        "shading": _stack(p.with_name("shading.exr"), ("S",))[..., 0]}),
     "camera": ("camera.json", lambda p: {"camera": _camera(p)}),
     "illuminant": ("illuminant.json", lambda p: {"illuminant": json.loads(p.read_text(encoding="utf-8"))}),
 }

@@ -76,7 +76,7 @@ def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
         name: (tmp_path / "item" / name).stat().st_size for name in ("defocus.exr", "raw.dng")}
     assert meta["defocus"]["channel"] == "CoC"
     recorded = {key for entry in LABELS.values() for key in entry.options}
-    assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb", "undistortion", "health", "segmentation",
+    assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb", "undistortion", "health", "segmentation", "albedo",
                         "flow"}
     assert all(meta[key] is None for key in recorded - {"defocus"})
     assert json.loads((tmp_path / "item" / "meta.json").read_text())["files"] == meta["files"]

@@ -19,7 +19,7 @@ pytestmark = pytest.mark.timeout(300)
 
 SPEC = {
     "dataset": {"seed": 3, "outputs": ["raw", "image", "depth", "camera", "illuminant", "defocus", "clean_rgb",
-                                      "all_in_focus"]},
+                                      "all_in_focus", "albedo"]},
     "scene": {"preset": "dof_targets", "depths_m": [1.0, 2.0, 4.0]},
     "sensor": {"width_px": 24, "height_px": 16},
     "render": {"spp": 2},
@@ -71,6 +71,9 @@ def test_the_loader_reads_each_label_as_the_files_hold_it(dataset):
         np.testing.assert_array_equal(item["defocus"], read_exr(folder / "defocus.exr")["CoC"])
         clean = read_exr(folder / "clean_rgb.exr")
         np.testing.assert_array_equal(item["clean_rgb"], np.stack([clean[c] for c in "RGB"], axis=-1))
+        albedo = read_exr(folder / "albedo.exr")
+        np.testing.assert_array_equal(item["albedo"], np.stack([albedo[c] for c in "RGB"], axis=-1))
+        np.testing.assert_array_equal(item["shading"], read_exr(folder / "shading.exr")["S"])
         camera = json.loads((folder / "camera.json").read_text())
         np.testing.assert_array_equal(item["camera"]["K"], camera["K"])
         assert item["illuminant"]["spd"] == data.params(index)["illuminant.spd"] == item["params"]["illuminant.spd"]
