@@ -13,11 +13,9 @@ one depth per pixel, so a near object lacks partial occlusion at its blurred edg
 
 References
 ----------
-.. [1] Potmesil, M., & Chakravarty, I. (1981). A lens and aperture camera model for
-   synthetic image generation. Proc. SIGGRAPH '81, 297–305.
-.. [2] Kraus, M., & Strengert, M. (2007). Depth-of-field rendering by pyramidal image
-   processing. Computer Graphics Forum 26(3), 645–654.
-.. [3] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §5.2.3 (thin-lens ray generation).
+.. [1] The layered model's optics and its sources (Potmesil & Chakravarty 1981; Kraus &
+   Strengert 2007): :mod:`spectral_cam.optics.layered_defocus`.
+.. [2] Pharr, Jakob & Humphreys (2023), PBRT 4th ed., §5.2.3 (thin-lens ray generation).
 """
 
 from __future__ import annotations
