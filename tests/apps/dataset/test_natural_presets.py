@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from spectral_cam.apps.dataset import DEFAULT_OUTPUTS, generate_dataset, load_spec
+from spectral_cam.apps.dataset import DEFAULT_OUTPUTS, SyntheticDataset, generate_dataset, load_spec
 
 from .reading import read_manifest
 
@@ -18,6 +18,8 @@ pytestmark = pytest.mark.timeout(300)
 SPEC = """
 [dataset]
 seed = 11
+outputs = ["raw", "image", "depth", "camera", "illuminant", "defocus", "all_in_focus", "clean_rgb", "segmentation",
+           "flow", "albedo", "health"]
 
 [scene]
 preset = { choice = ["dead_leaves", "tabletop", "vegetation"] }
@@ -65,4 +67,16 @@ def test_a_dataset_mixing_the_natural_presets_writes_every_label_and_resumes(clu
     assert len(presets) >= 2 and len(set(hours)) == len(hours)
     again = generate_dataset(spec, out, n=6, executor=cluster.executor, progress=False)  # resume
     assert (again.rendered, again.resumed) == (0, 6)
+    # every label loads, through the package's loader and Hugging Face's ImageFolder
+    import datasets
+
+    items = SyntheticDataset(out)
+    for index in range(len(items)):
+        item = items[index]
+        assert {"image", "depth", "camera", "illuminant", "segmentation", "flow", "albedo", "shading"} <= set(item)
+        assert item["albedo"].shape == item["image"].shape and item["segmentation"].shape == item["depth"].shape
+        if item["meta"]["config"]["scene"]["preset"] == "vegetation":
+            assert "health" in item
+    loaded = datasets.load_dataset("imagefolder", data_dir=str(out), split="train", cache_dir=str(tmp_path / "hf"))
+    assert len(loaded) == 6 and set(loaded["id"]) == {row["id"] for row in read_manifest(out)}
     assert np.isfinite([row["params"]["sky.hour"] for row in read_manifest(out)]).all()
