@@ -1,6 +1,7 @@
 """What a dataset folder tells the tools that read it: ``metadata.jsonl`` (one row per finished
 item, with a ``file_name`` column: Hugging Face ``datasets``' ImageFolder reads it as it is) and a
-dataset card ``README.md`` (the spec, counts, every label with its units, sources and licences).
+dataset card ``README.md`` (the spec, counts, every label with its units as :data:`~.labels.LABELS`
+describes it, sources and licences).
 
 References
 ----------
@@ -17,35 +18,9 @@ from typing import Mapping, Sequence
 
 from ...io import atomic_path
 from ...records import json_ready
+from .labels import LABELS
 
-__all__ = ["write_metadata", "write_card", "LABEL_UNITS", "DATA_SOURCES"]
-
-#: Each label's file and what its values are, in the units the file holds (the card's table).
-LABEL_UNITS = {
-    "raw": ("raw.dng", "the simulated RAW: CFA mosaic, uint16 DN with its black and white levels, DNG 1.4 colour "
-                       "tags (read by LibRaw, dcraw, darktable, Adobe's SDK)"),
-    "image": ("image.png", "developed sRGB, 8 bit (each isp.outputs format)"),
-    "radiance": ("radiance.exr", "spectral radiance, W·m⁻²·sr⁻¹·nm⁻¹, one channel per band (Fichet et al. 2021)"),
-    "depth": ("depth.exr", "camera-space z, metres (channel Z; inf where no surface)"),
-    "camera": ("camera.json", "intrinsics K in pixels of the frame (pixel centres at integers), OpenCV distortion "
-                              "(k1, k2, p1, p2, k3), pose world → camera as 4×4 in OpenCV and OpenGL axes, focus, "
-                              "aperture, exposure"),
-    "illuminant": ("illuminant.json", "the light's camera RGB (max 1, green 1, unit length), CIE 1931 xy, CCT (K) "
-                                      "and Duv"),
-    "defocus": ("defocus.exr", "signed thin-lens circle of confusion diameter, pixels (+ behind focus; channel CoC)"),
-    "all_in_focus": ("all_in_focus.png", "the same pose through an ideal pinhole at the same exposure, sRGB"),
-    "clean_rgb": ("clean_rgb.exr", "noise-free linear camera RGB, 1 = white level − black level"),
-    "undistortion": ("undistortion.exr", "cv2.remap maps (map_x, map_y) from undistorted to rendered pixels"),
-    "segmentation": ("segmentation.png", "16-bit instance id per pixel (0: nothing) in the all-in-focus view; "
-                                         "meta.json's segmentation.instances names each id's shape, class, material "
-                                         "and reflectance source"),
-    "flow": ("flow.exr", "forward optical flow over the exposure, pixels (dx, dy; x right, y down), with the "
-                         "camera's and object's velocities in meta.json"),
-    "albedo": ("albedo.exr, shading.exr", "reflectance as camera RGB under the light's white (1 = a white "
-                                          "diffuser) and as linear sRGB (D65); shading S: irradiance relative to the "
-                                          "light's, so clean camera RGB / the white's ≈ albedo × S"),
-    "health": ("health.exr", "chlorophyll a+b (µg/cm², channel cab) and health state (channel state)"),
-}
+__all__ = ["write_metadata", "write_card", "DATA_SOURCES"]
 
 #: The data every item may draw on, and the terms each comes under.
 DATA_SOURCES = (
@@ -111,8 +86,8 @@ def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) 
              "spectral_cam. Spec hash `" + spec_hash[:16] + "`; `dataset.json` holds the whole spec, "
              "`manifest.jsonl` every item's status, seed and parameters.", "",
              "## Labels", "", "| label | file | values and units |", "|---|---|---|"]
-    for name in outputs:
-        file, units = LABEL_UNITS.get(name, (f"{name}.*", "described in each item's meta.json"))
+    for name in outputs:  # each label's own description: "<file>: <values and units>"
+        file, _, units = LABELS[name].description.partition(": ")
         lines.append(f"| `{name}` | `{file}` | {units} |")
     lines += ["", "Every item folder also holds `meta.json`: the resolved scene, optics, sensor (gain, exposure, "
               "noise parameters, seeds), the model decisions and the sampled parameters.", "",

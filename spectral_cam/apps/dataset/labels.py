@@ -101,10 +101,11 @@ def _result_file(item: Item, folder: Path, *, name: str) -> list[Path]:
 
 
 for _name, _description in (
-        ("raw", "raw.dng: the simulated RAW"),
+        ("raw", "raw.dng: the simulated RAW: CFA mosaic, uint16 DN with its black and white levels and DNG colour "
+                "tags (read by LibRaw, dcraw, darktable, Adobe's SDK)"),
         ("image", "image.<isp.outputs>: the developed sRGB image (every isp.outputs format)"),
         ("radiance", "radiance.exr: spectral radiance per nm, Fichet et al. layout (opt-in)"),
-        ("depth", "depth.exr: camera-space z (m)"),
+        ("depth", "depth.exr: camera-space z, metres (channel Z; inf where no surface)"),
         ("camera", "camera.json: intrinsics K (pixels), OpenCV distortion, pose world → camera (OpenCV and "
                    "OpenGL axes), focus, aperture, exposure"),
         ("illuminant", "illuminant.json: the light's camera RGB (max 1, green 1, unit length), CIE xy, CCT and Duv")):
