@@ -30,7 +30,7 @@ from ..optics import ThinLens
 from ..scene import SceneConfig
 
 __all__ = ["motion_blur_px", "plan_subframes", "subframe_transform", "ObjectMotion", "camera_move_matrix",
-           "relative_velocity", "motion_flow_px"]
+           "relative_velocity", "motion_flow_px", "is_object_part"]
 
 #: Largest image motion (px) one sub-frame stands for.
 PX_PER_SUBFRAME = 0.5
@@ -83,6 +83,11 @@ def subframe_transform(mi, config: SceneConfig, index: int, count: int):
     offset = [float(v) for v in relative_velocity(config) * t]
     return (mi.ScalarTransform4f().translate(offset).rotate([0, 1, 0], yaw).rotate([1, 0, 0], -pitch)
             .rotate([0, 0, 1], roll))
+
+
+def is_object_part(shape: str, name: str) -> bool:
+    """Whether ``shape`` is ``motion.object`` = ``name`` or one of its parts (``<name>_*``)."""
+    return shape == name or shape.startswith(name + "_")
 
 
 def _rotation(axis, degrees: float) -> np.ndarray:
@@ -167,7 +172,7 @@ class ObjectMotion:
         name = config.motion.object
         owners = {key.rsplit(".", 1)[0] for key in self.params.keys()
                   if key.endswith((".to_world", ".vertex_positions"))}
-        moving = sorted(o for o in owners if o == name or o.startswith(name + "_"))
+        moving = sorted(o for o in owners if is_object_part(o, name))
         if not moving:
             listed = ", ".join(sorted(owners)[:30])
             raise ConfigError(f"motion.object = {name!r} is no movable shape of the scene (shapes with a "

@@ -93,6 +93,15 @@ class Item:
         """The noise-free camera RGB of the main render (:func:`clean_camera_rgb`)."""
         return clean_camera_rgb(self.sim.radiance, self.config, exposure_s=self.exposure_s)
 
+    @functools.cached_property
+    def shape_map(self) -> tuple[np.ndarray, list[dict]]:
+        """Which shape each pixel sees through the frame's pinhole, and each shape's name and
+        material (:func:`spectral_cam.render.render_shape_map`): rendered once for the labels
+        that need it (segmentation, flow)."""
+        from ...render import render_shape_map
+
+        return render_shape_map(self.config, lens=self.sim.lens, with_materials=True)
+
 
 # ----------------------------------------------------------------------------- the labels
 def _result_file(item: Item, folder: Path, *, name: str) -> list[Path]:
@@ -304,10 +313,8 @@ def shape_reflectance(config: SceneConfig, name: str) -> str | None:
 def _segmentation(item: Item, folder: Path) -> list[Path]:
     import cv2
 
-    from ...render import render_shape_map
-
     t0 = time.perf_counter()
-    index, shapes = render_shape_map(item.config, lens=item.sim.lens, with_materials=True)
+    index, shapes = item.shape_map
     if len(shapes) >= 65535:
         raise ConfigError(f"{len(shapes)} shapes do not fit a 16-bit segmentation (at most 65534)")
     ids = (index + 1).astype(np.uint16)  # 0: no shape
@@ -332,15 +339,14 @@ def _segmentation(item: Item, folder: Path) -> list[Path]:
                              "y down): where each pixel's point at mid-exposure is imaged at the exposure's end "
                              "minus at its start; meta.json holds the camera's and the object's velocities")
 def _flow(item: Item, folder: Path) -> list[Path]:
-    from ...render import render_shape_map
-    from ...render.motion import motion_flow_px
+    from ...render.motion import is_object_part, motion_flow_px
 
     t0 = time.perf_counter()
     config, motion = item.config, item.config.motion
     moving = None
     if motion.object and any(motion.object_velocity_mps):
-        index, names = render_shape_map(config, lens=item.sim.lens)
-        ids = [k for k, name in enumerate(names) if name == motion.object or name.startswith(motion.object + "_")]
+        index, shapes = item.shape_map
+        ids = [k for k, shape in enumerate(shapes) if is_object_part(shape["name"], motion.object)]
         moving = np.isin(index, ids)
     flow = motion_flow_px(config, item.sim.lens, np.asarray(item.sim.radiance.depth_m), moving,
                           exposure_s=item.exposure_s)
