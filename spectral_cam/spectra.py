@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
-from .spectrum import Spectrum, as_colour
+from .spectrum import Spectrum, as_colour, interpolate
 
 __all__ = [
     "Spectrum",
@@ -586,19 +586,10 @@ def sample(sd, wavelengths_nm, *, outside: float | None = None) -> np.ndarray:
     """Linearly interpolate a spectral distribution at given wavelengths.
 
     Outside the tabulated range the end values are held (``outside=None``) or replaced by
-    ``outside``. Linear interpolation keeps spiky spectra (FL11) non-negative.
+    ``outside`` (:func:`spectral_cam.spectrum.interpolate`); ``sd`` is our
+    :class:`~spectral_cam.spectrum.Spectrum` or colour-science's.
     """
-    wavelengths_nm = np.asarray(wavelengths_nm, dtype=float)
-    values = np.asarray(sd.values, dtype=float)
-    domain = np.asarray(sd.wavelengths, dtype=float)
-    if values.ndim == 1:
-        return np.interp(wavelengths_nm, domain, values,
-                         left=outside, right=outside)
-    return np.stack(
-        [np.interp(wavelengths_nm, domain, values[:, i], left=outside, right=outside)
-         for i in range(values.shape[1])],
-        axis=-1,
-    )
+    return interpolate(sd.wavelengths, sd.values, wavelengths_nm, outside=outside)
 
 
 def band_integrals(values_per_nm: np.ndarray, wavelengths_nm: np.ndarray, bands: BandGrid) -> np.ndarray:

@@ -11,7 +11,19 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Spectrum", "as_colour"]
+__all__ = ["Spectrum", "as_colour", "interpolate"]
+
+
+def interpolate(wavelengths, values, points, *, outside: float | None = None) -> np.ndarray:
+    """Tabulated ``values`` (one column per channel) linearly interpolated at ``points`` (nm);
+    outside the table the end values are held (``outside=None``) or replaced by ``outside``.
+    Linear interpolation keeps spiky spectra (FL11) non-negative."""
+    points = np.asarray(points, dtype=np.float64)
+    domain, values = np.asarray(wavelengths, dtype=np.float64), np.asarray(values, dtype=np.float64)
+    if values.ndim == 1:
+        return np.interp(points, domain, values, left=outside, right=outside)
+    return np.stack([np.interp(points, domain, column, left=outside, right=outside) for column in values.T],
+                    axis=-1)
 
 
 class Spectrum:
@@ -45,10 +57,7 @@ class Spectrum:
         """Values at wavelengths (nm), linearly interpolated, the end values held outside (as
         :func:`spectral_cam.spectra.sample`; colour-science's ``sd[λ]`` interpolates with its
         own interpolator)."""
-        points = np.asarray(wavelength_nm, dtype=np.float64)
-        if self.values.ndim == 1:
-            return np.interp(points, self.wavelengths, self.values)
-        return np.stack([np.interp(points, self.wavelengths, column) for column in self.values.T], axis=-1)
+        return interpolate(self.wavelengths, self.values, wavelength_nm)
 
     def copy(self) -> "Spectrum":
         return Spectrum(self.wavelengths.copy(), self.values.copy(), self.name, self.labels)
