@@ -25,7 +25,7 @@ from .image import SpectralImage
 from .exr import HALF_MAX, HALF_MIN_NORMAL, resolve_compression, write_exr, write_exr_channels
 from .errors import ConfigError
 
-__all__ = ["write_spectral_exr", "read_spectral_exr", "write_depth_exr", "read_depth_exr", "channel_name"]
+__all__ = ["write_spectral_exr", "read_spectral_exr", "write_depth_exr", "read_depth_exr", "channel_name", "read_exr"]
 
 _CHANNEL = re.compile(r"^S0\.(\d+(?:,\d+)?)nm$")
 EMISSIVE_UNITS = "W.m^-2.sr^-1"
@@ -126,16 +126,25 @@ def _check_half_range(cube: np.ndarray, band_widths_nm) -> None:
                       "(a dim scene); use 'float' to keep them", SceneWarning, stacklevel=4)
 
 
-def _open(path: Path) -> tuple[dict, dict]:
-    """(header, {name: pixels}) of an EXR file, or a RawFormatError saying why not."""
+def read_exr(path: str | Path) -> tuple[dict, dict]:
+    """(header, {name: (H, W) pixels}) of an EXR file, R, G, B (and A) split out of the group the
+    OpenEXR bindings make of them, or a RawFormatError saying why not (also for channels that
+    are not float images)."""
     import OpenEXR
 
+    path = Path(path)
     if not path.is_file():
         raise RawFormatError(f"{path} does not exist")
     try:
         exr = OpenEXR.File(str(path))
         header = dict(exr.header())
-        channels = {name: np.asarray(channel.pixels) for name, channel in exr.channels().items()}
+        channels = {}
+        for name, channel in exr.channels().items():
+            pixels = np.asarray(channel.pixels)
+            if pixels.ndim == 3:  # "RGB" / "RGBA": one entry of three or four channels
+                channels.update({letter: pixels[..., i] for i, letter in enumerate(name)})
+            else:
+                channels[name] = pixels
     except Exception as exc:  # OpenEXR raises bare Exception/ValueError on corrupt files
         raise RawFormatError(f"{path} is not a readable OpenEXR file: {exc}") from None
     if any(pixels.ndim != 2 or pixels.dtype.kind != "f" for pixels in channels.values()):
@@ -160,7 +169,7 @@ def read_spectral_exr(path: str | Path) -> SpectralImage:
     """Read a spectral EXR (ours or any file in the Fichet et al. layout) into a
     :class:`SpectralImage` of band integrals."""
     path = Path(path)
-    header, parts = _open(path)
+    header, parts = read_exr(path)
     found = []
     for name, pixels in parts.items():
         match = _CHANNEL.match(name)
@@ -193,7 +202,7 @@ def write_depth_exr(depth_m: np.ndarray, path: str | Path) -> Path:
 def read_depth_exr(path: str | Path) -> np.ndarray:
     """Read the ``Z`` channel of a depth EXR (m)."""
     path = Path(path)
-    _, channels = _open(path)
+    _, channels = read_exr(path)
     if "Z" not in channels:
         raise RawFormatError(f"{path} has no 'Z' channel; it holds {', '.join(sorted(channels))}")
     return channels["Z"].astype(np.float32)

@@ -64,21 +64,9 @@ _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 
 
 def _exr_channels(path: Path) -> dict[str, np.ndarray]:
-    """Every channel of an EXR by name (R, G, B split out of the bindings' grouped "RGB")."""
-    import OpenEXR
+    from ...spectral_exr import read_exr
 
-    try:
-        with OpenEXR.File(str(path)) as exr:
-            out = {}
-            for name, channel in exr.channels().items():
-                pixels = np.array(channel.pixels)
-                if pixels.ndim == 3:
-                    out.update({letter: pixels[..., i] for i, letter in enumerate(name)})
-                else:
-                    out[name] = pixels
-            return out
-    except Exception as exc:  # OpenEXR raises bare exceptions on corrupt files
-        raise RawFormatError(f"{path} is not a readable OpenEXR file: {exc}") from None
+    return read_exr(path)[1]
 
 
 def _image(path: Path) -> np.ndarray:
