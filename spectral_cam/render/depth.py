@@ -14,6 +14,32 @@ from ..scene import SceneConfig
 from .scene_dict import build_scene, camera_dict, frame_tiles, pass_seed, release_render_memory, tile_sensors
 
 
+def _luminance_film(width: int, height: int) -> dict:
+    return {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+            "pixel_format": "luminance", "component_format": "float32"}
+
+
+def _pinhole_probe(mi, config: SceneConfig, lens: ThinLens, film: dict, integrator: dict, *, spp: int, stream: int,
+                   optimize: bool = True):
+    """A probe through the frame's pinhole: (scene, sensor, tiles), the scene loaded once with
+    ``film`` and ``integrator``; iterating ``tiles`` renders the radiance's tiles (bounded memory
+    on large frames), each with its own seed of ``stream``, as (first row, end row, (rows, W, C)
+    image), and releases drjit's memory at the end."""
+    width, height = lens.width_px, lens.height_px
+    camera = camera_dict(mi, lens, "pinhole", film, spp)
+    scene, sensor, loaded = build_scene(mi, config, lens, camera, integrator, optimize=optimize)
+
+    def tiles():
+        for _, (first, end), tile_camera, seed_key in tile_sensors(mi, sensor, camera, frame_tiles(width, height)):
+            seed = pass_seed(config.render.seed, stream, seed_key)
+            image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=loaded, seed=seed, spp=spp))
+            yield first, end, image.reshape(end - first, width, -1)
+            del image
+        release_render_memory()
+
+    return scene, sensor, tiles()
+
+
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     """Camera-space z (m) per pixel from the first hit's world position.
 
@@ -22,23 +48,16 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     pixel keeps it the depth of one surface, never a blend across an edge.
     """
     width, height = lens.width_px, lens.height_px
-    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
-            "pixel_format": "luminance", "component_format": "float32"}
-    tiles = frame_tiles(width, height)  # the radiance's tiles: bounded memory on large frames
-    camera = camera_dict(mi, lens, "pinhole", film, 1)
-    scene, sensor, integrator = build_scene(mi, config, lens, camera, {"type": "aov", "aovs": "pos:position"})
+    _, sensor, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height),
+                                      {"type": "aov", "aovs": "pos:position"}, spp=1, stream=1 << 20)
     to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
     origin, axis = to_world[:3, 3], to_world[:3, 2] / np.linalg.norm(to_world[:3, 2])
     depth = np.empty((height, width), np.float32)
-    for _, (first, end), tile_camera, seed_key in tile_sensors(mi, sensor, camera, tiles):
-        seed = pass_seed(config.render.seed, 1 << 20, seed_key)
-        image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=1))
-        position = image.reshape(end - first, width, -1)[..., :3].astype(np.float64)
+    for first, end, image in tiles:
+        position = image[..., :3].astype(np.float64)
         z = (position - origin) @ axis
         hit = np.any(position != 0.0, axis=-1)  # the AOV is all zero where a ray escapes
         depth[first:end] = np.where(hit & (z > 0), z, np.inf)
-    del image
-    release_render_memory()
     return depth
 
 
@@ -73,11 +92,9 @@ def render_shapes(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, 
     """:func:`render_shape_index` with each shape's record: ``name`` (the scene dict's key or
     the XML id), ``material`` (its BSDF's Mitsuba class, or ``emitter (…)``)."""
     width, height = lens.width_px, lens.height_px
-    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
-            "pixel_format": "luminance", "component_format": "float32"}
-    camera = camera_dict(mi, lens, "pinhole", film, 1)
-    scene, sensor, integrator = build_scene(mi, config, lens, camera, {"type": "aov", "aovs": "index:shape_index"},
-                                            optimize=False)
+    scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height),
+                                     {"type": "aov", "aovs": "index:shape_index"}, spp=1, stream=1 << 21,
+                                     optimize=False)
     shapes = [{"name": shape.id(), "material": _material(shape)} for shape in scene.shapes()]
     names = [shape["name"] for shape in shapes]
     try:  # vectorised variants: registry ids
@@ -89,12 +106,9 @@ def render_shapes(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, 
     lookup = np.full(int(ids.max(initial=0)) + 2, -1, np.int32)
     lookup[ids] = np.arange(len(names), dtype=np.int32)
     index = np.empty((height, width), np.int32)
-    for _, (first, end), tile_camera, seed_key in tile_sensors(mi, sensor, camera, frame_tiles(width, height)):
-        seed = pass_seed(config.render.seed, 1 << 21, seed_key)
-        image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=1))
-        value = np.rint(image.reshape(end - first, width, -1)[..., -1]).astype(np.int64)
+    for first, end, image in tiles:
+        value = np.rint(image[..., -1]).astype(np.int64)
         index[first:end] = lookup[np.clip(value, 0, len(lookup) - 1)]
-    release_render_memory()
     return index, shapes
 
 
@@ -144,12 +158,9 @@ def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = 256, ba
     _register_albedo(mi)
     width, height = lens.width_px, lens.height_px
     bands = spectra.parse_bands(bands)
-    camera = camera_dict(mi, lens, "pinhole", band_film(bands, width, height), spp)
-    scene, sensor, integrator = build_scene(mi, config, lens, camera, {"type": ALBEDO_INTEGRATOR})
+    _, _, tiles = _pinhole_probe(mi, config, lens, band_film(bands, width, height), {"type": ALBEDO_INTEGRATOR},
+                                 spp=spp, stream=1 << 22)
     out = np.empty((height, width, len(bands)), np.float32)
-    for _, (first, end), tile_camera, seed_key in tile_sensors(mi, sensor, camera, frame_tiles(width, height)):
-        seed = pass_seed(config.render.seed, 1 << 22, seed_key)
-        image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=integrator, seed=seed, spp=spp))
-        out[first:end] = image.reshape(end - first, width, len(bands))
-    release_render_memory()
+    for first, end, image in tiles:
+        out[first:end] = image
     return out
