@@ -47,6 +47,7 @@ __all__ = [
     "root_polynomial_terms",
     "xy_to_uv_1960",
     "xy_to_xyz",
+    "xyz_d65_white",
     "xyz_to_xy",
 ]
 
@@ -136,6 +137,16 @@ def xy_to_xyz(xy) -> np.ndarray:
     xy = np.asarray(xy, dtype=np.float64)
     x, y = xy[..., 0], xy[..., 1]
     return np.stack([x / y, np.ones_like(x), (1.0 - x - y) / y], axis=-1)
+
+
+def xyz_d65_white() -> np.ndarray:
+    """CIE XYZ of the sRGB (D65) white point, Y = 1.
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999 (white point x = 0.3127, y = 0.3290).
+    """
+    return xy_to_xyz(SRGB_WHITE_XY)
 
 
 def xyz_to_xy(xyz) -> np.ndarray:

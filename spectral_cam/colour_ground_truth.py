@@ -206,12 +206,6 @@ def illuminant_white_xyz(illuminant_spd) -> np.ndarray:
     return reflectance_xyz(illuminant_spd, [1.0])[0]
 
 
-def _d65_white() -> np.ndarray:
-    from . import cie
-
-    return cie.xy_to_xyz(cie.SRGB_WHITE_XY)
-
-
 def adapt_to_d65(xyz: np.ndarray, white_xyz) -> np.ndarray:
     """Bradford (von Kries) chromatic adaptation from an illuminant's white to D65.
 
@@ -235,7 +229,7 @@ def adapt_to_d65(xyz: np.ndarray, white_xyz) -> np.ndarray:
     from . import cie
 
     white = np.asarray(white_xyz, dtype=float)
-    return np.asarray(xyz, dtype=float) @ cie.bradford_adaptation(white / white[1], _d65_white()).T
+    return np.asarray(xyz, dtype=float) @ cie.bradford_adaptation(white / white[1], cie.xyz_d65_white()).T
 
 
 def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:

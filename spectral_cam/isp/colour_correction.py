@@ -30,8 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cie import (SRGB_TO_XYZ, SRGB_WHITE_XY, XYZ_TO_SRGB, bradford_adaptation, root_polynomial_terms,
-                   xy_to_xyz)
+from ..cie import SRGB_TO_XYZ, XYZ_TO_SRGB, bradford_adaptation, root_polynomial_terms, xyz_d65_white
 from ..errors import ConfigError
 from ..registry import Registry
 
@@ -56,16 +55,6 @@ ROOT_POLYNOMIAL_TERMS = {3: 1, 6: 2, 13: 3, 22: 4}
 # of a DNG must not pay. tests/isp/test_colour_constants.py checks each against colour-science.
 
 # (the sRGB white and matrices, Bradford and xy → XYZ: spectral_cam.cie, shared with the ground truth)
-
-
-def xyz_d65_white() -> np.ndarray:
-    """CIE XYZ of the sRGB (D65) white point, Y = 1.
-
-    References
-    ----------
-    .. [1] IEC 61966-2-1:1999 (white point x = 0.3127, y = 0.3290).
-    """
-    return xy_to_xyz(SRGB_WHITE_XY)
 
 
 def mccamy_cct(xyz) -> float:

@@ -273,11 +273,11 @@ def srgb_prophoto_matrices() -> tuple[np.ndarray, np.ndarray]:
     .. [1] ISO 22028-2:2013 (ROMM RGB primaries and D50 white).
     .. [2] IEC 61966-2-1:1999; Lam (1985) Bradford transform.
     """
-    from .colour_correction import SRGB_TO_XYZ, von_kries_bradford, xy_to_xyz, xyz_d65_white
+    from ..cie import SRGB_TO_XYZ, bradford_adaptation, xy_to_xyz, xyz_d65_white
 
     d50 = (0.3457, 0.3585)
     romm_to_xyz = _primaries_to_xyz([(0.7347, 0.2653), (0.1596, 0.8404), (0.0366, 0.0001)], d50)
-    adapt = von_kries_bradford(xyz_d65_white(), xy_to_xyz(np.array(d50)))
+    adapt = bradford_adaptation(xyz_d65_white(), xy_to_xyz(np.array(d50)))
     forward = np.linalg.inv(romm_to_xyz) @ adapt @ SRGB_TO_XYZ
     return forward, np.linalg.inv(forward)
 
