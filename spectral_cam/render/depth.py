@@ -22,9 +22,10 @@ def _luminance_film(width: int, height: int) -> dict:
 def _pinhole_probe(mi, config: SceneConfig, lens: ThinLens, film: dict, integrator: dict, *, spp: int, stream: int,
                    optimize: bool = True):
     """A probe through the frame's pinhole: (scene, sensor, tiles), the scene loaded once with
-    ``film`` and ``integrator``; iterating ``tiles`` renders the radiance's tiles (bounded memory
-    on large frames), each with its own seed of ``stream``, as (first row, end row, (rows, W, C)
-    image), and releases drjit's memory at the end."""
+    ``film`` and ``integrator``; ``tiles()`` renders the radiance's tiles (bounded memory on
+    large frames), each with its own seed of ``stream``, as (first row, end row, (rows, W, C)
+    image), and releases drjit's memory at the end. It can be called again (after changing the
+    scene's parameters): the same seeds, so two calls' noise is correlated."""
     width, height = lens.width_px, lens.height_px
     camera = camera_dict(mi, lens, "pinhole", film, spp)
     scene, sensor, loaded = build_scene(mi, config, lens, camera, integrator, optimize=optimize)
@@ -37,7 +38,7 @@ def _pinhole_probe(mi, config: SceneConfig, lens: ThinLens, film: dict, integrat
             del image
         release_render_memory()
 
-    return scene, sensor, tiles()
+    return scene, sensor, tiles
 
 
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
@@ -53,7 +54,7 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
     origin, axis = to_world[:3, 3], to_world[:3, 2] / np.linalg.norm(to_world[:3, 2])
     depth = np.empty((height, width), np.float32)
-    for first, end, image in tiles:
+    for first, end, image in tiles():
         position = image[..., :3].astype(np.float64)
         z = (position - origin) @ axis
         hit = np.any(position != 0.0, axis=-1)  # the AOV is all zero where a ray escapes
@@ -106,7 +107,7 @@ def render_shapes(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, 
     lookup = np.full(int(ids.max(initial=0)) + 2, -1, np.int32)
     lookup[ids] = np.arange(len(names), dtype=np.int32)
     index = np.empty((height, width), np.int32)
-    for first, end, image in tiles:
+    for first, end, image in tiles():
         value = np.rint(image[..., -1]).astype(np.int64)
         index[first:end] = lookup[np.clip(value, 0, len(lookup) - 1)]
     return index, shapes
@@ -161,6 +162,6 @@ def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = 256, ba
     _, _, tiles = _pinhole_probe(mi, config, lens, band_film(bands, width, height), {"type": ALBEDO_INTEGRATOR},
                                  spp=spp, stream=1 << 22)
     out = np.empty((height, width, len(bands)), np.float32)
-    for first, end, image in tiles:
+    for first, end, image in tiles():
         out[first:end] = image
     return out

@@ -45,10 +45,13 @@ def render_film(config: SceneConfig, camera: bool, width: int, height: int) -> d
     return band_film(spectra.parse_bands(config.render.spectral_bands), width, height)
 
 
-def camera_film(config: SceneConfig, width: int, height: int) -> dict:
+def camera_film(config: SceneConfig, width: int, height: int, *, channels: tuple[str, ...] | None = None) -> dict:
     """A 6-channel ``specfilm``: the photon-weighted camera curves η_c(λ)·T(λ)·λ/λ_ref
     (:func:`spectral_cam.sensor.film_curves`) and the CIE 1931 2° CMFs, so one render
-    integrates the camera's response exactly and gives the XYZ ground truth too."""
+    integrates the camera's response exactly and gives the XYZ ground truth too. ``channels``:
+    a subset of :data:`~spectral_cam.sensor.CAMERA_CHANNELS` (Mitsuba samples wavelengths in
+    proportion to the channels' summed curves, so a film of one channel has the least noise in
+    it)."""
     from ..cie import cmfs_1931
     from ..sensor import CAMERA_CHANNELS, film_curves
 
@@ -56,9 +59,10 @@ def camera_film(config: SceneConfig, width: int, height: int) -> dict:
     wl = np.arange(lo, hi + 0.5, CAMERA_FILM_STEP_NM)
     cmfs = spectra.sample(cmfs_1931(), wl, outside=0.0)
     curves = np.concatenate([film_curves(config, wl), cmfs], axis=1)
+    chosen = [CAMERA_CHANNELS.index(name) for name in (CAMERA_CHANNELS if channels is None else channels)]
     film = {"type": "specfilm", "width": width, "height": height, "component_format": "float32",
             "rfilter": {"type": "box"}}
-    for index, name in enumerate(CAMERA_CHANNELS):  # names sort in channel order
-        film[f"ch{index}_{name}"] = {"type": "spectrum",
-                                     "value": [(float(w), float(v)) for w, v in zip(wl, curves[:, index])]}
+    for index in chosen:  # names sort in channel order
+        film[f"ch{index}_{CAMERA_CHANNELS[index]}"] = {
+            "type": "spectrum", "value": [(float(w), float(v)) for w, v in zip(wl, curves[:, index])]}
     return film

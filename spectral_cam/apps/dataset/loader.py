@@ -22,6 +22,8 @@ key                 value
 ``albedo``          (H, W, 3) float32 reflectance as camera RGB under the light's white (white = 1);
                     ``albedo_srgb`` the same as linear sRGB (D65); ``shading`` (H, W) irradiance
                     relative to the light's
+``illuminant_map``  (H, W, 3) float32 camera RGB (green 1) of the light at each pixel;
+                    ``light_shares`` (H, W, N) each light's share (meta["illuminant_map"] names them)
 ``camera``          camera.json as a dict, ``K`` and the poses as NumPy arrays
 ``illuminant``      illuminant.json as a dict
 ``meta``            meta.json (sampled parameters under ``dataset.params``)
@@ -92,6 +94,14 @@ def _clean_rgb(path: Path) -> np.ndarray:
     return _stack(path, names)
 
 
+def _illuminant_map(path: Path) -> dict[str, np.ndarray]:
+    """The per-pixel illuminant and the shares, share_0 … share_{N-1} in order."""
+    channels = _exr_channels(path)
+    count = sum(1 for name in channels if name.startswith("share_"))
+    return {"illuminant_map": _stack(path, ("R", "G", "B")),
+            "light_shares": _stack(path, tuple(f"share_{k}" for k in range(count)))}
+
+
 def _camera(path: Path) -> dict:
     record = json.loads(path.read_text(encoding="utf-8"))
     for key in ("K", "distortion", "world_to_camera_opencv", "world_to_camera_opengl", "camera_to_world_opencv"):
@@ -130,6 +140,7 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
     "albedo": ("albedo.exr", lambda p: {"albedo": _clean_rgb(p), "albedo_srgb": _stack(p, ("sRGB_R", "sRGB_G", "sRGB_B")),
                                         "shading": _stack(p.with_name("shading.exr"), ("S",))[..., 0]}),
+    "illuminant_map": ("illuminant_map.exr", _illuminant_map),
     "camera": ("camera.json", lambda p: {"camera": _camera(p)}),
     "illuminant": ("illuminant.json", lambda p: {"illuminant": json.loads(p.read_text(encoding="utf-8"))}),
 }

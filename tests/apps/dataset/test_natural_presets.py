@@ -18,8 +18,8 @@ pytestmark = pytest.mark.timeout(300)
 SPEC = """
 [dataset]
 seed = 11
-outputs = ["raw", "image", "depth", "camera", "illuminant", "defocus", "all_in_focus", "clean_rgb", "segmentation",
-           "flow", "albedo", "health"]
+outputs = ["raw", "image", "depth", "camera", "illuminant", "illuminant_map", "defocus", "all_in_focus", "clean_rgb",
+           "segmentation", "flow", "albedo", "health"]
 
 [scene]
 preset = { choice = ["dead_leaves", "tabletop", "vegetation"] }
@@ -73,7 +73,10 @@ def test_a_dataset_mixing_the_natural_presets_writes_every_label_and_resumes(clu
     items = SyntheticDataset(out)
     for index in range(len(items)):
         item = items[index]
-        assert {"image", "depth", "camera", "illuminant", "segmentation", "flow", "albedo", "shading"} <= set(item)
+        assert {"image", "depth", "camera", "illuminant", "illuminant_map", "light_shares", "segmentation", "flow",
+                "albedo", "shading"} <= set(item)
+        if item["meta"]["config"]["scene"]["preset"] != "dead_leaves":  # lit by the sun and the sky apart
+            assert [light["name"] for light in item["meta"]["illuminant_map"]["lights"]] == ["sky.sun", "sky.sky"]
         assert item["albedo"].shape == item["image"].shape and item["segmentation"].shape == item["depth"].shape
         if item["meta"]["config"]["scene"]["preset"] == "vegetation":
             assert "health" in item
