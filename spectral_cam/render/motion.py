@@ -30,7 +30,7 @@ from ..optics import ThinLens
 from ..scene import SceneConfig
 
 __all__ = ["motion_blur_px", "plan_subframes", "subframe_transform", "ObjectMotion", "camera_move_matrix",
-           "relative_velocity", "motion_flow_px", "is_object_part"]
+           "relative_velocity", "motion_flow_px", "pose_flow_px", "is_object_part"]
 
 #: Largest image motion (px) one sub-frame stands for.
 PX_PER_SUBFRAME = 0.5
@@ -156,6 +156,44 @@ def motion_flow_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray, mov
         return np.stack([cx - focal * seen[..., 0] / seen[..., 2], cy - focal * seen[..., 1] / seen[..., 2]], axis=-1)
 
     return (image_at(half) - image_at(-half)).astype(np.float32)
+
+
+def pose_flow_px(depth_m: np.ndarray, camera_from, camera_to) -> np.ndarray:
+    """Forward optical flow (px) between two views of a static world: where the point seen at
+    each pixel of the first view is imaged in the second, minus its pixel.
+
+    Each view is a ``camera.json`` record (:func:`spectral_cam.camera_record.camera_record`):
+    ``K`` and ``world_to_camera_opencv``. The point is the pixel's ray at its depth (``depth_m``:
+    camera-space z of the first view; a point at infinity moves with the rotation only). A point
+    behind the second camera gets NaN. A sequence's frames k → k+1 (the camera moved, zoomed or
+    turned between them; objects that move between frames are not followed).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W, 2) float32: (dx, dy) in pixels of the second view, x right, y down.
+
+    References
+    ----------
+    .. [1] Baker, S., et al. (2011). A database and evaluation methodology for optical flow.
+       IJCV 92(1), 1–31 (forward flow, pixels).
+    .. [2] Hartley, R., & Zisserman, A. (2004). Multiple View Geometry, 2nd ed., §6.1 (the
+       projective camera x = K[R | t]X).
+    """
+    k_a, k_b = (np.asarray(c["K"], dtype=np.float64) for c in (camera_from, camera_to))
+    w2c_a, w2c_b = (np.asarray(c["world_to_camera_opencv"], dtype=np.float64) for c in (camera_from, camera_to))
+    height, width = depth_m.shape
+    columns, rows = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+    rays = np.stack([columns, rows, np.ones_like(columns)], axis=-1) @ np.linalg.inv(k_a).T  # z = 1
+    finite = np.isfinite(depth_m)
+    depth = np.where(finite, depth_m, 1.0).astype(np.float64)
+    points = np.concatenate([rays * depth[..., None], finite[..., None].astype(np.float64)], axis=-1)  # w = 0: a direction
+    seen = points @ (w2c_b @ np.linalg.inv(w2c_a)).T
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pixels = seen[..., :3] @ k_b.T
+        uv = pixels[..., :2] / pixels[..., 2:3]
+    uv[seen[..., 2] <= 0] = np.nan
+    return (uv - np.stack([columns, rows], axis=-1)).astype(np.float32)
 
 
 class ObjectMotion:

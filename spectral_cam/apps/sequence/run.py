@@ -12,7 +12,8 @@ mode holds the settings the auto controllers find on ``lock_frame`` (by default 
 Layout of ``OUT``::
 
     render/NNNN/   radiance.npz, meta.json, scene.toml   (the renders; reused on resume)
-    <mode>/NNNN/   raw.dng, image.png, depth.exr, defocus.exr, meta.json   (the camera's frames)
+    <mode>/NNNN/   raw.dng, image.png, depth.exr, defocus.exr, camera.json, meta.json   (the camera's frames)
+                   flow_to_next.exr   (forward flow to frame NNNN + 1 in pixels; not on the last frame)
     <mode>/frames.csv                                      (per frame: hour, exposure, ISO, white, errors)
     sequence.json                                          (the spec and the modes)
 
@@ -184,15 +185,30 @@ def _write_labels(image, folder: Path) -> None:
                            {"spectral_cam_units": "signed CoC diameter, pixels (+ behind focus)"})
 
 
-def _write_camera(image, config, raw, folder: Path) -> None:
+def _write_camera(image, config, raw, folder: Path) -> dict | None:
     """The frame's camera.json (:func:`spectral_cam.camera_record.camera_record`): intrinsics,
     distortion, pose and the exposure this camera mode chose (frames rendered before camera.json
-    existed carry no pose: none is written)."""
+    existed carry no pose: none is written). Returns the record."""
     from ...camera_record import capture_camera_record
 
     record = capture_camera_record(image, config, raw)
     if record is not None:
         write_json(record, folder / "camera.json")
+    return record
+
+
+def _write_flow_to_next(image, camera: dict | None, next_camera: dict | None, folder: Path) -> None:
+    """flow_to_next.exr: forward flow (px) from this frame to the next
+    (:func:`spectral_cam.render.motion.pose_flow_px`), where both have a pose and this one a
+    depth."""
+    from ...exr import write_exr_channels
+    from ...render.motion import pose_flow_px
+
+    if camera is None or next_camera is None or image.depth_m is None:
+        return
+    flow = pose_flow_px(np.asarray(image.depth_m), camera, next_camera)
+    write_exr_channels({"dx": flow[..., 0], "dy": flow[..., 1]}, folder / "flow_to_next.exr",
+                       {"spectral_cam_units": "pixels, this frame to the next; x right, y down; static world"})
 
 
 def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int | None = None) -> list[dict]:
@@ -217,7 +233,7 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
     else:
         state = _initial_exposure(frames[0][1], frames[0][0], ae)
     white_state: WhiteState | None = None
-    rows = []
+    rows, cameras = [], []
     with staged_directory(output / mode, force=True) as stage:
         for index, (config, image) in enumerate(frames):
             raw = _expose(image, config, state, index)
@@ -230,7 +246,9 @@ def run_camera(spec: SequenceSpec, output: Path, mode: str, *, lock_frame: int |
             write_dng(raw, folder / "raw.dng")
             write_image(developed, folder / "image.png")
             _write_labels(image, folder)
-            _write_camera(image, config, raw, folder)
+            cameras.append(_write_camera(image, config, raw, folder))
+            if index:
+                _write_flow_to_next(frames[index - 1][1], cameras[-2], cameras[-1], stage / f"{index - 1:04d}")
             next_state = ae.step(state, bayer_luminance(stats))
             next_white = awb.step(white_state, stats)
             row = {"frame": index, "hour": spec.hours[index], "exposure_s": state.time_s, "iso": state.iso,

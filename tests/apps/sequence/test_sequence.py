@@ -139,3 +139,50 @@ def test_each_frame_has_its_camera_json_with_the_exposure_used(tmp_path):
         lens = ThinLens.from_config(config.lens, config.sensor)
         assert camera["K"][0][0] == pytest.approx(lens.image_distance_m / lens.pixel_pitch_m, rel=1e-12)
         assert camera["image_size"] == [32, 24]
+
+
+WALL = """<scene version="3.0.0">
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 0, 0" target="0, 0, 1" up="0, 1, 0"/></transform></sensor>
+  <shape type="rectangle" id="wall"><transform name="to_world"><scale value="5"/><rotate y="1" angle="180"/>
+    <translate value="0, 0, {distance}"/></transform>
+    <bsdf type="diffuse"><spectrum name="reflectance" value="0.5"/></bsdf></shape>
+  <emitter type="constant" id="sky"><spectrum name="radiance" value="1.0"/></emitter>
+</scene>"""
+
+
+def test_flow_between_frames_is_the_cameras_move_between_them(tmp_path):
+    """Issue 27 #5: flow_to_next.exr of a camera stepping across a wall 3 m away equals the known
+    per-frame displacement f·Δ/z (Δ = 5 cm left and 2 cm up: the wall moves right and down) within
+    2 %, a pure 2° yaw to the left moves the frame's centre f·tan 2° to the right, and the last
+    frame has none (OpenEXR reads the files)."""
+    import json
+    import math
+
+    import OpenEXR
+
+    distance = 3.0
+    (tmp_path / "wall.xml").write_text(WALL.format(distance=distance))
+    spec = sequence_from_dict({
+        "scene": {"mitsuba_xml": str(tmp_path / "wall.xml")},
+        "sensor": {"width_px": 40, "height_px": 30}, "render": {"spp": 2},
+        "sequence": {"frames": 3, "vary": {"scene.camera_offset_m": [[0.0, 0.0, 0.0], [0.05, 0.02, 0.0],
+                                                                     [0.05, 0.02, 0.0]],
+                                           "scene.camera_rotation_deg": [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0],
+                                                                         [2.0, 0.0, 0.0]]}}})
+    run_sequence(spec, tmp_path / "out", modes=("auto",), scheduler="inline")
+
+    def flow(k):
+        with OpenEXR.File(str(tmp_path / "out" / "auto" / f"{k:04d}" / "flow_to_next.exr")) as exr:
+            channels = exr.channels()
+            return np.stack([np.array(channels[c].pixels) for c in ("dx", "dy")], axis=-1)
+
+    focal = json.loads((tmp_path / "out" / "auto" / "0000" / "camera.json").read_text())["K"][0][0]
+    step = flow(0)
+    np.testing.assert_allclose(step[..., 0], focal * 0.05 / distance, rtol=0.02)
+    np.testing.assert_allclose(step[..., 1], focal * 0.02 / distance, rtol=0.02)
+    turn = flow(1)
+    centre = turn[14:16, 19:21].mean(axis=(0, 1))  # the four pixels about the centre (19.5, 14.5)
+    assert centre[0] == pytest.approx(focal * math.tan(math.radians(2.0)), rel=0.02)
+    assert abs(centre[1]) < 0.02
+    assert not (tmp_path / "out" / "auto" / "0002" / "flow_to_next.exr").exists()
