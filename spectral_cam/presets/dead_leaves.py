@@ -42,7 +42,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
     from ..scene import SceneConfig
 
-__all__ = ["DeadLeaves", "dead_leaves_layout", "radius_cdf", "expected_coverage", "MAX_LEAVES"]
+__all__ = ["DeadLeaves", "dead_leaves_layout", "leaf_meshes", "radius_cdf", "expected_coverage", "MAX_LEAVES"]
 
 #: Most discs a layout may hold (Mitsuba loads 3000 discs in 0.2 s; this keeps it to seconds).
 MAX_LEAVES = 50_000
@@ -151,6 +151,25 @@ def dead_leaves_layout(config: "SceneConfig", lens: "ThinLens", names: tuple[str
 POLYGON_TOLERANCE_PX = 0.05
 
 
+def polygon_sides(radius_px) -> np.ndarray:
+    """Sides of each disc's polygon (:func:`disc_polygons`): as many as keep its edge within
+    :data:`POLYGON_TOLERANCE_PX` of the circle, 16–256; one triangle per side."""
+    radius_px = np.asarray(radius_px, dtype=np.float64)
+    sides = np.clip(np.ceil(np.pi / np.arccos(1.0 - np.minimum(POLYGON_TOLERANCE_PX / radius_px, 1.0))), 16, 256)
+    return sides.astype(np.int64)
+
+
+def leaf_meshes(layout: DeadLeaves) -> dict[str, np.ndarray]:
+    """Which disc of ``layout`` each triangle of the preset's meshes belongs to: mesh name
+    (``leaves_<sample>``, one per reflectance sample) → (triangles,) indices into the layout
+    (its discs in the mesh's order, each fanned into :func:`polygon_sides` triangles)."""
+    meshes = {}
+    for index in np.unique(layout.reflectance_index):
+        discs = np.flatnonzero(layout.reflectance_index == index)
+        meshes[f"leaves_{int(index)}"] = np.repeat(discs, polygon_sides(layout.radius_px[discs]))
+    return meshes
+
+
 def disc_polygons(column_px, row_px, radius_px, depth_m, width_px: int, height_px: int, pixel: float):
     """Discs facing the camera as one triangle mesh: each a regular polygon of as many sides as
     keep its edge within :data:`POLYGON_TOLERANCE_PX` of the circle (16–256), its circumradius
@@ -168,8 +187,7 @@ def disc_polygons(column_px, row_px, radius_px, depth_m, width_px: int, height_p
         (F, 3) uint32 vertex indices.
     """
     radius_px = np.asarray(radius_px, dtype=np.float64)
-    sides = np.clip(np.ceil(np.pi / np.arccos(1.0 - np.minimum(POLYGON_TOLERANCE_PX / radius_px, 1.0))), 16, 256)
-    sides = sides.astype(np.int64)
+    sides = polygon_sides(radius_px)
     area_scale = np.sqrt(2.0 * np.pi / (sides * np.sin(2.0 * np.pi / sides)))
     depth = np.asarray(depth_m, dtype=np.float64)
     x0 = -(np.asarray(column_px, dtype=np.float64) - width_px / 2) * pixel * depth
@@ -217,7 +235,7 @@ def dead_leaves(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     # one emitting mesh per reflectance sample, holding all its discs: Mitsuba records a render
     # call's kernel once per shape and emitter, so 8,900 separate discs cost 2.8 s a call and
     # 99 meshes 0.08 s (docs/design.md, "The capture plan")
-    for index in np.unique(layout.reflectance_index):
+    for index in np.unique(layout.reflectance_index):  # the meshes leaf_meshes() reads back
         chosen = layout.reflectance_index == index
         vertices, faces = disc_polygons(layout.column_px[chosen], layout.row_px[chosen], layout.radius_px[chosen],
                                         layout.depth_m[chosen], lens.width_px, lens.height_px, pixel)

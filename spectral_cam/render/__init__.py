@@ -28,7 +28,7 @@ from .layered import render_layered
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
 from .variants import choose_variant
 
-__all__ = ["render", "execute", "render_layered", "render_shape_map", "choose_variant", "SpectralImage", "LANES_PER_PASS",
+__all__ = ["render", "execute", "render_layered", "render_shape_map", "render_coverage_map", "choose_variant", "SpectralImage", "LANES_PER_PASS",
            "SCALAR_LANES_PER_PASS"]
 
 
@@ -48,6 +48,19 @@ def render_shape_map(config: SceneConfig, *, lens: ThinLens | None = None, with_
     mi.set_variant(choose_variant(config.render.variant))
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     return (render_shapes if with_materials else render_shape_index)(mi, config, lens)
+
+
+def render_coverage_map(config: SceneConfig, *, lens: ThinLens | None = None, model: str = "thin",
+                        passes: int = 64) -> tuple:
+    """The soft segmentation under defocus (:func:`.depth.render_shape_coverage`): ranked
+    (ids, coverage) per pixel through the frame's camera ``model`` and the shapes' records."""
+    import mitsuba as mi
+
+    from .depth import render_shape_coverage
+
+    mi.set_variant(choose_variant(config.render.variant))
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    return render_shape_coverage(mi, config, lens, model=model, passes=passes)
 
 
 def render_albedo_map(config: SceneConfig, *, lens: ThinLens | None = None, spp: int = 256):

@@ -11,7 +11,8 @@ import numpy as np
 
 from ..optics import ThinLens
 from ..scene import SceneConfig
-from .scene_dict import build_scene, camera_dict, frame_tiles, pass_seed, release_render_memory, tile_sensors
+from .scene_dict import (build_scene, camera_dict, configured_camera, frame_tiles, pass_seed, release_render_memory,
+                         tile_sensors)
 
 
 def _luminance_film(width: int, height: int) -> dict:
@@ -20,19 +21,22 @@ def _luminance_film(width: int, height: int) -> dict:
 
 
 def _pinhole_probe(mi, config: SceneConfig, lens: ThinLens, film: dict, integrator: dict, *, spp: int, stream: int,
-                   optimize: bool = True):
+                   optimize: bool = True, model: str = "pinhole"):
     """A probe through the frame's pinhole: (scene, sensor, tiles), the scene loaded once with
     ``film`` and ``integrator``; ``tiles()`` renders the radiance's tiles (bounded memory on
     large frames), each with its own seed of ``stream``, as (first row, end row, (rows, W, C)
     image), and releases drjit's memory at the end. It can be called again (after changing the
-    scene's parameters): the same seeds, so two calls' noise is correlated."""
+    scene's parameters): the same seeds, so two calls' noise is correlated; ``tiles(k)`` draws
+    the seeds of pass k. ``model``: another of the frame's cameras (:func:`configured_camera`'s
+    models: ``"thin"``, ``"spectral_thin"``, ``"prescription"``) in place of the pinhole."""
     width, height = lens.width_px, lens.height_px
-    camera = camera_dict(mi, lens, "pinhole", film, spp)
+    camera = camera_dict(mi, lens, "pinhole", film, spp) if model == "pinhole" else \
+        configured_camera(mi, config, lens, model, film, spp)
     scene, sensor, loaded = build_scene(mi, config, lens, camera, integrator, optimize=optimize)
 
-    def tiles():
+    def tiles(pass_index: int = 0):
         for _, (first, end), tile_camera, seed_key in tile_sensors(mi, sensor, camera, frame_tiles(width, height)):
-            seed = pass_seed(config.render.seed, stream, seed_key)
+            seed = pass_seed(config.render.seed, stream + pass_index, seed_key)
             image = np.asarray(mi.render(scene, sensor=tile_camera, integrator=loaded, seed=seed, spp=spp))
             yield first, end, image.reshape(end - first, width, -1)
             del image
@@ -89,28 +93,138 @@ def _material(shape) -> str:
     return f"emitter ({bsdf})" if shape.is_emitter() else bsdf
 
 
-def render_shapes(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, list[dict]]:
-    """:func:`render_shape_index` with each shape's record: ``name`` (the scene dict's key or
-    the XML id), ``material`` (its BSDF's Mitsuba class, or ``emitter (…)``)."""
-    width, height = lens.width_px, lens.height_px
-    scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height),
-                                     {"type": "aov", "aovs": "index:shape_index"}, spp=1, stream=1 << 21,
-                                     optimize=False)
+def _shape_ids(mi, scene) -> tuple[np.ndarray, list[dict]]:
+    """Lookup from the ``shape_index`` AOV's value to the shape's place in ``scene.shapes()``
+    (−1: none), and each shape's record (name, material)."""
     shapes = [{"name": shape.id(), "material": _material(shape)} for shape in scene.shapes()]
-    names = [shape["name"] for shape in shapes]
     try:  # vectorised variants: registry ids
         import drjit as dr
 
         ids = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), dtype=np.int64)
     except Exception:  # the scalar variant numbers the list from 1
-        ids = np.arange(1, len(names) + 1)
+        ids = np.arange(1, len(shapes) + 1)
     lookup = np.full(int(ids.max(initial=0)) + 2, -1, np.int32)
-    lookup[ids] = np.arange(len(names), dtype=np.int32)
+    lookup[ids] = np.arange(len(shapes), dtype=np.int32)
+    return lookup, shapes
+
+
+def _index_of(lookup: np.ndarray, image: np.ndarray) -> np.ndarray:
+    """The shape index from the AOV image's ``shape_index`` channel (the second last)."""
+    value = np.rint(image[..., -2]).astype(np.int64)
+    return lookup[np.clip(value, 0, len(lookup) - 1)]
+
+
+#: The AOVs the shape probes render: the shape and its primitive (a mesh's triangle).
+SHAPE_AOVS = "index:shape_index,prim:prim_index"
+
+
+class _Instances:
+    """Instances from (shape, primitive) pairs: each shape is one, except the dead-leaves
+    preset's meshes, whose every disc is one (``leaf_<n>``, n its place in the layout, farthest
+    first), found from the triangle a ray meets (:func:`~spectral_cam.presets.dead_leaves.leaf_meshes`)."""
+
+    def __init__(self, config: SceneConfig, lens: ThinLens, shapes: list[dict]):
+        self.records, self.shape_to_instance, self.leaves = list(shapes), np.arange(len(shapes)), None
+        if config.scene.mitsuba_xml or config.scene.preset != "dead_leaves":
+            return
+        from ..presets.dead_leaves import dead_leaves_layout, leaf_meshes
+        from ..reflectance_sets import reflectance_set
+
+        layout = dead_leaves_layout(config, lens.layout_lens, reflectance_set(config.scene.leaf_reflectances).names)
+        meshes = leaf_meshes(layout)
+        kept = [k for k, shape in enumerate(shapes) if shape["name"] not in meshes]
+        self.records = [shapes[k] for k in kept]
+        self.shape_to_instance = np.full(len(shapes), -1, np.int64)
+        self.shape_to_instance[kept] = np.arange(len(kept))
+        self.leaves = {k: meshes[shape["name"]] for k, shape in enumerate(shapes) if shape["name"] in meshes}
+        material = next(shapes[k]["material"] for k in self.leaves) if self.leaves else "none"
+        set_name = config.scene.leaf_reflectances
+        self.records += [{"name": f"leaf_{n}", "material": material, "leaf": True,
+                          "reflectance": f"{set_name}: {layout.reflectance_names[int(layout.reflectance_index[n])]}",
+                          "depth_m": float(layout.depth_m[n]), "radius_px": float(layout.radius_px[n])}
+                         for n in range(len(layout))]
+        self.first_leaf = len(kept)
+
+    def __call__(self, shape: np.ndarray, image: np.ndarray) -> np.ndarray:
+        """Instance indices (−1: none) of shape indices and the AOV image's primitives."""
+        found = np.where(shape >= 0, self.shape_to_instance[np.clip(shape, 0, None)], -1)
+        if self.leaves:
+            prim = np.rint(image[..., -1]).astype(np.int64)
+            for k, disc_of_triangle in self.leaves.items():
+                here = shape == k
+                found[here] = self.first_leaf + disc_of_triangle[np.clip(prim[here], 0, len(disc_of_triangle) - 1)]
+        return found
+
+
+def render_shapes(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, list[dict]]:
+    """:func:`render_shape_index` with each shape's record: ``name`` (the scene dict's key or
+    the XML id), ``material`` (its BSDF's Mitsuba class, or ``emitter (…)``)."""
+    width, height = lens.width_px, lens.height_px
+    scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height),
+                                     {"type": "aov", "aovs": SHAPE_AOVS}, spp=1, stream=1 << 21, optimize=False)
+    lookup, shapes = _shape_ids(mi, scene)
+    instances = _Instances(config, lens, shapes)
     index = np.empty((height, width), np.int32)
     for first, end, image in tiles():
-        value = np.rint(image[..., -1]).astype(np.int64)
-        index[first:end] = lookup[np.clip(value, 0, len(lookup) - 1)]
-    return index, shapes
+        index[first:end] = instances(_index_of(lookup, image), image)
+    return index, instances.records
+
+
+#: Ranked instances a pixel's coverage keeps (Cryptomatte keeps 6 by default; 3 hold > 99 % of a
+#: defocused edge's light where at most three surfaces meet).
+COVERAGE_RANKS = 3
+
+
+def render_shape_coverage(mi, config: SceneConfig, lens: ThinLens, *, model: str = "thin", passes: int = 64,
+                          ranks: int = COVERAGE_RANKS) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """Which shapes each pixel of the thin-lens image sees, and how much of it: the soft
+    segmentation under defocus.
+
+    ``passes`` renders of Mitsuba's ``shape_index`` AOV through the frame's own camera
+    (``model``: its finite aperture), one ray per pixel each through a random point of the
+    pixel and of the aperture; a shape's coverage of a pixel is the fraction of its rays that
+    meet it first (Cryptomatte's ranked id/coverage pairs).
+
+    Returns
+    -------
+    ids : numpy.ndarray
+        (H, W, ranks) int32 places in the shape list, most coverage first (−1: none).
+    coverage : numpy.ndarray
+        (H, W, ranks) float32 fractions of the pixel's rays (summing to 1 with the rays that
+        escape, and those of lower ranks).
+    shapes : list of dict
+        As :func:`render_shapes`.
+
+    References
+    ----------
+    .. [1] Friedman, J., & Jones, A. C. (2015). Fully automatic ID mattes with support for motion
+       blur and transparency. SIGGRAPH 2015 Posters (Cryptomatte: ranked id and coverage pairs).
+    """
+    width, height = lens.width_px, lens.height_px
+    scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height),
+                                     {"type": "aov", "aovs": SHAPE_AOVS}, spp=1, stream=1 << 24, optimize=False,
+                                     model=model)
+    lookup, shapes = _shape_ids(mi, scene)
+    instances = _Instances(config, lens, shapes)
+    shapes = instances.records
+    seen = np.empty((height * width, passes), np.int64)
+    for k in range(passes):
+        for first, end, image in tiles(k):
+            seen[first * width:end * width, k] = instances(_index_of(lookup, image), image).ravel()
+    pixel = np.repeat(np.arange(height * width, dtype=np.int64), passes)
+    keys, counts = np.unique(pixel * (len(shapes) + 1) + seen.ravel() + 1, return_counts=True)
+    owner, shape = keys // (len(shapes) + 1), keys % (len(shapes) + 1) - 1
+    hit = shape >= 0  # the rays that escape hold what the ranks leave
+    owner, shape, counts = owner[hit], shape[hit], counts[hit]
+    order = np.lexsort((-counts, owner))  # by pixel, most rays first
+    owner, shape, counts = owner[order], shape[order], counts[order]
+    rank = np.arange(len(owner)) - np.searchsorted(owner, owner)
+    ids = np.full((height * width, ranks), -1, np.int32)
+    coverage = np.zeros((height * width, ranks), np.float32)
+    kept = rank < ranks
+    ids[owner[kept], rank[kept]] = shape[kept]
+    coverage[owner[kept], rank[kept]] = counts[kept] / passes
+    return ids.reshape(height, width, ranks), coverage.reshape(height, width, ranks), shapes
 
 
 ALBEDO_INTEGRATOR = "spectral_cam_albedo"

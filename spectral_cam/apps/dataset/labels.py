@@ -308,8 +308,9 @@ def shape_reflectance(config: SceneConfig, name: str) -> str | None:
 
 @LABELS.register("segmentation", options=("segmentation",),
                  description="segmentation.png: per pixel, the 16-bit instance id of the shape its ray meets "
-                             "through an ideal pinhole (the all-in-focus view; 0: nothing); meta.json maps each id "
-                             "to the shape's name, class, material, reflectance source and pixel count")
+                             "through an ideal pinhole (the all-in-focus view; 0: nothing; each disc of dead_leaves "
+                             "its own); meta.json maps each id to the shape's name, class, material, reflectance "
+                             "source and pixel count")
 def _segmentation(item: Item, folder: Path) -> list[Path]:
     import cv2
 
@@ -323,14 +324,53 @@ def _segmentation(item: Item, folder: Path) -> list[Path]:
         raise OSError(f"could not write {path}")
     counts = np.bincount(ids.ravel(), minlength=len(shapes) + 1)
     table = [{"id": k + 1, "name": shape["name"], "class": shape_class(shape["name"]), "material": shape["material"],
-              "reflectance": shape_reflectance(item.config, shape["name"]), "pixels": int(counts[k + 1])}
-             for k, shape in enumerate(shapes)]
+              "reflectance": shape.get("reflectance") or shape_reflectance(item.config, shape["name"]),
+              "pixels": int(counts[k + 1]),
+              **{key: shape[key] for key in ("depth_m", "radius_px") if key in shape}}
+             for k, shape in enumerate(shapes)
+             if counts[k + 1] or not shape.get("leaf")]  # a dead-leaves disc is listed where it shows
     item.records["segmentation"] = {
         "file": "segmentation.png", "dtype": "uint16", "background_id": 0, "pixels_unlabelled": int(counts[0]),
         "view": "ideal pinhole through the frame (the all-in-focus view), one ray per pixel through a random "
                 "point of it (as the depth label's)",
         "instances": table}
     item.timings["segmentation"] = time.perf_counter() - t0
+    return [path]
+
+
+#: The frame's camera the coverage label traces, per lens model the render used (the layered
+#: model composites the thin lens's blur: its rays are the thin lens's).
+_COVERAGE_CAMERA = {"layered": "thin", "auto": "thin"}
+
+
+@LABELS.register("coverage", options=("coverage",),
+                 description="coverage.exr: the soft segmentation of the thin-lens image under defocus: per pixel "
+                             "the three instances (ids as in segmentation.png; channels id_0..id_2) whose surfaces "
+                             "take the most of its rays through the aperture, and their fractions (coverage_0.."
+                             "coverage_2; Cryptomatte's ranked pairs); meta.json: the camera traced and the rays")
+def _coverage(item: Item, folder: Path) -> list[Path]:
+    from ...render import render_coverage_map
+    from ...render.depth import COVERAGE_RANKS
+
+    t0 = time.perf_counter()
+    lens_model = item.sim.radiance.meta.get("lens_model", item.config.lens.model)
+    camera = _COVERAGE_CAMERA.get(lens_model, lens_model)
+    passes = 64
+    ids, coverage, shapes = render_coverage_map(item.config, lens=item.sim.lens, model=camera, passes=passes)
+    channels = {}
+    for rank in range(COVERAGE_RANKS):
+        channels[f"id_{rank}"] = (ids[..., rank] + 1).astype(np.float32)  # segmentation.png's ids: 0 none
+        channels[f"coverage_{rank}"] = coverage[..., rank]
+    path = write_exr_channels(channels, folder / "coverage.exr",
+                              {"spectral_cam_units": "id_k: instance id (segmentation.png's; 0 none); coverage_k: "
+                                                     "fraction of the pixel's rays"})
+    item.records["coverage"] = {
+        "file": "coverage.exr", "channels": list(channels), "ranks": COVERAGE_RANKS, "rays_per_pixel": passes,
+        "camera": camera, "ids": "segmentation.png's instance ids (meta.json segmentation.instances names them)",
+        "definition": "coverage_k: the fraction of the pixel's rays (random points of the pixel and of the "
+                      "aperture) whose first surface is instance id_k, ranked by coverage; rays that escape "
+                      "and lower ranks hold the rest"}
+    item.timings["coverage"] = time.perf_counter() - t0
     return [path]
 
 

@@ -18,6 +18,8 @@ key                 value
 ``undistortion``    (H, W, 2) float32 cv2.remap maps (map_x, map_y)
 ``health``          (H, W, 2) float32 chlorophyll (µg/cm²) and health state
 ``segmentation``    (H, W) uint16 instance ids (0: nothing; meta["segmentation"] names them)
+``coverage``        (H, W, 3) int32 ranked instance ids under defocus (0: none); ``coverage_fraction``
+                    (H, W, 3) float32 their shares of the pixel's rays
 ``flow``            (H, W, 2) float32 forward flow over the exposure, px (x right, y down)
 ``albedo``          (H, W, 3) float32 reflectance as camera RGB under the light's white (white = 1);
                     ``albedo_srgb`` the same as linear sRGB (D65); ``shading`` (H, W) irradiance
@@ -102,6 +104,13 @@ def _illuminant_map(path: Path) -> dict[str, np.ndarray]:
             "light_shares": _stack(path, tuple(f"share_{k}" for k in range(count)))}
 
 
+def _coverage(path: Path) -> dict[str, np.ndarray]:
+    channels = _exr_channels(path)
+    ranks = sum(1 for name in channels if name.startswith("id_"))
+    return {"coverage": _stack(path, tuple(f"id_{k}" for k in range(ranks))).astype(np.int32),
+            "coverage_fraction": _stack(path, tuple(f"coverage_{k}" for k in range(ranks)))}
+
+
 def _camera(path: Path) -> dict:
     record = json.loads(path.read_text(encoding="utf-8"))
     for key in ("K", "distortion", "world_to_camera_opencv", "world_to_camera_opengl", "camera_to_world_opencv"):
@@ -137,6 +146,7 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "undistortion": ("undistortion.exr", lambda p: {"undistortion": _stack(p, ("map_x", "map_y"))}),
     "health": ("health.exr", lambda p: {"health": _stack(p, ("cab", "state"))}),
     "segmentation": ("segmentation.png", lambda p: {"segmentation": _image(p)}),
+    "coverage": ("coverage.exr", _coverage),
     "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
     "albedo": ("albedo.exr", lambda p: {"albedo": _clean_rgb(p), "albedo_srgb": _stack(p, ("sRGB_R", "sRGB_G", "sRGB_B")),
                                         "shading": _stack(p.with_name("shading.exr"), ("S",))[..., 0]}),

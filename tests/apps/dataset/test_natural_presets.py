@@ -19,7 +19,7 @@ SPEC = """
 [dataset]
 seed = 11
 outputs = ["raw", "image", "depth", "camera", "illuminant", "illuminant_map", "defocus", "all_in_focus", "clean_rgb",
-           "segmentation", "flow", "albedo", "health"]
+           "segmentation", "coverage", "flow", "albedo", "health"]
 
 [scene]
 preset = { choice = ["dead_leaves", "tabletop", "vegetation"] }

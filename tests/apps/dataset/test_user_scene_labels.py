@@ -5,7 +5,6 @@ hold against the scene file's own numbers."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -35,11 +34,12 @@ def room(cluster, tmp_path_factory):
 def test_the_plan_writes_every_label_and_resumes(room, cluster, tmp_path):
     spec, out = room
     assert set(spec.outputs) >= {"raw", "image", "depth", "camera", "illuminant", "illuminant_map", "defocus",
-                                 "all_in_focus", "clean_rgb", "segmentation", "flow", "albedo"}
+                                 "all_in_focus", "clean_rgb", "segmentation", "coverage", "flow", "albedo"}
     for row in read_manifest(out):
         names = {p.name for p in (out / row["path"]).iterdir()}
         assert {"raw.dng", "image.png", "depth.exr", "camera.json", "illuminant.json", "illuminant_map.exr",
-                "defocus.exr", "all_in_focus.png", "clean_rgb.exr", "segmentation.png", "flow.exr", "albedo.exr",
+                "defocus.exr", "all_in_focus.png", "clean_rgb.exr", "segmentation.png", "coverage.exr", "flow.exr",
+                "albedo.exr",
                 "shading.exr", "meta.json"} <= names
     again = generate_dataset(spec, out, n=2, executor=cluster.executor, progress=False)
     assert (again.rendered, again.resumed) == (0, 2)
@@ -78,4 +78,7 @@ def test_labels_hold_against_the_scene_file(room):
             pixels = pixels[np.all(np.isfinite(pixels), axis=1)]
             ratios = np.median(pixels[:, 0] / pixels[:, 1]), np.median(pixels[:, 2] / pixels[:, 1])
             assert ratios == pytest.approx((1.0, 1.0), abs=0.02), name
-        assert json.dumps(meta["illuminant_map"])  # a JSON record
+        # where one surface takes all of a pixel's rays under defocus, it is the pinhole's instance there
+        whole = item["coverage_fraction"][..., 0] == 1.0
+        assert whole.mean() > 0.5
+        assert np.mean(item["coverage"][..., 0][whole] == item["segmentation"][whole]) > 0.99
