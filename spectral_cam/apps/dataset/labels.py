@@ -410,7 +410,8 @@ def _flow(item: Item, folder: Path) -> list[Path]:
                  description="albedo.exr: the reflectance each pixel sees as camera RGB under the scene light's "
                              "white (R, G, B; a perfect white diffuser is 1) and as linear sRGB (sRGB_R, sRGB_G, "
                              "sRGB_B; Bradford to D65); shading.exr: S, the irradiance there relative to the "
-                             "light's, so that clean camera RGB / the white's ≈ albedo × S on diffuse surfaces")
+                             "reference white's (the light at illuminant.illuminance_lux), so that clean camera RGB / "
+                             "the white's ≈ albedo × S on diffuse surfaces, and E_lux, the illuminance there (lux)")
 def _albedo(item: Item, folder: Path) -> list[Path]:
     from ... import spectra
     from ...colour_ground_truth import adapt_to_d65, band_cmfs, xyz_to_linear_srgb
@@ -445,14 +446,20 @@ def _albedo(item: Item, folder: Path) -> list[Path]:
     albedo_path = write_exr_channels(channels, folder / "albedo.exr",
                                      {"spectral_cam_units": "camera RGB under the light's white (white = 1); "
                                                             "sRGB_*: linear sRGB, D65"})
-    shading_path = write_exr_channels({"S": shading.astype(np.float32)}, folder / "shading.exr",
-                                      {"spectral_cam_units": "irradiance relative to the light's"})
+    lux = float(config.illuminant.illuminance_lux)
+    shading_path = write_exr_channels({"S": shading.astype(np.float32), "E_lux": (shading * lux).astype(np.float32)},
+                                      folder / "shading.exr",
+                                      {"spectral_cam_units": "S: irradiance relative to the reference white's; "
+                                                             "E_lux: illuminance at the surface, lux"})
     centre = tuple(n // 2 for n in shape[:2])
     item.records["albedo"] = {
-        "files": ["albedo.exr", "shading.exr"], "albedo_channels": list(channels), "shading_channel": "S",
+        "files": ["albedo.exr", "shading.exr"], "albedo_channels": list(channels), "shading_channels": ["S", "E_lux"],
+        "reference_white_lux": lux,
         "light": config.illuminant.spd, "white_camera_rgb_g1": (white_rgb[centre] / white_rgb[centre][green]).tolist(),
         "relation": "clean_rgb / (white_camera_rgb × its green scale) ≈ albedo × S on diffuse surfaces lit by the "
-                    "light alone; S is the irradiance there relative to the light's (cos of incidence × visibility)",
+                    "light alone; S is the irradiance there relative to the reference white's (the light's spectrum "
+                    "at reference_white_lux: for a lamp, cos of incidence × visibility; under a scene's own "
+                    "emitters or the sun, E_lux = S × reference_white_lux is the illuminance there)",
         "view": "ideal pinhole over the frame, 16 rays per pixel", "bands_nm": list(bands.centres_nm)}
     item.timings["albedo"] = time.perf_counter() - t0
     return [albedo_path, shading_path]

@@ -23,7 +23,7 @@ key                 value
 ``flow``            (H, W, 2) float32 forward flow over the exposure, px (x right, y down)
 ``albedo``          (H, W, 3) float32 reflectance as camera RGB under the light's white (white = 1);
                     ``albedo_srgb`` the same as linear sRGB (D65); ``shading`` (H, W) irradiance
-                    relative to the light's
+                    relative to the reference white's; ``illuminance_lux`` (H, W) the illuminance
 ``illuminant_map``  (H, W, 3) float32 camera RGB (green 1) of the light at each pixel;
                     ``light_shares`` (H, W, N) each light's share (meta["illuminant_map"] names them)
 ``camera``          camera.json as a dict, ``K`` and the poses as NumPy arrays
@@ -96,6 +96,15 @@ def _clean_rgb(path: Path) -> np.ndarray:
     return _stack(path, names)
 
 
+def _shading(path: Path) -> dict[str, np.ndarray]:
+    """S and, where written, the illuminance in lux."""
+    channels = _exr_channels(path)
+    found = {"shading": _stack(path, ("S",))[..., 0]}
+    if "E_lux" in channels:
+        found["illuminance_lux"] = _stack(path, ("E_lux",))[..., 0]
+    return found
+
+
 def _illuminant_map(path: Path) -> dict[str, np.ndarray]:
     """The per-pixel illuminant and the shares, share_0 … share_{N-1} in order."""
     channels = _exr_channels(path)
@@ -149,7 +158,7 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "coverage": ("coverage.exr", _coverage),
     "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
     "albedo": ("albedo.exr", lambda p: {"albedo": _clean_rgb(p), "albedo_srgb": _stack(p, ("sRGB_R", "sRGB_G", "sRGB_B")),
-                                        "shading": _stack(p.with_name("shading.exr"), ("S",))[..., 0]}),
+                                        **_shading(p.with_name("shading.exr"))}),
     "illuminant_map": ("illuminant_map.exr", _illuminant_map),
     "camera": ("camera.json", lambda p: {"camera": _camera(p)}),
     "illuminant": ("illuminant.json", lambda p: {"illuminant": json.loads(p.read_text(encoding="utf-8"))}),
