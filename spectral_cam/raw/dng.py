@@ -51,6 +51,7 @@ DNG_TAGS = {
     "NoiseProfile": 51041,
     "BaselineExposure": 50730,
     "ProfileToneCurve": 50940,
+    "ProfileName": 50936,
     "DefaultBlackRender": 51110,
     "DefaultCropOrigin": 50719,
     "DefaultCropSize": 50720,
@@ -368,6 +369,11 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
                 raise RawFormatError(f"as_shot_neutral must be three positive numbers; got {neutral}")
             tags.append((DNG_TAGS["AsShotNeutral"], _TIFF_RATIONAL, 3, _rationals(neutral, signed=False), True))
     tags += _rendering_tags(raw)
+    calibration = (raw.meta or {}).get("colour_calibration")
+    if calibration and raw.color_matrix is not None:  # which reflectances the matrices were fitted on
+        tags.append((DNG_TAGS["ProfileName"], _TIFF_ASCII, 0,
+                     _ascii(f"spectral_cam: matrices fitted on {calibration['training_set']} "
+                            f"({calibration['training_count']} reflectances)"), True))
     if raw.noise_profile is not None:
         scale, offset = (float(v) for v in raw.noise_profile)
         tags.append((DNG_TAGS["NoiseProfile"], _TIFF_DOUBLE, 2, (scale, offset), True))

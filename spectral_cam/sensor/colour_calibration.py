@@ -1,9 +1,13 @@
 """Spectral colour calibration of a camera: responses, XYZ, DNG colour matrix, colour correction.
 
 Everything here is computed from spectra — the camera's measured channel sensitivities, an
-illuminant's SPD and a set of reflectances (by default the 24 BabelColor ColorChecker
-patches) — on a 1-nm grid, so the DNG writer (ColorMatrix1, AsShotNeutral) and the ISP's
-fitted colour matrices rest on one definition.
+illuminant's SPD and a set of reflectances — on a 1-nm grid, so the DNG writer (ColorMatrix1,
+AsShotNeutral) and the ISP's fitted colour matrices rest on one definition.
+
+The matrices are fitted on a training set (:data:`TRAINING_SET`: the 190 reflectances AMPAS
+rawtoaces fits its input transforms on) that is not what a validation scores (the ColorChecker,
+the CIE 2017 samples): fitted on the ColorChecker, every ColorChecker score was in sample and
+optimistic (issue 28).
 
 Conventions
 -----------
@@ -42,6 +46,9 @@ from ..colour_ground_truth import illuminant_sd, illuminant_white_xyz, reflectan
 from ..errors import ConfigError
 
 __all__ = [
+    "TRAINING_SET",
+    "training_reflectances",
+    "training_record",
     "camera_responses",
     "xyz_to_camera_matrix",
     "camera_to_xyz_d65",
@@ -159,6 +166,34 @@ def as_shot_neutral(camera, illuminant_spd, *, transmission=None) -> np.ndarray:
     return white / white.max()
 
 
+# ----------------------------------------------------------------------------- training
+#: The reflectances the colour matrices are fitted on (:mod:`spectral_cam.reflectance_sets`):
+#: AMPAS rawtoaces' 190 training spectra, as rawtoaces fits its IDTs. None of them is a
+#: ColorChecker or CIE 2017 sample (5 of the 24 ColorChecker patches have one within 0.02 in
+#: reflectance over 400–700 nm; no CIE 2017 sample within 0.019).
+TRAINING_SET = "rawtoaces"
+
+
+@functools.lru_cache(maxsize=1)
+def training_reflectances() -> tuple:
+    """The :data:`TRAINING_SET` spectra (cached)."""
+    from ..reflectance_sets import reflectance_set
+
+    return tuple(reflectance_set(TRAINING_SET).sds)
+
+
+def training_record() -> dict:
+    """What the colour matrices were fitted on, for a RAW's meta and a validation report."""
+    return {"training_set": TRAINING_SET, "training_count": len(training_reflectances()),
+            "fit": "white-preserving least squares (Finlayson & Drew 1996) under each calibration illuminant",
+            "source": "AMPAS rawtoaces training spectra (via colour-science)"}
+
+
+def _training(reflectances):
+    """``reflectances`` as given, or the training set for None."""
+    return list(training_reflectances()) if reflectances is None else reflectances
+
+
 # ----------------------------------------------------------------------------- fitting
 def _white_preserving_fit(source: np.ndarray, target: np.ndarray, white_source: np.ndarray,
                           white_target: np.ndarray) -> np.ndarray:
@@ -179,6 +214,7 @@ def _xyz_to_camera_cached(camera: str, illuminant: str, transmission_key: tuple)
 
 
 def _xyz_to_camera(camera, illuminant_spd, reflectances, transmission) -> np.ndarray:
+    reflectances = _training(reflectances)
     cam = camera_responses(camera, illuminant_spd, reflectances, transmission=transmission)
     xyz = reflectance_xyz(illuminant_spd, reflectances)
     white_cam = camera_responses(camera, illuminant_spd, [1.0], transmission=transmission)[0]
@@ -213,7 +249,7 @@ def xyz_to_camera_matrix(
     illuminant_spd : str or colour.SpectralDistribution
         Calibration illuminant; ``"D65"`` gives ColorMatrix1 with CalibrationIlluminant1 = 21.
     reflectances : optional
-        Training reflectances; default the 24 ColorChecker patches.
+        Training reflectances; default :data:`TRAINING_SET`.
     transmission : optional
         Lens / filter transmission(s) in front of the sensor.
 
@@ -292,7 +328,7 @@ def camera_to_xyz_d65(
         ``degree`` (colour-science's expansion; exposure invariant), fitted under the same
         white-preserving constraint.
     reflectances : optional
-        Training reflectances; default the 24 ColorChecker patches.
+        Training reflectances; default :data:`TRAINING_SET`.
     transmission : optional
         Lens / filter transmission(s) in front of the sensor.
     degree : int
@@ -314,6 +350,7 @@ def camera_to_xyz_d65(
 
     if method not in CORRECTION_METHODS:
         raise ConfigError(f"colour correction method {method!r}; valid: {', '.join(CORRECTION_METHODS)}")
+    reflectances = _training(reflectances)
     cam = camera_responses(camera, illuminant_spd, reflectances, transmission=transmission)
     white_cam = camera_responses(camera, illuminant_spd, [1.0], transmission=transmission)[0]
     rgb = cam / white_cam

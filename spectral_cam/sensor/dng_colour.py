@@ -36,11 +36,15 @@ def _fitted_corrections_cached(model: str, illuminant: str, specs: tuple) -> tup
 
 
 def _fitted_corrections(model: str, illuminant: str, specs: tuple) -> dict:
-    """White-balanced camera RGB → XYZ(D65) fitted on the ColorChecker under the scene
+    """White-balanced camera RGB → XYZ(D65) fitted on the training set
+    (:data:`~spectral_cam.sensor.colour_calibration.TRAINING_SET`) under the scene
     illuminant (3×3 and root-polynomial), for the ISP's ``colour_matrix = "fitted"`` /
     ``"root_polynomial"``; the ISP reads them from ``RawImage.meta`` (it never sees spectra)."""
+    from .colour_calibration import training_record
+
     linear, root = _fitted_corrections_cached(model, illuminant, specs)
-    return {"camera_to_xyz_d65": linear, "camera_to_xyz_d65_root_polynomial": root}
+    return {"camera_to_xyz_d65": linear, "camera_to_xyz_d65_root_polynomial": root,
+            "colour_calibration": training_record()}
 
 
 #: The PCS white of DNG forward matrices: CIE D50 (ICC.1:2010 §7.2.16), Y = 1.

@@ -43,7 +43,7 @@ from ...viz import figure, png_data_uri
 __all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "write_report", "write_cells_csv", "write_patches_csv",
            "heatmap_figure", "swatches_figure", "render_html"]
 
-CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "n_patches",
+CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "calibration", "n_patches",
                 "delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
                 "exposure_scale", "exposure_s", "iso", "K_dn_per_e", "runtime_s", "dng")
 PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_index", "patch", "role",
@@ -69,7 +69,8 @@ def _coordinates(cell) -> dict:
 def _cell_rows(result) -> Iterator[dict]:
     for c in result.cells:
         # whole numbers and the rounded run time as text: exact_number writes every number as a float
-        yield {**_coordinates(c), "status": c.status, "failures": "; ".join(c.failures), "n_patches": str(c.n_set),
+        yield {**_coordinates(c), "status": c.status, "failures": "; ".join(c.failures), "calibration": c.calibration,
+               "n_patches": str(c.n_set),
                **{k: c.stats.get(k) for k in _STAT_COLUMNS}, "exposure_s": c.exposure_s, "iso": c.iso,
                "K_dn_per_e": c.gain_dn_per_e, "runtime_s": f"{c.runtime_s:.4f}", "dng": c.dng}
 
@@ -268,6 +269,16 @@ def _short(text: str) -> str:
     return Path(text).name if "/" in text else text
 
 
+def _training_text(cells) -> str:
+    """"fitted on <set>, N reflectances" as the cells record it (empty without matrices)."""
+    for cell in cells:
+        if cell.calibration.startswith("out of sample ("):
+            return cell.calibration[len("out of sample ("):-1]
+        if cell.calibration.startswith("in sample ("):
+            return f"fitted on {cell.calibration[len('in sample ('):-1]}"
+    return ""
+
+
 def render_html(result, *, generated: str | None = None) -> str:
     """The report page as an HTML string (no scripts; images as data: URLs).
 
@@ -313,6 +324,11 @@ def render_html(result, *, generated: str | None = None) -> str:
         + ". Sets other than the ColorChecker carry its white 9.5 patch as white reference.</li>",
         "<li><b>ΔE2000</b> per patch on patch means (interior, 20 % margin), after scaling the pipeline's image "
         "so the white reference has the ground truth's luminance; mean, 95th percentile, max over the set.</li>",
+        "<li><b>In or out of sample</b>: the RAW's colour matrices (DNG ColorMatrix1/2, ForwardMatrix1/2 and the "
+        "fitted corrections <code>ours</code> reads) are fitted on a training set of reflectances"
+        + (f" ({esc(_training_text(cells))})" if _training_text(cells) else "")
+        + "; a cell scoring that set is <i>in sample</i> (optimistic), any other set <i>out of sample</i>. "
+        "Each row says which.</li>",
         "<li><b>White balance</b>: angle between the pipeline's and the ground truth's white reference in linear "
         "sRGB (degrees). <b>SNR</b>: mean / σ of luminance over each patch interior.</li>",
         f"<li><b>Pass</b> when mean ΔE ≤ {t.mean_delta_e:g}, p95 ≤ {t.p95_delta_e:g}, max ≤ {t.max_delta_e:g} "
@@ -322,7 +338,7 @@ def render_html(result, *, generated: str | None = None) -> str:
         "</ul>",
         "<h2>Summary</h2>",
         "<table><tr><th>set</th><th>illuminant</th><th>camera</th><th>exposure</th><th>pipeline</th>"
-        "<th>status</th><th>ΔE mean</th><th>ΔE p95</th><th>ΔE max</th><th>WB error (°)</th>"
+        "<th>status</th><th>sample</th><th>ΔE mean</th><th>ΔE p95</th><th>ΔE max</th><th>WB error (°)</th>"
         "<th>SNR median</th><th>exposure (s)</th><th>ISO</th><th>time (s)</th><th>why</th></tr>",
     ]
     order = {"error": 0, "fail": 1, "pass": 2}
@@ -331,7 +347,7 @@ def render_html(result, *, generated: str | None = None) -> str:
         parts.append(
             f'<tr class="{_status_class(c.status)}"><td>{esc(c.set_name)}</td><td>{esc(_short(c.illuminant))}</td>'
             f"<td>{esc(c.camera)}</td><td>{esc(c.exposure)}</td><td>{esc(c.pipeline)}</td>"
-            f"<td>{esc(c.status.upper())}</td>"
+            f"<td>{esc(c.status.upper())}</td><td>{esc(c.calibration.split(' (')[0])}</td>"
             f'<td class="num">{_cell_text(s.get("delta_e_mean"))}</td>'
             f'<td class="num">{_cell_text(s.get("delta_e_p95"))}</td>'
             f'<td class="num">{_cell_text(s.get("delta_e_max"))}</td>'

@@ -51,7 +51,7 @@ from ...errors import ConfigError, SpectralCamError
 from .plan import ExposureSpec, Plan
 
 __all__ = ["PATCH_MARGIN", "CellResult", "ValidationResult", "run_plan", "evaluate_patches",
-           "angular_error_deg", "rendered_chart"]
+           "angular_error_deg", "rendered_chart", "calibration_sample"]
 
 #: Fraction of each patch's size left out on every side when averaging (edges, demosaicing).
 PATCH_MARGIN = 0.2
@@ -216,6 +216,10 @@ class CellResult:
         Seconds the pipeline took.
     dng : str
         The RAW the pipeline developed (relative to the report folder).
+    calibration : str
+        Whether the scored set was among the reflectances the RAW's colour matrices were
+        fitted on: ``"in sample (<set>)"`` or ``"out of sample (fitted on <set>)"``
+        (:func:`calibration_sample`).
     """
 
     set_name: str
@@ -238,6 +242,7 @@ class CellResult:
     gain_dn_per_e: float
     runtime_s: float
     dng: str
+    calibration: str = "unknown"
 
     @property
     def key(self) -> tuple[str, str, str, str, str]:
@@ -250,7 +255,8 @@ class CellResult:
             return f"{where}: ERROR {self.failures[0]}"
         s = self.stats
         return (f"{where}: ΔE00 mean {s['delta_e_mean']:.2f}, p95 {s['delta_e_p95']:.2f}, "
-                f"max {s['delta_e_max']:.2f}; WB {s['wb_angular_error_deg']:.2f}°  {self.status.upper()}")
+                f"max {s['delta_e_max']:.2f}; WB {s['wb_angular_error_deg']:.2f}°  {self.status.upper()} "
+                f"[{self.calibration.split(' (')[0]}]")
 
 
 @dataclass
@@ -363,6 +369,19 @@ def _exposed_charts(plan: Plan) -> Iterator[_Exposed]:
                     yield _Exposed(refset, illuminant, camera, exposure, chart, reference, raw, dng_name)
 
 
+def calibration_sample(set_name: str, raw_meta: dict | None) -> str:
+    """Is a score in sample? The RAW's colour matrices (DNG ColorMatrix/ForwardMatrix, and the
+    fitted corrections ``ours`` reads) were fitted on ``raw_meta["colour_calibration"]``'s
+    training set: a cell scoring that set is in sample, any other set out of sample."""
+    record = (raw_meta or {}).get("colour_calibration")
+    if not record:
+        return "unknown (no colour matrices)"
+    training = record["training_set"]
+    if set_name.lower() == training.lower():
+        return f"in sample ({training})"
+    return f"out of sample (fitted on {training}, {record['training_count']} reflectances)"
+
+
 def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan: Plan) -> CellResult:
     """One pipeline on one exposed chart; a pipeline that fails gives an ``"error"`` cell."""
     chart, raw = exposed.chart, exposed.raw
@@ -372,7 +391,8 @@ def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan:
                   n_set=chart.n_set, white_index=chart.white_index, reference=exposed.reference,
                   exposure_s=float(meta.get("exposure_s", float("nan"))),
                   iso=float(meta.get("iso", exposed.exposure.iso)),
-                  gain_dn_per_e=float(meta.get("K_dn_per_e", float("nan"))), dng=f"raw/{exposed.dng_name}")
+                  gain_dn_per_e=float(meta.get("K_dn_per_e", float("nan"))), dng=f"raw/{exposed.dng_name}",
+                  calibration=calibration_sample(exposed.refset.name, meta))
     t0 = time.perf_counter()
     try:
         linear = pipeline.develop(raw, dng_path, work_dir)
