@@ -7,9 +7,12 @@
   DNG read back does not).
 - ``rawpy``: LibRaw through rawpy, always linear (gamma 1), 16-bit, without auto brightening or
   LibRaw's maximum adjustment.
-- ``callable``: ``function = "module:function"``, called as ``function(raw_path)`` and returning
-  an (H, W, 3) array in the space ``output`` names (:data:`OUTPUT_SPACES`); ``python_path``
-  lists folders (relative to the plan) to import it from.
+- ``callable``: ``function = "module:function"``, called as ``function(raw_path)`` — or
+  ``function(raw_path, context)`` / ``function(raw_path, context=...)`` where it takes one, with
+  the cell's :class:`CellContext` (chart layout, illuminant, camera, exposure) — and returning an
+  (H, W, 3) array in the space ``output`` names (:data:`OUTPUT_SPACES`); integer arrays are
+  scaled by their type's maximum (uint8 / 255, uint16 / 65535), as a command's files are;
+  ``python_path`` lists folders (relative to the plan) to import it from.
 - ``command``: ``command`` with ``{input}`` (the DNG) and ``{output}`` (a file with suffix
   ``output_suffix``, :data:`OUTPUT_SUFFIXES`) placeholders, run without a shell.
 
@@ -29,11 +32,13 @@ from __future__ import annotations
 import abc
 import contextlib
 import importlib
+import inspect
 import os
 import shlex
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
@@ -42,7 +47,7 @@ import numpy as np
 from ...errors import ConfigError
 from ...registry import Registry
 
-__all__ = ["PIPELINES", "Pipeline", "pipeline_type", "OursPipeline", "RawpyPipeline", "CallablePipeline",
+__all__ = ["PIPELINES", "Pipeline", "CellContext", "pipeline_type", "OursPipeline", "RawpyPipeline", "CallablePipeline",
            "CommandPipeline", "OUTPUT_SPACES", "OUTPUT_SUFFIXES", "RAWPY_WHITE_BALANCE", "RAWPY_OUTPUT_COLOURS"]
 
 #: Pipeline types: name → the class; its entry's ``options`` are the plan keys it accepts.
@@ -82,6 +87,44 @@ def pipeline_type(name: str, *, options: tuple[str, ...], description: str):
     return decorate
 
 
+@dataclass(frozen=True)
+class CellContext:
+    """What a pipeline may know of the cell it develops (a callable's ``context``; a command's
+    ``$SPECTRAL_CAM_CONTEXT`` JSON file): the chart's layout and what lit and exposed it.
+
+    Attributes
+    ----------
+    set_name, illuminant, camera, exposure : str
+        The cell's coordinates (the illuminant as the plan names it).
+    frame_size : (int, int)
+        (width, height) of the developed frame, pixels.
+    patches : list of dict
+        Every patch: ``name``, centre ``column``/``row`` and ``half_width_px``/``half_height_px``
+        (pixels, 0 at the frame's top-left corner), ``role`` (``"patch"`` or
+        ``"white reference"``).
+    white_index : int
+        The white reference's place in ``patches``: the metric scales exposure and measures
+        white balance on it, so a pipeline that balances on it scores 0° there.
+    exposure_s, iso : float
+        What the sensor did.
+    """
+
+    set_name: str
+    illuminant: str
+    camera: str
+    exposure: str
+    frame_size: tuple
+    patches: list
+    white_index: int
+    exposure_s: float
+    iso: float
+
+    def to_dict(self) -> dict:
+        import dataclasses
+
+        return dataclasses.asdict(self)
+
+
 class Pipeline(abc.ABC):
     """A pipeline under test: turns one RAW into a linear sRGB image of the whole frame."""
 
@@ -103,7 +146,7 @@ class Pipeline(abc.ABC):
         return cls(name, **options)
 
     @abc.abstractmethod
-    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+    def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
         """Develop a RAW.
 
         Parameters
@@ -114,6 +157,8 @@ class Pipeline(abc.ABC):
             The same RAW written as a DNG.
         workdir : pathlib.Path
             A scratch folder.
+        context : CellContext, optional
+            What the cell is: the chart's layout, the illuminant, the camera, the exposure.
 
         Returns
         -------
@@ -158,7 +203,7 @@ class OursPipeline(Pipeline):
             raise ConfigError(f"{where}: isp must be a table of ISP settings, e.g. isp = {{ demosaic = 'menon2007' }}")
         return cls(name, isp=ISPConfig.from_dict(dict(isp)))
 
-    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+    def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
         from ...isp import develop
 
         return np.asarray(develop(raw, self.isp).linear, dtype=np.float64)
@@ -235,7 +280,7 @@ class RawpyPipeline(Pipeline):
             options["user_wb"] = [r, g, b, g]
         return options
 
-    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+    def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
         import rawpy
 
         from ...colour_ground_truth import xyz_to_linear_srgb
@@ -264,9 +309,19 @@ def _to_linear_srgb(image, space: str) -> np.ndarray:
     return image
 
 
+def _unit_range(array: np.ndarray) -> np.ndarray:
+    """An image as float64 with integers scaled by their type's maximum (uint8 / 255, uint16 /
+    65535), so 1 is full scale whatever the type a pipeline returns or writes."""
+    if array.dtype == bool:
+        raise ConfigError("a boolean image is not a developed image")
+    if np.issubdtype(array.dtype, np.integer):
+        return array.astype(np.float64) / float(np.iinfo(array.dtype).max)
+    return array.astype(np.float64)
+
+
 def _check_output(image, name: str) -> np.ndarray:
     try:
-        array = np.asarray(image, dtype=np.float64)
+        array = _unit_range(np.asarray(image))
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"pipeline {name!r} returned something that is not a numeric array ({exc})") from None
     if array.ndim == 3 and array.shape[-1] == 4:
@@ -328,10 +383,30 @@ class CallablePipeline(Pipeline):
             raise ConfigError(f"pipeline {self.name!r}: {self.function!r} is not a callable in {module_name!r}")
         return target
 
-    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+    def _context_argument(self) -> str | None:
+        """How the function takes the cell's context: ``"keyword"`` (a ``context`` parameter or
+        ``**kwargs``), ``"positional"`` (a second positional parameter) or None (the path only)."""
+        try:
+            parameters = inspect.signature(self._callable).parameters.values()
+        except (TypeError, ValueError):  # a builtin without a signature: the path only
+            return None
+        if any(p.name == "context" or p.kind is p.VAR_KEYWORD for p in parameters):
+            return "keyword"
+        positional = [p for p in parameters if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+        if len(positional) >= 2 or any(p.kind is p.VAR_POSITIONAL for p in parameters):
+            return "positional"
+        return None
+
+    def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
+        how = self._context_argument() if context is not None else None
         with self._on_path():
-            image = _check_output(self._callable(str(dng_path)), self.name)
-        return _to_linear_srgb(image, self.output)
+            if how == "keyword":
+                image = self._callable(str(dng_path), context=context)
+            elif how == "positional":
+                image = self._callable(str(dng_path), context)
+            else:
+                image = self._callable(str(dng_path))
+        return _to_linear_srgb(_check_output(image, self.name), self.output)
 
     def describe(self) -> str:
         return f"Python callable {self.function} → {self.output}"
@@ -368,10 +443,7 @@ def _read_image_file(path: Path) -> np.ndarray:
                 data = np.stack([np.asarray(channels[c].pixels) for c in "RGB"], axis=-1)
     else:
         raise ConfigError(f"cannot read {path.name}; valid output suffixes: {', '.join(OUTPUT_SUFFIXES)}")
-    data = np.asarray(data)
-    if np.issubdtype(data.dtype, np.integer):
-        return data.astype(np.float64) / float(np.iinfo(data.dtype).max)
-    return data.astype(np.float64)
+    return _unit_range(np.asarray(data))
 
 
 def _substitute(argument: str, paths: Mapping[str, str]) -> str:
@@ -421,7 +493,7 @@ class CommandPipeline(Pipeline):
             raise ConfigError(f"pipeline {name!r}: timeout_s = {timeout_s!r}; must be a number of seconds > 0")
         self.command, self.output, self.output_suffix, self.timeout_s = command, output, suffix, float(timeout_s)
 
-    def develop(self, raw, dng_path: Path, workdir: Path) -> np.ndarray:
+    def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
         with tempfile.TemporaryDirectory(prefix=f"{self.name}-", dir=workdir) as folder:
             out = Path(folder) / f"output{self.output_suffix}"
             argv = [_substitute(arg, {"{input}": str(dng_path), "{output}": str(out)}) for arg in self.argv]

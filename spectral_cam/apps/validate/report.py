@@ -43,7 +43,8 @@ from ...viz import figure, png_data_uri
 __all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "write_report", "write_cells_csv", "write_patches_csv",
            "heatmap_figure", "swatches_figure", "render_html"]
 
-CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "calibration", "n_patches",
+CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "warnings", "calibration",
+                "n_patches",
                 "delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
                 "exposure_scale", "exposure_s", "iso", "K_dn_per_e", "runtime_s", "dng")
 PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_index", "patch", "role",
@@ -69,7 +70,8 @@ def _coordinates(cell) -> dict:
 def _cell_rows(result) -> Iterator[dict]:
     for c in result.cells:
         # whole numbers and the rounded run time as text: exact_number writes every number as a float
-        yield {**_coordinates(c), "status": c.status, "failures": "; ".join(c.failures), "calibration": c.calibration,
+        yield {**_coordinates(c), "status": c.status, "failures": "; ".join(c.failures),
+               "warnings": "; ".join(c.warnings), "calibration": c.calibration,
                "n_patches": str(c.n_set),
                **{k: c.stats.get(k) for k in _STAT_COLUMNS}, "exposure_s": c.exposure_s, "iso": c.iso,
                "K_dn_per_e": c.gain_dn_per_e, "runtime_s": f"{c.runtime_s:.4f}", "dng": c.dng}
@@ -354,8 +356,15 @@ def render_html(result, *, generated: str | None = None) -> str:
             f'<td class="num">{_cell_text(s.get("wb_angular_error_deg"))}</td>'
             f'<td class="num">{_cell_text(s.get("snr_median"), 1)}</td><td class="num">{c.exposure_s:.4g}</td>'
             f'<td class="num">{c.iso:g}</td><td class="num">{c.runtime_s:.2f}</td>'
-            f"<td>{esc('; '.join(c.failures))}</td></tr>")
+            f"<td>{esc('; '.join(c.failures + [f'warning: {w}' for w in c.warnings]))}</td></tr>")
     parts.append("</table>")
+    failed_with_trace = [c for c in cells if c.traceback]
+    if failed_with_trace:
+        parts.append("<h2>Errors</h2>")
+        for c in failed_with_trace:
+            where = f"{c.set_name} · {_short(c.illuminant)} · {c.camera} · {c.exposure} · {c.pipeline}"
+            parts.append(f"<details><summary>{esc(where)}: {esc(c.failures[0])}</summary>"
+                         f"<pre>{esc(c.traceback)}</pre></details>")
     parts.append("<h2>ΔE2000 across illuminant × camera</h2>")
     for caption, uri in _heatmaps(result):
         parts.append(f'<figure><img alt="heatmap of mean ΔE2000, {esc(caption)}" src="{uri}">'

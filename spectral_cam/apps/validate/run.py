@@ -39,7 +39,8 @@ import re
 import shutil
 import tempfile
 import time
-from dataclasses import dataclass
+import traceback
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -48,6 +49,7 @@ import numpy as np
 from ...radiance_targets import Chart, ReflectanceSet, synthetic_chart
 from ...colour_ground_truth import white_patch_index
 from ...errors import ConfigError, SpectralCamError
+from .pipelines import CellContext
 from .plan import ExposureSpec, Plan
 
 __all__ = ["PATCH_MARGIN", "CellResult", "ValidationResult", "run_plan", "evaluate_patches",
@@ -220,6 +222,11 @@ class CellResult:
         Whether the scored set was among the reflectances the RAW's colour matrices were
         fitted on: ``"in sample (<set>)"`` or ``"out of sample (fitted on <set>)"``
         (:func:`calibration_sample`).
+    warnings : list of str
+        What makes a number untrustworthy without failing it (a pipeline balancing on the
+        white reference the metric scores).
+    traceback : str
+        Where a pipeline that failed failed (the last frames of its traceback).
     """
 
     set_name: str
@@ -243,6 +250,8 @@ class CellResult:
     runtime_s: float
     dng: str
     calibration: str = "unknown"
+    warnings: list = field(default_factory=list)
+    traceback: str = ""
 
     @property
     def key(self) -> tuple[str, str, str, str, str]:
@@ -253,10 +262,11 @@ class CellResult:
         where = f"[{done}/{total}] {self.set_name} · {self.illuminant} · {self.camera} · {self.exposure} · {self.pipeline}"
         if self.status == "error":
             return f"{where}: ERROR {self.failures[0]}"
+        warned = f" WARNING: {self.warnings[0].split(':')[0]}" if self.warnings else ""
         s = self.stats
         return (f"{where}: ΔE00 mean {s['delta_e_mean']:.2f}, p95 {s['delta_e_p95']:.2f}, "
                 f"max {s['delta_e_max']:.2f}; WB {s['wb_angular_error_deg']:.2f}°  {self.status.upper()} "
-                f"[{self.calibration.split(' (')[0]}]")
+                f"[{self.calibration.split(' (')[0]}]{warned}")
 
 
 @dataclass
@@ -382,8 +392,34 @@ def calibration_sample(set_name: str, raw_meta: dict | None) -> str:
     return f"out of sample (fitted on {training}, {record['training_count']} reflectances)"
 
 
+#: A white reference this much closer to grey (R = G = B) than its truth is taken as balanced
+#: on itself: the ColorChecker's white 9.5 is 1.5° from grey in linear sRGB; as-shot balance
+#: leaves it 0.1–1.5° off its truth, in any direction.
+SELF_BALANCED_FRACTION = 0.1
+
+
+def _context(exposed: _Exposed) -> CellContext:
+    """What a pipeline is told about the cell (:class:`~.pipelines.CellContext`)."""
+
+    chart, meta = exposed.chart, exposed.raw.meta or {}
+    height, width = chart.radiance.data.shape[:2]
+    patches = [{"name": p.name, "column": p.column, "row": p.row, "half_width_px": p.half_width_px,
+                "half_height_px": p.half_height_px, "role": "white reference" if i == chart.white_index else "patch"}
+               for i, p in enumerate(chart.patches)]
+    return CellContext(exposed.refset.name, exposed.illuminant, exposed.camera, exposed.exposure.name,
+                       (int(width), int(height)), patches, int(chart.white_index),
+                       float(meta.get("exposure_s", float("nan"))), float(meta.get("iso", exposed.exposure.iso)))
+
+
+def _user_frames(trace: str, limit: int = 12) -> str:
+    """A traceback's last ``limit`` frames' lines (where a user's function failed)."""
+    lines = trace.rstrip().splitlines()
+    return "\n".join(lines[-3 * limit:])
+
+
 def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan: Plan) -> CellResult:
-    """One pipeline on one exposed chart; a pipeline that fails gives an ``"error"`` cell."""
+    """One pipeline on one exposed chart; a pipeline that fails gives an ``"error"`` cell with
+    its message and traceback."""
     chart, raw = exposed.chart, exposed.raw
     meta = raw.meta or {}
     common = dict(set_name=exposed.refset.name, illuminant=exposed.illuminant, camera=exposed.camera,
@@ -395,18 +431,26 @@ def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan:
                   calibration=calibration_sample(exposed.refset.name, meta))
     t0 = time.perf_counter()
     try:
-        linear = pipeline.develop(raw, dng_path, work_dir)
+        linear = pipeline.develop(raw, dng_path, work_dir, context=_context(exposed))
         runtime = time.perf_counter() - t0
         measured = evaluate_patches(np.asarray(linear, dtype=np.float64), chart, exposed.reference)
     except Exception as exc:  # a user's pipeline may fail in any way; record it, go on
         message = str(exc) if isinstance(exc, SpectralCamError) else f"{type(exc).__name__}: {exc}"
         return CellResult(status="error", failures=[message], test=None, delta_e=None, snr=None, stats={},
-                          runtime_s=time.perf_counter() - t0, **common)
+                          runtime_s=time.perf_counter() - t0, traceback=_user_frames(traceback.format_exc()), **common)
     stats = {k: measured[k] for k in ("delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg",
                                       "snr_median", "snr_min", "exposure_scale")}
+    warnings = []
+    grey = angular_error_deg(measured["test"][chart.white_index], np.ones(3))
+    if grey < SELF_BALANCED_FRACTION * angular_error_deg(exposed.reference[chart.white_index], np.ones(3)):
+        warnings.append(f"the white reference comes out grey ({grey:.3f}° from R = G = B, its truth "
+                        f"{angular_error_deg(exposed.reference[chart.white_index], np.ones(3)):.2f}°): a pipeline that "
+                        "white-balances on the patch the metric scores makes its WB error the patch's own tint, not "
+                        "a measurement of the balance (balance on the light or on another patch)")
     failures = plan.thresholds.failures(stats)
     return CellResult(status="fail" if failures else "pass", failures=failures, test=measured["test"],
-                      delta_e=measured["delta_e"], snr=measured["snr"], stats=stats, runtime_s=runtime, **common)
+                      delta_e=measured["delta_e"], snr=measured["snr"], stats=stats, runtime_s=runtime,
+                      warnings=warnings, **common)
 
 
 @contextlib.contextmanager
