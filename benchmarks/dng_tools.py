@@ -69,7 +69,7 @@ QUIET = {"shot_noise": False, "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, 
 #: The RawTherapee 5.9 settings of the table and of tests/raw/test_real_tools.py: camera white
 #: balance, AMaZE, the camera's input profile, RTv4_sRGB out; every key not given keeps the built-in
 #: neutral value ("Neutral" profile).
-RAWTHERAPEE_PROFILE = Path(__file__).resolve().parent / "rawtherapee_neutral.pp3"
+RAWTHERAPEE_PROFILE = Path(__file__).resolve().parent.parent / "plans" / "rawtherapee_neutral.pp3"  # the plan's too
 
 
 #: Pixels of the chart's surround outside the DNG's default crop (sensor.crop_margin_px's default).

@@ -154,7 +154,7 @@ def test_adobe_dng_sdk_reads_our_dng_without_a_warning(tmp_path):
 
 # ----------------------------------------------------------------------------- RawTherapee
 #: The settings the README's tool table reports (benchmarks/dng_tools.py uses the same file).
-RAWTHERAPEE_PROFILE = Path(__file__).resolve().parents[2] / "benchmarks" / "rawtherapee_neutral.pp3"
+RAWTHERAPEE_PROFILE = Path(__file__).resolve().parents[2] / "plans" / "rawtherapee_neutral.pp3"
 
 
 def _icc_tags(profile: bytes) -> dict[str, bytes]:

@@ -35,6 +35,7 @@ import importlib
 import inspect
 import os
 import shlex
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -52,8 +53,10 @@ __all__ = ["PIPELINES", "Pipeline", "CellContext", "pipeline_type", "OursPipelin
 
 #: Pipeline types: name → the class; its entry's ``options`` are the plan keys it accepts.
 PIPELINES = Registry("pipeline type")
-#: What a user pipeline returns: linear sRGB, CIE XYZ (D65-relative) or sRGB-encoded values.
-OUTPUT_SPACES = ("linear_srgb", "xyz", "srgb")
+#: What a user pipeline returns: linear sRGB, CIE XYZ (D65-relative), sRGB-encoded values,
+#: BT.709-encoded values (the same primaries, Rec. 709's OETF) or ``"gamma:<γ>"`` (sRGB primaries,
+#: a plain power law, e.g. ``"gamma:2.2"``).
+OUTPUT_SPACES = ("linear_srgb", "xyz", "srgb", "bt709", "gamma:<γ>")
 #: Files a command pipeline may write.
 OUTPUT_SUFFIXES = (".npy", ".tif", ".tiff", ".png", ".exr")
 #: LibRaw white balance: AsShotNeutral, LibRaw's automatic estimate, its daylight
@@ -296,8 +299,27 @@ class RawpyPipeline(Pipeline):
                 f"({self.demosaic}, wb {self.white_balance}, {self.output_color} output)")
 
 
+def _output_space(name: str, key: str, value: Any) -> str:
+    """``output`` checked: one of :data:`OUTPUT_SPACES`, ``"gamma:<γ>"`` with 0.2 ≤ γ ≤ 5."""
+    if isinstance(value, str) and value.lower().startswith("gamma:"):
+        try:
+            gamma = float(value.split(":", 1)[1])
+        except ValueError:
+            gamma = float("nan")
+        if not 0.2 <= gamma <= 5.0:
+            raise ConfigError(f"pipeline {name!r}: {key} = {value!r}; give the gamma as a number in 0.2..5, "
+                              "e.g. 'gamma:2.2'")
+        return f"gamma:{gamma:g}"
+    return _choice(name, key, value, OUTPUT_SPACES[:-1], after=", or 'gamma:<γ>' (e.g. 'gamma:2.2')")
+
+
 def _to_linear_srgb(image, space: str) -> np.ndarray:
-    """(H, W, 3) values in ``space`` → linear sRGB (unclipped)."""
+    """(H, W, 3) values in ``space`` → linear sRGB (unclipped).
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999 (sRGB); ITU-R BT.709-6 (its OETF, inverted; the primaries are sRGB's).
+    """
     import colour
 
     from ...colour_ground_truth import xyz_to_linear_srgb
@@ -306,6 +328,10 @@ def _to_linear_srgb(image, space: str) -> np.ndarray:
         return xyz_to_linear_srgb(image)
     if space == "srgb":
         return np.asarray(colour.cctf_decoding(image, function="sRGB"), dtype=np.float64)
+    if space == "bt709":
+        return np.asarray(colour.models.oetf_inverse_BT709(image), dtype=np.float64)
+    if space.startswith("gamma:"):
+        return np.sign(image) * np.abs(image) ** float(space.split(":", 1)[1])
     return image
 
 
@@ -346,7 +372,7 @@ class CallablePipeline(Pipeline):
         if not isinstance(function, str) or function.count(":") != 1 or not all(function.split(":")):
             raise ConfigError(f"pipeline {name!r}: function = {function!r}; use 'module:function' "
                               "(e.g. 'my_isp:develop')")
-        self.function, self.output = function, _choice(name, "output", output, OUTPUT_SPACES)
+        self.function, self.output = function, _output_space(name, "output", output)
         paths = [python_path] if isinstance(python_path, str) else list(python_path)
         self.python_path = [str((base_dir / Path(p).expanduser()).resolve()) for p in paths]
         self._callable = self._resolve()
@@ -456,25 +482,91 @@ def _substitute(argument: str, paths: Mapping[str, str]) -> str:
     return argument
 
 
-@pipeline_type("command", options=("command", "output", "output_suffix", "timeout_s"),
+def register(image: np.ndarray, frame: tuple[int, int], crop) -> np.ndarray:
+    """A tool's image on the frame's pixel grid.
+
+    ``crop = [top, bottom, left, right]``: the pixels the tool removed from each side of the
+    frame (negative: added). ``"auto"``: the difference split evenly (RawTherapee trims 4 px a
+    side for demosaicing; a tool that keeps the DNG's border outside its default crop adds
+    even margins). Pixels the tool removed come back as NaN (no patch interior lies there).
+
+    Raises
+    ------
+    ConfigError
+        For an uneven difference under ``"auto"``, or a declared crop that does not add up.
+    """
+    height, width = frame
+    dy, dx = height - image.shape[0], width - image.shape[1]
+    if crop == "auto":
+        if dy % 2 or dx % 2:
+            raise ConfigError(f"the image is {image.shape[1]} × {image.shape[0]} px, the frame {width} × {height}: "
+                              "not an even margin; declare crop = [top, bottom, left, right] (pixels the tool removed)")
+        top, bottom, left, right = dy // 2, dy // 2, dx // 2, dx // 2
+    else:
+        top, bottom, left, right = (int(v) for v in crop)
+        if top + bottom != dy or left + right != dx:
+            raise ConfigError(f"crop = {list(crop)} does not turn {image.shape[1]} × {image.shape[0]} px into the "
+                              f"frame's {width} × {height}")
+    canvas = np.full((height, width, image.shape[2]), np.nan)
+    source = image[max(-top, 0):image.shape[0] - max(-bottom, 0), max(-left, 0):image.shape[1] - max(-right, 0)]
+    canvas[max(top, 0):height - max(bottom, 0), max(left, 0):width - max(right, 0)] = source
+    return canvas
+
+
+def _check_crop(name: str, crop: Any):
+    if crop == "auto" or crop is None:
+        return "auto"
+    if (isinstance(crop, (list, tuple)) and len(crop) == 4
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in crop)):
+        return [int(v) for v in crop]
+    raise ConfigError(f"pipeline {name!r}: crop = {crop!r}; give 'auto' or [top, bottom, left, right] in pixels the "
+                      "tool removed (negative: added)")
+
+
+def _text(data: bytes | None) -> str:
+    """A program's output as text whatever it wrote (binary on stdout decodes with replacements)."""
+    return (data or b"").decode("utf-8", errors="replace")
+
+
+#: Placeholders of a command: the DNG, the output file, the plan's folder, a scratch folder.
+PLACEHOLDERS = ("{input}", "{output}", "{plan_dir}", "{work_dir}")
+
+
+@pipeline_type("command", options=("command", "output", "output_suffix", "timeout_s", "shell", "crop",
+                                   "input_min_bytes", "version_command", "optional"),
                description="an external program: command = '... {input} ... {output} ...'")
 class CommandPipeline(Pipeline):
-    """An external program run as ``command`` with ``{input}``/``{output}`` placeholders.
+    """An external program run as ``command`` with placeholders for its files.
 
-    The command line is split like a POSIX shell would (``shlex``) and run without a
-    shell; ``{input}`` becomes the DNG path, ``{output}`` a fresh file path with
-    ``output_suffix``, which the program must write. A placeholder that is a whole argument
-    is replaced by the path as it is (no shell parses it); one inside a longer argument
-    (``sh -c "prog {input}"``, a script a shell will parse) is replaced by the path quoted
-    for a POSIX shell (``shlex.quote``), so no folder name can inject a command. The paths are
-    also in the environment as ``SPECTRAL_CAM_INPUT`` and ``SPECTRAL_CAM_OUTPUT``. A plan,
-    like a Python script, is code the user trusts: it runs the programs it names.
+    ``{input}`` is the DNG, ``{output}`` a fresh file path with ``output_suffix`` that the
+    program must write, ``{plan_dir}`` the plan's folder, ``{work_dir}`` a scratch folder of the
+    cell (for a tool's own settings and cache). The program runs in the plan's folder, so relative
+    paths in the command mean what they mean beside the plan.
+
+    Without ``shell`` the command line is split like a POSIX shell would (``shlex``) and run
+    without one: a placeholder that is a whole argument becomes the path as it is, one inside a
+    longer argument (``sh -c "prog {input}"``) the path quoted for a POSIX shell
+    (``shlex.quote``). With ``shell = true`` the line runs through ``/bin/sh -c`` with every
+    placeholder quoted, so redirections work (``dcraw -c {input} > {output}``). Either way no
+    folder name can inject a command; the paths are also in ``$SPECTRAL_CAM_INPUT``,
+    ``$SPECTRAL_CAM_OUTPUT``, and the cell's :class:`CellContext` as JSON in the file
+    ``$SPECTRAL_CAM_CONTEXT``. What the program prints is read as bytes (a tool may write its
+    image to stdout) and shown, decoded with replacements, when it fails. A plan, like a Python
+    script, is code the user trusts: it runs the programs it names.
+
+    The image is registered on the frame (:func:`register`: ``crop``); ``input_min_bytes`` pads
+    a copy of the DNG with trailing zeros to that size for tools with a size floor (RawTherapee
+    5.9 refuses raw files under 100 000 bytes; TIFF readers ignore trailing bytes);
+    ``version_command``'s first line of output is the tool's version in the report;
+    ``optional = true`` drops the pipeline from the plan, with a note, where its program is not
+    installed.
     """
 
     required = {"command": "command = '... {input} ... {output} ...'"}
 
     def __init__(self, name: str, *, command: str, output: str = "linear_srgb", output_suffix: str = ".tiff",
-                 timeout_s: float = 300.0):
+                 timeout_s: float = 300.0, shell: bool = False, crop: Any = "auto", input_min_bytes: int = 0,
+                 version_command: str = "", optional: bool = False, base_dir: Path = Path(".")):
         super().__init__(name)
         if not isinstance(command, str) or "{input}" not in command or "{output}" not in command:
             raise ConfigError(f"pipeline {name!r}: command = {command!r}; it must contain the {{input}} and "
@@ -483,7 +575,7 @@ class CommandPipeline(Pipeline):
             self.argv = shlex.split(command)
         except ValueError as exc:
             raise ConfigError(f"pipeline {name!r}: cannot split command ({exc})") from None
-        output = _choice(name, "output", output, OUTPUT_SPACES)
+        output = _output_space(name, "output", output)
         suffix = str(output_suffix).lower()
         if not suffix.startswith("."):
             suffix = "." + suffix
@@ -491,26 +583,97 @@ class CommandPipeline(Pipeline):
             raise ConfigError(f"pipeline {name!r}: output_suffix = {output_suffix!r}; valid: {', '.join(OUTPUT_SUFFIXES)}")
         if isinstance(timeout_s, bool) or not isinstance(timeout_s, (int, float)) or not timeout_s > 0:
             raise ConfigError(f"pipeline {name!r}: timeout_s = {timeout_s!r}; must be a number of seconds > 0")
+        for key, value in (("shell", shell), ("optional", optional)):
+            if not isinstance(value, bool):
+                raise ConfigError(f"pipeline {name!r}: {key} = {value!r}; give true or false")
+        if isinstance(input_min_bytes, bool) or not isinstance(input_min_bytes, int) or input_min_bytes < 0:
+            raise ConfigError(f"pipeline {name!r}: input_min_bytes = {input_min_bytes!r}; give a whole number >= 0")
         self.command, self.output, self.output_suffix, self.timeout_s = command, output, suffix, float(timeout_s)
+        self.shell, self.crop, self.input_min_bytes = shell, _check_crop(name, crop), int(input_min_bytes)
+        self.version_command, self.optional, self.base_dir = str(version_command), optional, Path(base_dir).resolve()
+        self.version = self._version()
+
+    @classmethod
+    def from_table(cls, name: str, options: Mapping[str, Any], *, base_dir: Path, where: str) -> "CommandPipeline":
+        return super().from_table(name, {**options, "base_dir": base_dir}, base_dir=base_dir, where=where)
+
+    @property
+    def program(self) -> str:
+        """The program the command runs (its first word; under ``shell``, the shell line's)."""
+        return self.argv[0]
+
+    def installed(self) -> bool:
+        """Whether the program is found (on PATH, or as a path relative to the plan's folder)."""
+        program = self.program.replace("{plan_dir}", str(self.base_dir))
+        return shutil.which(program) is not None or (self.base_dir / program).is_file()
+
+    def _version(self) -> str:
+        if not self.version_command or not self.installed():
+            return ""
+        try:
+            done = subprocess.run(shlex.split(self.version_command), capture_output=True, timeout=30,
+                                  cwd=self.base_dir, check=False)
+        except (OSError, subprocess.TimeoutExpired):
+            return ""
+        lines = [line.strip() for line in _text(done.stdout + done.stderr).splitlines() if line.strip()]
+        return lines[0][:120] if lines else ""
+
+    def _input(self, dng_path: Path, folder: Path) -> Path:
+        """The DNG, or a copy padded with trailing zeros to ``input_min_bytes``."""
+        size = dng_path.stat().st_size
+        if size >= self.input_min_bytes:
+            return dng_path
+        padded = folder / dng_path.name
+        shutil.copyfile(dng_path, padded)
+        with padded.open("ab") as handle:
+            handle.write(b"\0" * (self.input_min_bytes - size))
+        return padded
 
     def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
+        import json
+
         with tempfile.TemporaryDirectory(prefix=f"{self.name}-", dir=workdir) as folder:
-            out = Path(folder) / f"output{self.output_suffix}"
-            argv = [_substitute(arg, {"{input}": str(dng_path), "{output}": str(out)}) for arg in self.argv]
-            env = {**os.environ, "SPECTRAL_CAM_INPUT": str(dng_path), "SPECTRAL_CAM_OUTPUT": str(out)}
+            folder = Path(folder)
+            out = folder / f"output{self.output_suffix}"
+            source = self._input(Path(dng_path), folder)
+            paths = {"{input}": str(source), "{output}": str(out), "{plan_dir}": str(self.base_dir),
+                     "{work_dir}": str(folder)}
+            env = {**os.environ, "SPECTRAL_CAM_INPUT": str(source), "SPECTRAL_CAM_OUTPUT": str(out)}
+            if context is not None:
+                (folder / "context.json").write_text(json.dumps(context.to_dict()))
+                env["SPECTRAL_CAM_CONTEXT"] = str(folder / "context.json")
+            if self.shell:
+                line = self.command
+                for placeholder, path in paths.items():
+                    line = line.replace(placeholder, shlex.quote(path))
+                argv = ["/bin/sh", "-c", line]
+            else:
+                argv = [_substitute(arg, paths) for arg in self.argv]
             try:
-                done = subprocess.run(argv, capture_output=True, text=True, timeout=self.timeout_s, env=env)
+                done = subprocess.run(argv, capture_output=True, timeout=self.timeout_s, env=env, cwd=self.base_dir)
             except FileNotFoundError:
                 raise ConfigError(f"pipeline {self.name!r}: program {argv[0]!r} not found") from None
             except subprocess.TimeoutExpired:
                 raise ConfigError(f"pipeline {self.name!r}: no result within {self.timeout_s:g} s") from None
             if done.returncode != 0:
-                tail = (done.stderr or done.stdout or "").strip()[-500:]
+                tail = (_text(done.stderr) or _text(done.stdout)).strip()[-500:]
                 raise ConfigError(f"pipeline {self.name!r}: exit status {done.returncode}: {tail}")
             if not out.is_file():
-                raise ConfigError(f"pipeline {self.name!r}: the command wrote no {{output}} file ({out.name})")
+                said = (_text(done.stderr) or _text(done.stdout)).strip()[-300:]
+                raise ConfigError(f"pipeline {self.name!r}: the command wrote no {{output}} file ({out.name})"
+                                  + (f"; it said: {said}" if said else ""))
             image = _check_output(_read_image_file(out), self.name)
+        frame = raw.mosaic.shape[:2] if raw.crop is None else tuple(raw.crop[2:])
+        if image.shape[:2] != tuple(frame):
+            image = register(image, tuple(frame), self.crop)
         return _to_linear_srgb(image, self.output)
 
     def describe(self) -> str:
-        return f"command `{self.command}` → {self.output}"
+        version = f" ({self.version})" if self.version else ""
+        return f"command `{self.command}`{version} → {self.output}"
+
+    def to_dict(self) -> dict:
+        out = super().to_dict()
+        out.pop("base_dir", None)
+        out["version"] = self.version
+        return out

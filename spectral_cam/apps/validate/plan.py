@@ -142,6 +142,8 @@ class Plan:
         The plan file (or ``"<dict>"``).
     base_dir : str
         Folder relative paths in ``sections`` are resolved against.
+    skipped_pipelines : tuple of str
+        Optional pipelines left out because their program is not installed, each with why.
     """
 
     illuminants: tuple[str, ...]
@@ -158,6 +160,7 @@ class Plan:
     sections: dict = field(default_factory=dict)
     source: str = "<dict>"
     base_dir: str = "."
+    skipped_pipelines: tuple = ()
 
     @property
     def illuminance_lux(self) -> float:
@@ -208,6 +211,7 @@ class Plan:
             "chart": self.chart, "bands": self.bands, "patch_px": self.patch_px, "gap_px": self.gap_px,
             "swatches": self.swatches,
             "sections": self.sections,
+            "skipped_pipelines": list(self.skipped_pipelines),
         }
 
 
@@ -433,11 +437,17 @@ def plan_from_dict(data: Mapping[str, Any], *, base_dir: str | Path = ".", sourc
                           + " | ".join(repr(t) for t in PIPELINES) + ")")
     pipelines = tuple(_pipeline(table, i, base_dir) for i, table in enumerate(pipelines_data))
     _unique("[[pipeline]]", [p.name for p in pipelines])
+    # an optional tool that is not installed is left out, with a note in the report
+    skipped = tuple(f"{p.name}: {p.program} is not installed" for p in pipelines
+                    if getattr(p, "optional", False) and not p.installed())
+    pipelines = tuple(p for p in pipelines if not (getattr(p, "optional", False) and not p.installed()))
+    if not pipelines:
+        raise ConfigError("no pipeline of the plan can run: " + "; ".join(skipped))
 
     plan = Plan(illuminants=illuminants, cameras=cameras, reflectance_sets=sets, exposures=exposures,
                 pipelines=pipelines, thresholds=thresholds, chart=chart, bands=bands,
                 patch_px=settings.get("patch_px", 16), gap_px=settings.get("gap_px", 4), swatches=swatches,
-                sections=sections, source=source, base_dir=str(base_dir))
+                sections=sections, source=source, base_dir=str(base_dir), skipped_pipelines=skipped)
     if chart == "synthetic":  # patch sizes are checked by building one chart's geometry
         for key in ("patch_px", "gap_px"):
             value = getattr(plan, key)

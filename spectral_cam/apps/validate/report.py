@@ -337,6 +337,7 @@ def render_html(result, *, generated: str | None = None) -> str:
         f"and WB error ≤ {t.wb_angular_error_deg:g}°.</li></ul>",
         "<h2>Pipelines</h2><ul>",
         *(f"<li><b>{esc(p.name)}</b>: {esc(p.describe())}</li>" for p in plan.pipelines),
+        *(f"<li>not run: {esc(note)}</li>" for note in plan.skipped_pipelines),
         "</ul>",
         "<h2>Summary</h2>",
         "<table><tr><th>set</th><th>illuminant</th><th>camera</th><th>exposure</th><th>pipeline</th>"
