@@ -46,7 +46,7 @@ CHART_SOURCES = ("synthetic", "render")
 SWATCH_MODES = ("all", "failing", "none")
 #: Keys of ``[validate]``.
 VALIDATE_KEYS = ("illuminants", "cameras", "reflectance_sets", "chart", "bands", "patch_px", "gap_px",
-                 "swatches", "thresholds")
+                 "swatches", "thresholds", "seeds", "compare")
 #: Keys of an ``[[exposure]]`` table.
 EXPOSURE_KEYS = ("name", "time_s", "iso", "auto_fraction", "metering")
 #: Scene-file tables a plan may hold (shared by every cell).
@@ -144,6 +144,11 @@ class Plan:
         Folder relative paths in ``sections`` are resolved against.
     skipped_pipelines : tuple of str
         Optional pipelines left out because their program is not installed, each with why.
+    seeds : int
+        Noise realisations per cell (temporal noise seeds ``render.seed`` … ``+ seeds − 1``): a
+        cell's statistics are their means, with a 95 % confidence interval of the mean ΔE.
+    compare : tuple of (str, str)
+        Pipeline pairs whose per-cell difference in mean ΔE is tested (paired over the seeds).
     """
 
     illuminants: tuple[str, ...]
@@ -161,6 +166,8 @@ class Plan:
     source: str = "<dict>"
     base_dir: str = "."
     skipped_pipelines: tuple = ()
+    seeds: int = 1
+    compare: tuple = ()
 
     @property
     def illuminance_lux(self) -> float:
@@ -212,6 +219,7 @@ class Plan:
             "swatches": self.swatches,
             "sections": self.sections,
             "skipped_pipelines": list(self.skipped_pipelines),
+            "seeds": self.seeds, "compare": [list(pair) for pair in self.compare],
         }
 
 
@@ -298,6 +306,34 @@ def _pipeline(table: Any, index: int, base_dir: Path):
     PIPELINES.check_options(kind, table, common=("name", "type"), where=f"{where} (type = {kind!r})")
     options = {k: v for k, v in table.items() if k not in ("name", "type")}
     return PIPELINES[kind].function.from_table(name, options, base_dir=base_dir, where=where)
+
+
+def _seeds(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 1000:
+        raise ConfigError(f"validate.seeds = {value!r}: give a whole number of noise realisations per cell, 1..1000 "
+                          "(a confidence interval needs at least 2)")
+    return value
+
+
+def _compare(value: Any, pipelines, skipped: Sequence[str] = ()) -> tuple:
+    """``compare = [["a", "b"], ...]`` (or one pair ``["a", "b"]``) of pipeline names; a pair
+    naming an optional pipeline left out (``skipped``) is left out too."""
+    pairs = [value] if isinstance(value, list) and len(value) == 2 and all(isinstance(v, str) for v in value) \
+        else value
+    names = [p.name for p in pipelines]
+    out = []
+    for pair in pairs if isinstance(pairs, list) else [pairs]:
+        if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(v, str) for v in pair)):
+            raise ConfigError(f"validate.compare = {value!r}: give pairs of pipeline names, e.g. "
+                              f"[[\"ours\", \"libraw\"]]; pipelines: {', '.join(names)}")
+        if any(v in skipped for v in pair):
+            continue
+        missing = [v for v in pair if v not in names]
+        if missing or pair[0] == pair[1]:
+            raise ConfigError(f"validate.compare pair {pair}: name two different pipelines of the plan "
+                              f"({', '.join(names)})")
+        out.append(tuple(pair))
+    return tuple(out)
 
 
 def _set_dotted(data: dict, dotted: str, value: Any) -> None:
@@ -438,16 +474,17 @@ def plan_from_dict(data: Mapping[str, Any], *, base_dir: str | Path = ".", sourc
     pipelines = tuple(_pipeline(table, i, base_dir) for i, table in enumerate(pipelines_data))
     _unique("[[pipeline]]", [p.name for p in pipelines])
     # an optional tool that is not installed is left out, with a note in the report
-    skipped = tuple(f"{p.name}: {p.program} is not installed" for p in pipelines
-                    if getattr(p, "optional", False) and not p.installed())
-    pipelines = tuple(p for p in pipelines if not (getattr(p, "optional", False) and not p.installed()))
+    left_out = [p.name for p in pipelines if getattr(p, "optional", False) and not p.installed()]
+    skipped = tuple(f"{p.name}: {p.program} is not installed" for p in pipelines if p.name in left_out)
+    pipelines = tuple(p for p in pipelines if p.name not in left_out)
     if not pipelines:
         raise ConfigError("no pipeline of the plan can run: " + "; ".join(skipped))
 
     plan = Plan(illuminants=illuminants, cameras=cameras, reflectance_sets=sets, exposures=exposures,
                 pipelines=pipelines, thresholds=thresholds, chart=chart, bands=bands,
                 patch_px=settings.get("patch_px", 16), gap_px=settings.get("gap_px", 4), swatches=swatches,
-                sections=sections, source=source, base_dir=str(base_dir), skipped_pipelines=skipped)
+                sections=sections, source=source, base_dir=str(base_dir), skipped_pipelines=skipped,
+                seeds=_seeds(settings.get("seeds", 1)), compare=_compare(settings.get("compare", []), pipelines, left_out))
     if chart == "synthetic":  # patch sizes are checked by building one chart's geometry
         for key in ("patch_px", "gap_px"):
             value = getattr(plan, key)

@@ -44,13 +44,18 @@ __all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "write_report", "write_cells_csv", "
            "heatmap_figure", "swatches_figure", "render_html"]
 
 CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "warnings", "calibration",
-                "n_patches",
+                "n_patches", "seeds", "delta_e_mean_ci95",
                 "delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
                 "exposure_scale", "exposure_s", "iso", "K_dn_per_e", "runtime_s", "dng")
 PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_index", "patch", "role",
                  "reference_r", "reference_g", "reference_b", "test_r", "test_g", "test_b",
                  "reference_L", "reference_a", "reference_b_star", "test_L", "test_a", "test_b_star",
                  "delta_e2000", "snr", "snr_db")
+#: Pipelines per row of heat maps (seven in one row made 6-px digits).
+HEATMAPS_PER_ROW = 3
+#: Columns of comparisons.csv (:func:`spectral_cam.apps.validate.run.compare_pipelines`).
+COMPARISON_COLUMNS = ("set", "illuminant", "camera", "exposure", "a", "b", "difference", "ci95", "seeds",
+                      "significant")
 #: Cell statistics written as they are, in CELL_COLUMNS order.
 _STAT_COLUMNS = ("delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
                  "exposure_scale")
@@ -72,7 +77,7 @@ def _cell_rows(result) -> Iterator[dict]:
         # whole numbers and the rounded run time as text: exact_number writes every number as a float
         yield {**_coordinates(c), "status": c.status, "failures": "; ".join(c.failures),
                "warnings": "; ".join(c.warnings), "calibration": c.calibration,
-               "n_patches": str(c.n_set),
+               "n_patches": str(c.n_set), "seeds": str(len(c.seed_means)), "delta_e_mean_ci95": c.delta_e_mean_ci95,
                **{k: c.stats.get(k) for k in _STAT_COLUMNS}, "exposure_s": c.exposure_s, "iso": c.iso,
                "K_dn_per_e": c.gain_dn_per_e, "runtime_s": f"{c.runtime_s:.4f}", "dng": c.dng}
 
@@ -136,10 +141,15 @@ def heatmap_figure(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str
     from matplotlib.patches import Rectangle
 
     count = values.shape[0]
+    per_row = min(count, HEATMAPS_PER_ROW)  # rows of panels keep the digits legible with many pipelines
+    lines = math.ceil(count / per_row)
     width = max(2.6, 1.15 * len(columns) + 1.6)
     height = max(2.0, 0.55 * len(rows) + 1.4)
-    fig = figure(width * count + 0.8, height, dpi=90)
-    axes = fig.subplots(1, count, squeeze=False)
+    fig = figure(width * per_row + 0.8, height * lines, dpi=90)
+    grid = fig.subplots(lines, per_row, squeeze=False)
+    for ax in grid.flat[count:]:
+        ax.set_axis_off()
+    axes = [grid.flat[:count]]
     cmap = matplotlib.colormaps["RdYlGn_r"].with_extremes(bad="#bbbbbb")
     image = None
     for p, ax in enumerate(axes[0]):
@@ -148,14 +158,14 @@ def heatmap_figure(values: np.ndarray, failed: np.ndarray, *, rows: Sequence[str
             for c in range(len(columns)):
                 value = values[p, r, c]
                 text = "error" if not np.isfinite(value) else f"{value:.2f}" + ("\nFAIL" if failed[p, r, c] else "")
-                ax.text(c, r, text, ha="center", va="center", fontsize=8,
+                ax.text(c, r, text, ha="center", va="center", fontsize=10,
                         color="black" if not np.isfinite(value) or value < 0.75 * vmax else "white")
                 if failed[p, r, c]:
                     ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1, 1, fill=False, edgecolor="black", linewidth=2))
         ax.set_xticks(range(len(columns)), labels=columns, rotation=30, ha="right", fontsize=8)
         ax.set_yticks(range(len(rows)), labels=rows, fontsize=8)
         ax.set_title(titles[p], fontsize=9)
-    fig.colorbar(image, ax=axes[0].tolist(), label="mean ΔE2000", shrink=0.9)
+    fig.colorbar(image, ax=grid.ravel().tolist(), label="mean ΔE2000", shrink=0.9)
     fig.suptitle(suptitle, fontsize=10)
     return fig
 
@@ -271,6 +281,53 @@ def _short(text: str) -> str:
     return Path(text).name if "/" in text else text
 
 
+def _pivot_html(result) -> list[str]:
+    """Mean ΔE2000, pipeline × illuminant (over sets, cameras and exposures)."""
+    from .run import pivot
+
+    names, illuminants, table = pivot(result)
+    esc = html.escape
+    rows = ["<h2>Pivot: mean ΔE2000 by pipeline × illuminant</h2>",
+            '<p class="small">Averaged over the reflectance sets, cameras and exposures; '
+            '<a href="pivot.csv">pivot.csv</a>.</p>',
+            "<table><tr><th>pipeline</th>" + "".join(f"<th>{esc(_short(i))}</th>" for i in illuminants) + "</tr>"]
+    for name, values in zip(names, table):
+        rows.append(f"<tr><td>{esc(name)}</td>" + "".join(f'<td class="num">{_cell_text(v)}</td>' for v in values)
+                    + "</tr>")
+    return rows + ["</table>"]
+
+
+def _comparisons_html(result) -> list[str]:
+    """The plan's pipeline comparisons, significant differences marked."""
+    from .run import compare_pipelines
+
+    rows = compare_pipelines(result)
+    if not rows:
+        return []
+    esc = html.escape
+    seeds = result.plan.seeds
+    out = ["<h2>Comparisons</h2>",
+           f'<p class="small">Difference in mean ΔE2000 (a − b) per cell, paired over {seeds} noise seed(s) with a 95 % '
+           "Student's t interval; <b>bold</b>: the interval excludes 0 (significant); n.s.: it does not"
+           + (" (one seed: no interval, nothing marked)" if seeds < 2 else "") + '; <a href="comparisons.csv">'
+           "comparisons.csv</a>.</p>",
+           "<table><tr><th>a − b</th><th>set</th><th>illuminant</th><th>camera</th><th>exposure</th>"
+           "<th>difference</th><th></th></tr>"]
+    for row in rows:
+        interval = f" ± {row['ci95']:.2f}" if row["ci95"] is not None else ""
+        value = f"{row['difference']:+.2f}{interval}"
+        shown = f"<b>{value}</b>" if row["significant"] else value
+        out.append(f"<tr><td>{esc(row['a'])} − {esc(row['b'])}</td><td>{esc(row['set'])}</td>"
+                   f"<td>{esc(_short(row['illuminant']))}</td><td>{esc(row['camera'])}</td><td>{esc(row['exposure'])}</td>"
+                   f'<td class="num">{shown}</td><td>{"" if row["significant"] else "n.s."}</td></tr>')
+    return out + ["</table>"]
+
+
+def _interval(cell) -> str:
+    """" ± half-width" of the mean ΔE's 95 % interval over the seeds (empty with one seed)."""
+    return f" ± {cell.delta_e_mean_ci95:.2f}" if cell.delta_e_mean_ci95 is not None else ""
+
+
 def _training_text(cells) -> str:
     """"fitted on <set>, N reflectances" as the cells record it (empty without matrices)."""
     for cell in cells:
@@ -351,7 +408,7 @@ def render_html(result, *, generated: str | None = None) -> str:
             f'<tr class="{_status_class(c.status)}"><td>{esc(c.set_name)}</td><td>{esc(_short(c.illuminant))}</td>'
             f"<td>{esc(c.camera)}</td><td>{esc(c.exposure)}</td><td>{esc(c.pipeline)}</td>"
             f"<td>{esc(c.status.upper())}</td><td>{esc(c.calibration.split(' (')[0])}</td>"
-            f'<td class="num">{_cell_text(s.get("delta_e_mean"))}</td>'
+            f'<td class="num">{_cell_text(s.get("delta_e_mean"))}{_interval(c)}</td>'
             f'<td class="num">{_cell_text(s.get("delta_e_p95"))}</td>'
             f'<td class="num">{_cell_text(s.get("delta_e_max"))}</td>'
             f'<td class="num">{_cell_text(s.get("wb_angular_error_deg"))}</td>'
@@ -366,6 +423,7 @@ def render_html(result, *, generated: str | None = None) -> str:
             where = f"{c.set_name} · {_short(c.illuminant)} · {c.camera} · {c.exposure} · {c.pipeline}"
             parts.append(f"<details><summary>{esc(where)}: {esc(c.failures[0])}</summary>"
                          f"<pre>{esc(c.traceback)}</pre></details>")
+    parts += _pivot_html(result) + _comparisons_html(result)
     parts.append("<h2>ΔE2000 across illuminant × camera</h2>")
     for caption, uri in _heatmaps(result):
         parts.append(f'<figure><img alt="heatmap of mean ΔE2000, {esc(caption)}" src="{uri}">'
@@ -398,11 +456,20 @@ def write_report(result, folder: str | Path) -> dict[str, Path]:
     Returns
     -------
     dict
-        ``{"html": path, "cells_csv": path, "patches_csv": path}``.
+        ``{"html", "cells_csv", "patches_csv", "pivot_csv", "comparisons_csv"}`` → path.
     """
+    from .run import compare_pipelines, pivot
+
     folder = Path(folder)
     paths = {"cells_csv": write_cells_csv(result, folder / "cells.csv"),
              "patches_csv": write_patches_csv(result, folder / "patches.csv")}
+    names, illuminants, table = pivot(result)
+    paths["pivot_csv"] = write_csv(({"pipeline": name, **{i: v for i, v in zip(illuminants, values)}}
+                                    for name, values in zip(names, table)), folder / "pivot.csv",
+                                   ("pipeline", *illuminants), number=exact_number)
+    paths["comparisons_csv"] = write_csv(({**row, "significant": str(row["significant"]).lower()}
+                                          for row in compare_pipelines(result)), folder / "comparisons.csv",
+                                         COMPARISON_COLUMNS, number=exact_number)
     page = render_html(result)
     with atomic_path(folder / "report.html") as tmp:
         tmp.write_text(page, encoding="utf-8")

@@ -53,7 +53,7 @@ from .pipelines import CellContext
 from .plan import ExposureSpec, Plan
 
 __all__ = ["PATCH_MARGIN", "CellResult", "ValidationResult", "run_plan", "evaluate_patches",
-           "angular_error_deg", "rendered_chart", "calibration_sample"]
+           "angular_error_deg", "rendered_chart", "calibration_sample", "compare_pipelines", "pivot"]
 
 #: Fraction of each patch's size left out on every side when averaging (edges, demosaicing).
 PATCH_MARGIN = 0.2
@@ -227,6 +227,12 @@ class CellResult:
         white reference the metric scores).
     traceback : str
         Where a pipeline that failed failed (the last frames of its traceback).
+    seed_means : list of float
+        The mean ΔE2000 of each noise realisation (``plan.seeds`` of them; the statistics in
+        ``stats`` are their means, the patches and swatches the first's).
+    delta_e_mean_ci95 : float or None
+        Half-width of the 95 % confidence interval of the mean ΔE2000 over the seeds (Student's
+        t); None with one seed.
     """
 
     set_name: str
@@ -252,6 +258,8 @@ class CellResult:
     calibration: str = "unknown"
     warnings: list = field(default_factory=list)
     traceback: str = ""
+    seed_means: list = field(default_factory=list)
+    delta_e_mean_ci95: float | None = None
 
     @property
     def key(self) -> tuple[str, str, str, str, str]:
@@ -263,8 +271,9 @@ class CellResult:
         if self.status == "error":
             return f"{where}: ERROR {self.failures[0]}"
         warned = f" WARNING: {self.warnings[0].split(':')[0]}" if self.warnings else ""
+        interval = f" ± {self.delta_e_mean_ci95:.2f}" if self.delta_e_mean_ci95 is not None else ""
         s = self.stats
-        return (f"{where}: ΔE00 mean {s['delta_e_mean']:.2f}, p95 {s['delta_e_p95']:.2f}, "
+        return (f"{where}: ΔE00 mean {s['delta_e_mean']:.2f}{interval}, p95 {s['delta_e_p95']:.2f}, "
                 f"max {s['delta_e_max']:.2f}; WB {s['wb_angular_error_deg']:.2f}°  {self.status.upper()} "
                 f"[{self.calibration.split(' (')[0]}]{warned}")
 
@@ -303,6 +312,58 @@ class ValidationResult:
         return found[0]
 
 
+def compare_pipelines(result: "ValidationResult") -> list[dict]:
+    """Each ``plan.compare`` pair's difference in mean ΔE2000, cell by cell, paired over the noise
+    seeds (both pipelines develop the same RAWs: common random numbers).
+
+    Returns
+    -------
+    list of dict
+        ``set``, ``illuminant``, ``camera``, ``exposure``, ``a``, ``b``, ``difference`` (a − b,
+        mean over the seeds), ``ci95`` (half-width, Student's t on the paired differences; None
+        with one seed) and ``significant`` (the interval excludes 0; False with one seed).
+
+    References
+    ----------
+    .. [1] Student (1908). The probable error of a mean. Biometrika 6(1), 1–25 (paired t interval).
+    """
+    from scipy import stats as scipy_stats
+
+    rows = []
+    by_key = {cell.key: cell for cell in result.cells}
+    for a, b in result.plan.compare:
+        for key, cell_a in by_key.items():
+            if key[4] != a or (key[:4] + (b,)) not in by_key:
+                continue
+            cell_b = by_key[key[:4] + (b,)]
+            if cell_a.status == "error" or cell_b.status == "error":
+                continue
+            differences = np.subtract(cell_a.seed_means, cell_b.seed_means)
+            n = len(differences)
+            half = float(scipy_stats.t.ppf(0.975, n - 1) * np.std(differences, ddof=1) / math.sqrt(n)) if n > 1 \
+                else None
+            mean = float(np.mean(differences))
+            rows.append({"set": key[0], "illuminant": key[1], "camera": key[2], "exposure": key[3], "a": a, "b": b,
+                         "difference": mean, "ci95": half, "seeds": n,
+                         "significant": bool(half is not None and abs(mean) > half)})
+    return rows
+
+
+def pivot(result: "ValidationResult") -> tuple[list[str], list[str], np.ndarray]:
+    """Mean ΔE2000 by pipeline (rows) × illuminant (columns), averaged over the sets, cameras and
+    exposures of cells that ran (NaN where none did)."""
+    pipelines = [p.name for p in result.plan.pipelines]
+    illuminants = list(result.plan.illuminants)
+    table = np.full((len(pipelines), len(illuminants)), np.nan)
+    for i, name in enumerate(pipelines):
+        for j, illuminant in enumerate(illuminants):
+            values = [c.stats["delta_e_mean"] for c in result.cells
+                      if c.pipeline == name and c.illuminant == illuminant and c.status != "error"]
+            if values:
+                table[i, j] = float(np.mean(values))
+    return pipelines, illuminants, table
+
+
 # ============================================================================ running
 @dataclass
 class _Exposed:
@@ -316,6 +377,7 @@ class _Exposed:
     reference: np.ndarray
     raw: object
     dng_name: str
+    seed: int = 0
 
 
 def _slug(text: str) -> str:
@@ -348,8 +410,9 @@ def _render_key(config, illuminant: str, camera: str, exposure: ExposureSpec) ->
     return (illuminant, camera if camera_film or auto_spp else None, exposure.name if auto_spp else None)
 
 
-def _exposed_charts(plan: Plan) -> Iterator[_Exposed]:
-    """Every chart of the plan, exposed, in report order (set, illuminant, camera, exposure)."""
+def _exposed_charts(plan: Plan) -> Iterator[list[_Exposed]]:
+    """Every chart of the plan, exposed once per seed, in report order (set, illuminant, camera,
+    exposure)."""
     from ... import colour_ground_truth
     from ...sensor import expose
 
@@ -372,11 +435,16 @@ def _exposed_charts(plan: Plan) -> Iterator[_Exposed]:
                         chart = render_cache[key]
                         reference = colour_ground_truth.patch_linear_srgb(illuminant, chart.sds)
                     config = plan.scene_config(illuminant, camera, exposure, chart)
-                    raw = expose(chart.radiance, config, white_mask=_exposure_mask(chart, camera, illuminant, config))
-                    # positions keep names unique (two CSVs may share a file name)
-                    dng_name = (f"{s:02d}-{_slug(refset.name)}__{i:02d}-{_slug(illuminant)}__"
-                                f"{_slug(camera)}__{e:02d}-{_slug(exposure.name)}.dng")
-                    yield _Exposed(refset, illuminant, camera, exposure, chart, reference, raw, dng_name)
+                    mask = _exposure_mask(chart, camera, illuminant, config)
+                    seeded = []
+                    for k in range(plan.seeds):  # noise realisations: the temporal noise's seed
+                        raw = expose(chart.radiance, config, white_mask=mask, frame_seed=config.render.seed + k)
+                        # positions keep names unique (two CSVs may share a file name)
+                        dng_name = (f"{s:02d}-{_slug(refset.name)}__{i:02d}-{_slug(illuminant)}__"
+                                    f"{_slug(camera)}__{e:02d}-{_slug(exposure.name)}"
+                                    + (f"__seed{k}" if plan.seeds > 1 else "") + ".dng")
+                        seeded.append(_Exposed(refset, illuminant, camera, exposure, chart, reference, raw, dng_name, k))
+                    yield seeded
 
 
 def calibration_sample(set_name: str, raw_meta: dict | None) -> str:
@@ -453,6 +521,46 @@ def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan:
                       warnings=warnings, **common)
 
 
+def _skipped_cell(pipeline, exposed: _Exposed, message: str) -> CellResult:
+    """The error cell of a pipeline not run again after failing alike :data:`FAIL_FAST_AFTER` times."""
+    chart = exposed.chart
+    return CellResult(set_name=exposed.refset.name, illuminant=exposed.illuminant, camera=exposed.camera,
+                      exposure=exposed.exposure.name, pipeline=pipeline.name, status="error",
+                      failures=[f"not run: it failed the same way on its last {FAIL_FAST_AFTER} cells ({message})"],
+                      patch_names=[p.name for p in chart.patches], n_set=chart.n_set, white_index=chart.white_index,
+                      reference=exposed.reference, test=None, delta_e=None, snr=None, stats={}, exposure_s=float("nan"),
+                      iso=float(exposed.exposure.iso), gain_dn_per_e=float("nan"), runtime_s=0.0,
+                      dng=f"raw/{exposed.dng_name}")
+
+
+def _combine(runs: list[CellResult], plan: Plan) -> CellResult:
+    """One cell from its seeds' runs: the statistics' means over the seeds, the 95 % confidence
+    interval of the mean ΔE (Student's t, n − 1 degrees of freedom), the first seed's patches;
+    an error in any seed makes the cell that error."""
+    import dataclasses
+
+    from scipy import stats as scipy_stats
+
+    first = runs[0]
+    errors = [run for run in runs if run.status == "error"]
+    if errors:
+        return errors[0]
+    means = [run.stats["delta_e_mean"] for run in runs]
+    if len(runs) == 1:
+        return dataclasses.replace(first, seed_means=means)
+    combined = {key: float(np.mean([run.stats[key] for run in runs])) for key in first.stats}
+    half = float(scipy_stats.t.ppf(0.975, len(means) - 1) * np.std(means, ddof=1) / math.sqrt(len(means)))
+    failures = plan.thresholds.failures(combined)
+    warnings = list(dict.fromkeys(w for run in runs for w in run.warnings))
+    return dataclasses.replace(first, stats=combined, status="fail" if failures else "pass", failures=failures,
+                               warnings=warnings, seed_means=means, delta_e_mean_ci95=half,
+                               runtime_s=float(sum(run.runtime_s for run in runs)))
+
+
+#: A pipeline that fails with the same message on this many cells in a row is not run on the rest.
+FAIL_FAST_AFTER = 3
+
+
 @contextlib.contextmanager
 def _workspace(output_dir: str | Path | None, force: bool) -> Iterator[Path]:
     """The report's staging folder (published whole at the end), or a temporary one."""
@@ -518,12 +626,24 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
         raw_dir = stage / "raw"
         raw_dir.mkdir(parents=True, exist_ok=True)
         work_dir = Path(tempfile.mkdtemp(prefix=".work-", dir=stage))
-        for exposed in _exposed_charts(plan):
-            dng_path = write_dng(exposed.raw, raw_dir / exposed.dng_name)
+        repeated: dict[str, list[str]] = {p.name: [] for p in plan.pipelines}  # each pipeline's errors in a row
+        for seeded in _exposed_charts(plan):
+            paths = [write_dng(exposed.raw, raw_dir / exposed.dng_name) for exposed in seeded]
             for pipeline in plan.pipelines:
-                cells.append(_run_cell(pipeline, exposed, dng_path, work_dir, plan))
+                errors = repeated[pipeline.name]
+                if len(errors) >= FAIL_FAST_AFTER and len(set(errors)) == 1:
+                    cell = _skipped_cell(pipeline, seeded[0], errors[0])
+                else:
+                    runs = []
+                    for exposed, path in zip(seeded, paths):
+                        runs.append(_run_cell(pipeline, exposed, path, work_dir, plan))
+                        if runs[-1].status == "error":
+                            break  # the other seeds would fail alike
+                    cell = _combine(runs, plan)
+                    repeated[pipeline.name] = errors + [cell.failures[0]] if cell.status == "error" else []
+                cells.append(cell)
                 if progress is not None:
-                    progress(cells[-1].summary(len(cells), total))
+                    progress(cell.summary(len(cells), total))
         shutil.rmtree(work_dir, ignore_errors=True)
         result = ValidationResult(plan, cells, time.perf_counter() - started,
                                   Path(output_dir) if output_dir is not None else None, versions)

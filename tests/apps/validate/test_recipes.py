@@ -31,7 +31,8 @@ def _example(pipelines):
     """The example plan cut to one cell (ColorChecker, D65, D850, base exposure) and the named
     pipelines, read from the file as a user would."""
     data = read_toml(PLANS / "validate_example.toml", "validation plan")
-    data["validate"].update(illuminants=["D65"], cameras=["nikon_d850"], reflectance_sets=["colorchecker"])
+    data["validate"].update(illuminants=["D65"], cameras=["nikon_d850"], reflectance_sets=["colorchecker"], seeds=1,
+                            compare=[])
     data["exposure"] = data["exposure"][:1]
     data["pipeline"] = [p for p in data["pipeline"] if p["name"] in pipelines]
     return plan_from_dict(data, base_dir=PLANS, source=str(PLANS / "validate_example.toml"))
