@@ -42,7 +42,7 @@ from ...radiance_targets import REFLECTANCE_SETS, reflectance_set
 from .pipelines import PIPELINES, Pipeline, pipeline_type
 from .plan import ExposureSpec, Plan, Thresholds, load_plan, plan_from_dict
 from .run import (CellResult, ValidationResult, angular_error_deg, calibration_sample, compare_pipelines,
-                  evaluate_patches, pivot, rendered_chart, run_plan)
+                  evaluate_patches, gamut_clipped, lab_difference_split, pivot, rendered_chart, run_plan, tone_slope)
 from .selfcheck import SELF_CHECKS, CheckResult, format_checks, self_checks, write_checks_csv
 
 __all__ = [
@@ -50,5 +50,5 @@ __all__ = [
     "Plan", "Thresholds", "ExposureSpec", "CellResult", "ValidationResult", "CheckResult",
     "PIPELINES", "Pipeline", "pipeline_type", "SELF_CHECKS",
     "evaluate_patches", "angular_error_deg", "rendered_chart", "reflectance_set", "REFLECTANCE_SETS",
-    "calibration_sample", "compare_pipelines", "pivot",
+    "calibration_sample", "compare_pipelines", "pivot", "lab_difference_split", "gamut_clipped", "tone_slope",
 ]

@@ -46,11 +46,12 @@ __all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "write_report", "write_cells_csv", "
 CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "warnings", "calibration",
                 "n_patches", "seeds", "delta_e_mean_ci95",
                 "delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
-                "exposure_scale", "exposure_s", "iso", "K_dn_per_e", "runtime_s", "dng")
+                "exposure_scale", "delta_l_mean", "delta_c_mean", "delta_h_mean", "patches_clipped", "tone_slope",
+                "exposure_s", "iso", "K_dn_per_e", "runtime_s", "dng")
 PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_index", "patch", "role",
                  "reference_r", "reference_g", "reference_b", "test_r", "test_g", "test_b",
                  "reference_L", "reference_a", "reference_b_star", "test_L", "test_a", "test_b_star",
-                 "delta_e2000", "snr", "snr_db")
+                 "delta_e2000", "delta_l", "delta_c", "delta_h", "clipped", "snr", "snr_db")
 #: Pipelines per row of heat maps (seven in one row made 6-px digits).
 HEATMAPS_PER_ROW = 3
 #: Columns of comparisons.csv (:func:`spectral_cam.apps.validate.run.compare_pipelines`).
@@ -58,7 +59,7 @@ COMPARISON_COLUMNS = ("set", "illuminant", "camera", "exposure", "a", "b", "diff
                       "significant")
 #: Cell statistics written as they are, in CELL_COLUMNS order.
 _STAT_COLUMNS = ("delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
-                 "exposure_scale")
+                 "exposure_scale", "delta_l_mean", "delta_c_mean", "delta_h_mean", "patches_clipped", "tone_slope")
 
 
 def _role(cell, index: int) -> str:
@@ -103,9 +104,10 @@ def _patch_rows(result) -> Iterator[dict]:
         test_lab = linear_srgb_to_lab(c.test)
         for i, name in enumerate(c.patch_names):
             snr = float(c.snr[i])
-            values = (*c.reference[i], *c.test[i], *ref_lab[i], *test_lab[i], c.delta_e[i], snr, _snr_db(snr))
+            values = (*c.reference[i], *c.test[i], *ref_lab[i], *test_lab[i], c.delta_e[i], *c.delta_lch[i])
             yield {**_coordinates(c), "patch_index": str(i), "patch": name, "role": _role(c, i),
-                   **dict(zip(PATCH_COLUMNS[8:], (float(v) for v in values)))}
+                   **dict(zip(PATCH_COLUMNS[8:22], (float(v) for v in values))),
+                   "clipped": "true" if c.clipped[i] else "false", "snr": snr, "snr_db": _snr_db(snr)}
 
 
 def write_patches_csv(result, path: str | Path) -> Path:
@@ -196,7 +198,8 @@ def swatches_figure(cell, *, title: str):
     count = len(cell.patch_names)
     columns = 6 if count <= 25 else int(math.ceil(math.sqrt(1.5 * count)))
     rows = int(math.ceil(count / columns))
-    size, gap = 21, 5  # pixels of the swatch raster: two 10-px halves and a 1-px hairline
+    size = 21  # pixels of the swatch raster: two 10-px halves and a 1-px hairline
+    gap = 10 if count <= 25 else 5  # room for the patch names above the ColorChecker's swatches
     canvas = np.full((rows * (size + gap) + gap, columns * (size + gap) + gap, 3), 0.12)
     reference, test = _display(cell.reference), _display(cell.test)
     for i in range(count):
@@ -205,13 +208,16 @@ def swatches_figure(cell, *, title: str):
         canvas[top:top + size, left:left + size // 2] = reference[i]
         canvas[top:top + size, left + size // 2 + 1:left + size] = test[i]
     scale = 0.5 if count <= 25 else 0.36
-    fig = figure(columns * scale * 2.0 + 0.4, rows * scale * 2.0 + 0.6, dpi=80)
+    fig = figure(columns * scale * 2.0 * (size + gap) / 26 + 0.4, rows * scale * 2.0 * (size + gap) / 26 + 0.6, dpi=80)
     ax = fig.subplots()
     ax.imshow(canvas, interpolation="nearest")
     font = 8 if count <= 25 else 6
     for i in range(count):
         r, c = divmod(i, columns)
         label = "ref" if i >= cell.n_set else f"{cell.delta_e[i]:.1f}"
+        if count <= 25:  # the ColorChecker's names fit above its swatches
+            ax.text(gap + c * (size + gap) + size / 2, gap + r * (size + gap) - 0.5, cell.patch_names[i].split(" (")[0][:14],
+                    ha="center", va="bottom", fontsize=5.5, color="#dddddd")
         ax.text(gap + c * (size + gap) + size / 2, gap + r * (size + gap) + size + gap / 2, label,
                 ha="center", va="center", fontsize=font, color="white")
     ax.set_axis_off()
@@ -323,6 +329,29 @@ def _comparisons_html(result) -> list[str]:
     return out + ["</table>"]
 
 
+def _cdf_uri(result) -> str:
+    """The cumulative distribution of ΔE2000 per pipeline (PNG data: URI; empty when nothing ran)."""
+    pooled = {}
+    for cell in result.cells:
+        if cell.delta_e is not None:
+            pooled.setdefault(cell.pipeline, []).extend(cell.delta_e[:cell.n_set].tolist())
+    if not pooled:
+        return ""
+    fig = figure(6.4, 3.6, dpi=90)
+    ax = fig.subplots()
+    for name, values in pooled.items():
+        values = np.sort(values)
+        ax.step(values, np.arange(1, len(values) + 1) / len(values), where="post", label=f"{name} ({len(values)})")
+    threshold = result.plan.thresholds.max_delta_e
+    if math.isfinite(threshold):
+        ax.axvline(threshold, color="grey", linestyle=":", label=f"max threshold {threshold:g}")
+    ax.set_xlabel("ΔE2000")
+    ax.set_ylabel("fraction of patches ≤")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return png_data_uri(fig, dpi=90)
+
+
 def _interval(cell) -> str:
     """" ± half-width" of the mean ΔE's 95 % interval over the seeds (empty with one seed)."""
     return f" ± {cell.delta_e_mean_ci95:.2f}" if cell.delta_e_mean_ci95 is not None else ""
@@ -388,6 +417,10 @@ def render_html(result, *, generated: str | None = None) -> str:
         + (f" ({esc(_training_text(cells))})" if _training_text(cells) else "")
         + "; a cell scoring that set is <i>in sample</i> (optimistic), any other set <i>out of sample</i>. "
         "Each row says which.</li>",
+        "<li><b>Where the error lies</b>: mean |ΔL*|, |ΔC*ab|, |ΔH*ab| per cell (lightness, chroma, hue; "
+        "<code>cells.csv</code>, per patch in <code>patches.csv</code>); the <b>tone response</b> on the neutral "
+        "patches (log-log slope of luminance against the truth's: 1 for a linear develop; a tone curve is named in "
+        "the cell's warnings); patches outside sRGB that a pipeline <b>clipped</b> to the gamut's edge are flagged.</li>",
         "<li><b>White balance</b>: angle between the pipeline's and the ground truth's white reference in linear "
         "sRGB (degrees). <b>SNR</b>: mean / σ of luminance over each patch interior.</li>",
         f"<li><b>Pass</b> when mean ΔE ≤ {t.mean_delta_e:g}, p95 ≤ {t.p95_delta_e:g}, max ≤ {t.max_delta_e:g} "
@@ -424,6 +457,12 @@ def render_html(result, *, generated: str | None = None) -> str:
             parts.append(f"<details><summary>{esc(where)}: {esc(c.failures[0])}</summary>"
                          f"<pre>{esc(c.traceback)}</pre></details>")
     parts += _pivot_html(result) + _comparisons_html(result)
+    cdf = _cdf_uri(result)
+    if cdf:
+        parts.append("<h2>ΔE2000 distribution</h2>")
+        parts.append(f'<figure><img alt="cumulative distribution of ΔE2000 per pipeline" src="{cdf}">'
+                     '<figcaption class="small">Every scored patch of every cell (first seed), per pipeline.'
+                     "</figcaption></figure>")
     parts.append("<h2>ΔE2000 across illuminant × camera</h2>")
     for caption, uri in _heatmaps(result):
         parts.append(f'<figure><img alt="heatmap of mean ΔE2000, {esc(caption)}" src="{uri}">'

@@ -53,7 +53,8 @@ from .pipelines import CellContext
 from .plan import ExposureSpec, Plan
 
 __all__ = ["PATCH_MARGIN", "CellResult", "ValidationResult", "run_plan", "evaluate_patches",
-           "angular_error_deg", "rendered_chart", "calibration_sample", "compare_pipelines", "pivot"]
+           "angular_error_deg", "rendered_chart", "calibration_sample", "compare_pipelines", "pivot",
+           "lab_difference_split", "gamut_clipped", "tone_slope"]
 
 #: Fraction of each patch's size left out on every side when averaging (edges, demosaicing).
 PATCH_MARGIN = 0.2
@@ -175,10 +176,14 @@ def evaluate_patches(linear: np.ndarray, chart: Chart, reference: np.ndarray) ->
         sigma = float(np.std(luminance, ddof=1)) if luminance.size > 1 else 0.0
         snr[i] = float(np.mean(luminance)) / sigma if sigma > 0 else math.inf
     n = chart.n_set
+    split = lab_difference_split(test, reference)
+    clipped = gamut_clipped(test, reference)
     return {
         "test": test,
         "delta_e": delta,
         "snr": snr,
+        "delta_lch": split,
+        "clipped": clipped,
         "exposure_scale": scale,
         "wb_angular_error_deg": angular_error_deg(test[w], reference[w]),
         "delta_e_mean": float(np.mean(delta[:n])),
@@ -186,7 +191,67 @@ def evaluate_patches(linear: np.ndarray, chart: Chart, reference: np.ndarray) ->
         "delta_e_max": float(np.max(delta[:n])),
         "snr_median": float(np.median(snr[:n])),
         "snr_min": float(np.min(snr[:n])),
+        "delta_l_mean": float(np.mean(np.abs(split[:n, 0]))),
+        "delta_c_mean": float(np.mean(np.abs(split[:n, 1]))),
+        "delta_h_mean": float(np.mean(np.abs(split[:n, 2]))),
+        "patches_clipped": float(np.sum(clipped[:n])),
+        "tone_slope": tone_slope(test[:n], reference[:n]),
     }
+
+
+def lab_difference_split(test: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(N, 3) ΔL*, ΔC*ab and ΔH*ab (test − reference; ΔH signed by the hue angle's turn) of
+    linear sRGB colours in CIELAB (D65): where a colour error lies — lightness (tone, exposure),
+    chroma (saturation) or hue (the matrix).
+
+    References
+    ----------
+    .. [1] CIE 15:2004, Colorimetry, §8.2.1 (ΔH*ab = √(ΔE*ab² − ΔL*² − ΔC*ab²)).
+    """
+    from ...metrics.image_quality import linear_srgb_to_lab
+
+    t, r = linear_srgb_to_lab(test), linear_srgb_to_lab(reference)
+    dl = t[:, 0] - r[:, 0]
+    ct, cr = np.hypot(t[:, 1], t[:, 2]), np.hypot(r[:, 1], r[:, 2])
+    dc = ct - cr
+    de2 = np.sum((t - r) ** 2, axis=1)
+    dh = np.sqrt(np.clip(de2 - dl ** 2 - dc ** 2, 0.0, None))
+    turn = np.sign(np.sin(np.arctan2(t[:, 2], t[:, 1]) - np.arctan2(r[:, 2], r[:, 1])))
+    return np.stack([dl, dc, dh * np.where(turn == 0, 1.0, turn)], axis=1)
+
+
+#: A channel within this of 0 or 1 (after exposure matching) is taken as at the sRGB gamut's edge.
+GAMUT_EDGE = 2e-3
+
+
+def gamut_clipped(test: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(N,) True where a channel of the truth lies outside the sRGB gamut (< 0 or > 1) and the
+    pipeline's same channel sits on that edge (0 or 1): the pipeline clipped it, so its ΔE
+    measures sRGB's gamut, not the pipeline."""
+    below, above = reference < -GAMUT_EDGE, reference > 1.0 + GAMUT_EDGE
+    clipped = (below & (np.abs(test) <= GAMUT_EDGE)) | (above & (np.abs(test - 1.0) <= GAMUT_EDGE))
+    return np.any(clipped, axis=1)
+
+
+#: Neutral patches (CIELAB chroma below this) carry the tone response.
+NEUTRAL_CHROMA = 4.0
+#: A tone response whose log-log slope leaves 1 by more than this is a tone curve, not linear.
+TONE_SLOPE_TOLERANCE = 0.05
+
+
+def tone_slope(test: np.ndarray, reference: np.ndarray) -> float:
+    """The slope of log Y(pipeline) against log Y(truth) over the neutral patches (NaN with fewer
+    than three): 1 for a linear develop, the exponent of a power law otherwise (≈ 1/2.2 for a
+    gamma-encoded image read as linear; a filmic curve lowers it)."""
+    from ...metrics.image_quality import linear_srgb_to_lab
+
+    lab = linear_srgb_to_lab(reference)
+    weights = np.array([0.2126, 0.7152, 0.0722])  # sRGB's Y
+    y_test, y_ref = test @ weights, reference @ weights
+    neutral = (np.hypot(lab[:, 1], lab[:, 2]) < NEUTRAL_CHROMA) & (y_test > 0) & (y_ref > 0)
+    if neutral.sum() < 3 or np.ptp(np.log(y_ref[neutral])) < 0.5:
+        return float("nan")
+    return float(np.polyfit(np.log(y_ref[neutral]), np.log(y_test[neutral]), 1)[0])
 
 
 # ============================================================================ results
@@ -211,7 +276,8 @@ class CellResult:
         (N,) ΔE2000 and SNR per patch.
     stats : dict
         ``delta_e_mean``, ``delta_e_p95``, ``delta_e_max``, ``wb_angular_error_deg``,
-        ``snr_median``, ``snr_min``, ``exposure_scale``.
+        ``snr_median``, ``snr_min``, ``exposure_scale``, ``delta_l_mean``, ``delta_c_mean``,
+        ``delta_h_mean`` (mean |ΔL*|, |ΔC*ab|, |ΔH*ab|), ``patches_clipped``, ``tone_slope``.
     exposure_s, iso, gain_dn_per_e : float
         What the sensor did.
     runtime_s : float
@@ -233,6 +299,10 @@ class CellResult:
     delta_e_mean_ci95 : float or None
         Half-width of the 95 % confidence interval of the mean ΔE2000 over the seeds (Student's
         t); None with one seed.
+    delta_lch : numpy.ndarray or None
+        (N, 3) ΔL*, ΔC*ab, ΔH*ab per patch (:func:`lab_difference_split`).
+    clipped : numpy.ndarray or None
+        (N,) patches outside sRGB that the pipeline clipped to its edge (:func:`gamut_clipped`).
     """
 
     set_name: str
@@ -260,6 +330,8 @@ class CellResult:
     traceback: str = ""
     seed_means: list = field(default_factory=list)
     delta_e_mean_ci95: float | None = None
+    delta_lch: np.ndarray | None = None
+    clipped: np.ndarray | None = None
 
     @property
     def key(self) -> tuple[str, str, str, str, str]:
@@ -507,8 +579,17 @@ def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan:
         return CellResult(status="error", failures=[message], test=None, delta_e=None, snr=None, stats={},
                           runtime_s=time.perf_counter() - t0, traceback=_user_frames(traceback.format_exc()), **common)
     stats = {k: measured[k] for k in ("delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg",
-                                      "snr_median", "snr_min", "exposure_scale")}
+                                      "snr_median", "snr_min", "exposure_scale", "delta_l_mean", "delta_c_mean",
+                                      "delta_h_mean", "patches_clipped", "tone_slope")}
     warnings = []
+    if abs(stats["tone_slope"] - 1.0) > TONE_SLOPE_TOLERANCE:  # NaN compares False: no neutrals, no warning
+        warnings.append(f"a tone curve: the neutral patches' luminance follows the truth's to the power "
+                        f"{stats['tone_slope']:.2f}, not 1 (an encoded image read as linear is ≈ 0.45; a filmic or "
+                        "S-curve also bends it): ΔE then measures the curve; declare the output's encoding or "
+                        "turn the curve off")
+    if stats["patches_clipped"]:
+        warnings.append(f"{int(stats['patches_clipped'])} patch(es) lie outside the sRGB gamut and came out on its "
+                        "edge: their ΔE measures the gamut, not the pipeline")
     grey = angular_error_deg(measured["test"][chart.white_index], np.ones(3))
     if grey < SELF_BALANCED_FRACTION * angular_error_deg(exposed.reference[chart.white_index], np.ones(3)):
         warnings.append(f"the white reference comes out grey ({grey:.3f}° from R = G = B, its truth "
@@ -518,7 +599,7 @@ def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan:
     failures = plan.thresholds.failures(stats)
     return CellResult(status="fail" if failures else "pass", failures=failures, test=measured["test"],
                       delta_e=measured["delta_e"], snr=measured["snr"], stats=stats, runtime_s=runtime,
-                      warnings=warnings, **common)
+                      warnings=warnings, delta_lch=measured["delta_lch"], clipped=measured["clipped"], **common)
 
 
 def _skipped_cell(pipeline, exposed: _Exposed, message: str) -> CellResult:
