@@ -20,7 +20,7 @@ def test_headless_chromium_loads_the_report_without_console_errors(example, chro
     assert errors == []
     assert page["title"].startswith("spectral_cam colour validation")
     heatmaps = len(result.plan.reflectance_sets) * len(result.plan.exposures)
-    assert len(page["images"]) == heatmaps + len(result.cells)  # swatches = "all"
+    assert len(page["images"]) == 1 + heatmaps + len(result.cells)  # the ΔE CDF; swatches = "all"
     assert all(complete and width > 100 and height > 50 for complete, width, height in page["images"])
     html = (out / "report.html").read_text()
     assert "<script" not in html and 'src="http' not in html  # self-contained, nothing fetched
