@@ -54,9 +54,10 @@ __all__ = ["PIPELINES", "Pipeline", "CellContext", "pipeline_type", "OursPipelin
 #: Pipeline types: name → the class; its entry's ``options`` are the plan keys it accepts.
 PIPELINES = Registry("pipeline type")
 #: What a user pipeline returns: linear sRGB, CIE XYZ (D65-relative), sRGB-encoded values,
-#: BT.709-encoded values (the same primaries, Rec. 709's OETF) or ``"gamma:<γ>"`` (sRGB primaries,
-#: a plain power law, e.g. ``"gamma:2.2"``).
-OUTPUT_SPACES = ("linear_srgb", "xyz", "srgb", "bt709", "gamma:<γ>")
+#: BT.709-encoded values (the same primaries, Rec. 709's OETF), ``"icc"`` (a command's file decoded
+#: through the ICC profile it embeds, :mod:`~spectral_cam.apps.validate.icc`) or ``"gamma:<γ>"``
+#: (sRGB primaries, a plain power law, e.g. ``"gamma:2.2"``).
+OUTPUT_SPACES = ("linear_srgb", "xyz", "srgb", "bt709", "icc", "gamma:<γ>")
 #: Files a command pipeline may write.
 OUTPUT_SUFFIXES = (".npy", ".tif", ".tiff", ".png", ".exr")
 #: LibRaw white balance: AsShotNeutral, LibRaw's automatic estimate, its daylight
@@ -373,6 +374,10 @@ class CallablePipeline(Pipeline):
             raise ConfigError(f"pipeline {name!r}: function = {function!r}; use 'module:function' "
                               "(e.g. 'my_isp:develop')")
         self.function, self.output = function, _output_space(name, "output", output)
+        if self.output == "icc":
+            raise ConfigError(f"pipeline {name!r}: output = 'icc' reads the profile a command's file embeds; a "
+                              "callable returns an array: declare its encoding (linear_srgb, xyz, srgb, bt709, "
+                              "gamma:<γ>)")
         paths = [python_path] if isinstance(python_path, str) else list(python_path)
         self.python_path = [str((base_dir / Path(p).expanduser()).resolve()) for p in paths]
         self._callable = self._resolve()
@@ -663,10 +668,18 @@ class CommandPipeline(Pipeline):
                 raise ConfigError(f"pipeline {self.name!r}: the command wrote no {{output}} file ({out.name})"
                                   + (f"; it said: {said}" if said else ""))
             image = _check_output(_read_image_file(out), self.name)
+            if self.output == "icc":
+                from .icc import embedded_profile, icc_to_linear_srgb
+
+                profile = embedded_profile(out)
+                if profile is None:
+                    raise ConfigError(f"pipeline {self.name!r}: output = 'icc' but {out.name} embeds no ICC profile; "
+                                      "declare the output's encoding (srgb, bt709, linear_srgb, gamma:<γ>)")
+                image = icc_to_linear_srgb(image, profile)
         frame = raw.mosaic.shape[:2] if raw.crop is None else tuple(raw.crop[2:])
         if image.shape[:2] != tuple(frame):
             image = register(image, tuple(frame), self.crop)
-        return _to_linear_srgb(image, self.output)
+        return image if self.output == "icc" else _to_linear_srgb(image, self.output)
 
     def describe(self) -> str:
         version = f" ({self.version})" if self.version else ""

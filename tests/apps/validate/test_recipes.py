@@ -144,3 +144,38 @@ def test_a_cropped_image_is_registered_on_the_frame():
         register(frame[1:], (20, 30), "auto")
     with pytest.raises(ConfigError, match="does not turn"):
         register(frame[1:], (20, 30), [0, 0, 0, 0])
+
+
+def test_an_embedded_icc_profile_decodes_like_the_encoding_it_names():
+    """LittleCMS's sRGB profile (written by Pillow's ImageCms: a parametric TRC and D50 colorants)
+    decodes through our matrix/TRC reader to colour-science's sRGB decoding within 2e-4; a LUT or
+    non-RGB profile is refused with what to do."""
+    import colour
+    from PIL import ImageCms
+
+    from spectral_cam.apps.validate.icc import MatrixShaperProfile, icc_to_linear_srgb
+
+    profile = ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
+    values = np.random.default_rng(0).random((200, 3))
+    np.testing.assert_allclose(icc_to_linear_srgb(values, profile), colour.cctf_decoding(values, "sRGB"), atol=2e-4)
+    lab = ImageCms.ImageCmsProfile(ImageCms.createProfile("LAB")).tobytes()
+    with pytest.raises(ConfigError, match="only RGB profiles"):
+        MatrixShaperProfile(lab)
+
+
+def test_the_tools_embedded_profiles_score_as_their_declared_encodings(tmp_path):
+    """RawTherapee (RTv4_sRGB) and darktable (linear Rec. 709) read through the profile they embed
+    (output = "icc") score as with the encoding the recipe declares, within 0.01 (measured 0.0002)."""
+    missing = [program for program in ("rawtherapee-cli", "darktable-cli") if not shutil.which(program)]
+    if missing:
+        pytest.skip(f"{', '.join(missing)} absent: apt-get install rawtherapee darktable (as .ci/run does)")
+    data = read_toml(PLANS / "validate_example.toml", "validation plan")
+    data["validate"].update(illuminants=["D65"], cameras=["nikon_d850"], reflectance_sets=["colorchecker"], seeds=1,
+                            compare=[])
+    data["exposure"] = data["exposure"][:1]
+    tools = [p for p in data["pipeline"] if p["name"] in ("rawtherapee", "darktable")]
+    data["pipeline"] = tools + [{**p, "name": p["name"] + "-icc", "output": "icc"} for p in tools]
+    cells = {c.pipeline: c for c in run_plan(plan_from_dict(data, base_dir=PLANS)).cells}
+    for name in ("rawtherapee", "darktable"):
+        assert cells[f"{name}-icc"].status == "pass"
+        assert cells[f"{name}-icc"].stats["delta_e_mean"] == pytest.approx(cells[name].stats["delta_e_mean"], abs=0.01)
