@@ -41,8 +41,9 @@ from __future__ import annotations
 from ...radiance_targets import REFLECTANCE_SETS, reflectance_set
 from .pipelines import PIPELINES, Pipeline, pipeline_type
 from .plan import ExposureSpec, Plan, Thresholds, load_plan, plan_from_dict
-from .run import (CellResult, ValidationResult, angular_error_deg, calibration_sample, compare_pipelines,
-                  evaluate_patches, gamut_clipped, lab_difference_split, pivot, rendered_chart, run_plan, tone_slope)
+from .run import (CellResult, ValidationResult, angular_error_deg, calibration_sample, evaluate_patches,
+                  gamut_clipped, lab_difference_split, rendered_chart, run_plan, tone_slope)
+from .statistics import compare_pipelines, pivot
 from .selfcheck import SELF_CHECKS, CheckResult, format_checks, self_checks, write_checks_csv
 
 __all__ = [

@@ -519,7 +519,7 @@ def load_plan(path: str | Path, overrides: Mapping[str, Any] | Sequence[str] | N
     --------
     >>> plan = load_plan("plans/validate_example.toml", overrides=["validate.patch_px=8"])
     >>> plan.patch_px, [e.name for e in plan.exposures], [p.kind for p in plan.pipelines]
-    (8, ['base', 'iso400-under'], ['ours', 'rawpy'])
+    (8, ['base', 'iso400-under'], ['ours', 'rawpy', 'command', 'command', 'command'])
     """
     from ...scene import parse_override, read_toml
 

@@ -54,7 +54,7 @@ PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_i
                  "delta_e2000", "delta_l", "delta_c", "delta_h", "clipped", "snr", "snr_db")
 #: Pipelines per row of heat maps (seven in one row made 6-px digits).
 HEATMAPS_PER_ROW = 3
-#: Columns of comparisons.csv (:func:`spectral_cam.apps.validate.run.compare_pipelines`).
+#: Columns of comparisons.csv (:func:`spectral_cam.apps.validate.statistics.compare_pipelines`).
 COMPARISON_COLUMNS = ("set", "illuminant", "camera", "exposure", "a", "b", "difference", "ci95", "seeds",
                       "significant")
 #: Cell statistics written as they are, in CELL_COLUMNS order.
@@ -289,7 +289,7 @@ def _short(text: str) -> str:
 
 def _pivot_html(result) -> list[str]:
     """Mean ΔE2000, pipeline × illuminant (over sets, cameras and exposures)."""
-    from .run import pivot
+    from .statistics import pivot
 
     names, illuminants, table = pivot(result)
     esc = html.escape
@@ -305,7 +305,7 @@ def _pivot_html(result) -> list[str]:
 
 def _comparisons_html(result) -> list[str]:
     """The plan's pipeline comparisons, significant differences marked."""
-    from .run import compare_pipelines
+    from .statistics import compare_pipelines
 
     rows = compare_pipelines(result)
     if not rows:
@@ -497,7 +497,7 @@ def write_report(result, folder: str | Path) -> dict[str, Path]:
     dict
         ``{"html", "cells_csv", "patches_csv", "pivot_csv", "comparisons_csv"}`` → path.
     """
-    from .run import compare_pipelines, pivot
+    from .statistics import compare_pipelines, pivot
 
     folder = Path(folder)
     paths = {"cells_csv": write_cells_csv(result, folder / "cells.csv"),
