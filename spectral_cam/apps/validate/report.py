@@ -352,6 +352,51 @@ def _cdf_uri(result) -> str:
     return png_data_uri(fig, dpi=90)
 
 
+def _metamerism_html(result) -> list[str]:
+    """ISO 17321-1's sensitivity metamerism index per camera × illuminant (from the spectra)."""
+    from ...errors import ConfigError
+    from .statistics import sensitivity_metamerism_index
+
+    plan, esc = result.plan, html.escape
+    rows = ["<h2>Sensitivity metamerism index (ISO 17321-1)</h2>",
+            '<p class="small">100 − 5.5 × mean ΔE*ab of the 18 chromatic ColorChecker patches after each camera\'s '
+            "best 3 × 3 for them under each illuminant: how far the camera's curves are from the CIE observer's, a "
+            "bound no pipeline's matrix beats; its drop between illuminants is the camera's metamerism.</p>",
+            "<table><tr><th>camera</th>" + "".join(f"<th>{esc(_short(i))}</th>" for i in plan.illuminants) + "</tr>"]
+    for camera in plan.cameras:
+        cells = []
+        for illuminant in plan.illuminants:
+            try:
+                cells.append(f'<td class="num">{sensitivity_metamerism_index(camera, illuminant):.1f}</td>')
+            except ConfigError:  # an "ideal" camera has no three distinct channels
+                cells.append("<td>—</td>")
+        rows.append(f"<tr><td>{esc(camera)}</td>{''.join(cells)}</tr>")
+    return rows + ["</table>"]
+
+
+def _cct_html(result) -> list[str]:
+    """Mean ΔE2000 against the illuminants' CCT per pipeline, with three or more illuminants."""
+    from .statistics import cct_sweep
+
+    sweep = cct_sweep(result)
+    if sweep is None:
+        return []
+    ccts, means = sweep
+    fig = figure(6.4, 3.6, dpi=90)
+    ax = fig.subplots()
+    for name, values in means.items():
+        ax.plot(ccts, values, marker="o", label=name)
+    ax.set_xscale("log")
+    ax.set_xlabel("illuminant CCT (K, Robertson 1968)")
+    ax.set_ylabel("mean ΔE2000")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    return ["<h2>ΔE2000 across colour temperature</h2>",
+            f'<figure><img alt="mean ΔE2000 against illuminant CCT" src="{png_data_uri(fig, dpi=90)}">'
+            '<figcaption class="small">Each illuminant at its correlated colour temperature; means over sets, '
+            "cameras and exposures.</figcaption></figure>"]
+
+
 def _interval(cell) -> str:
     """" ± half-width" of the mean ΔE's 95 % interval over the seeds (empty with one seed)."""
     return f" ± {cell.delta_e_mean_ci95:.2f}" if cell.delta_e_mean_ci95 is not None else ""
@@ -456,7 +501,7 @@ def render_html(result, *, generated: str | None = None) -> str:
             where = f"{c.set_name} · {_short(c.illuminant)} · {c.camera} · {c.exposure} · {c.pipeline}"
             parts.append(f"<details><summary>{esc(where)}: {esc(c.failures[0])}</summary>"
                          f"<pre>{esc(c.traceback)}</pre></details>")
-    parts += _pivot_html(result) + _comparisons_html(result)
+    parts += _pivot_html(result) + _comparisons_html(result) + _metamerism_html(result) + _cct_html(result)
     cdf = _cdf_uri(result)
     if cdf:
         parts.append("<h2>ΔE2000 distribution</h2>")

@@ -16,7 +16,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from .run import ValidationResult
 
-__all__ = ["compare_pipelines", "pivot"]
+__all__ = ["compare_pipelines", "pivot", "sensitivity_metamerism_index", "cct_sweep"]
 
 
 def compare_pipelines(result: "ValidationResult") -> list[dict]:
@@ -69,3 +69,66 @@ def pivot(result: "ValidationResult") -> tuple[list[str], list[str], np.ndarray]
             if values:
                 table[i, j] = float(np.mean(values))
     return pipelines, illuminants, table
+
+
+#: The ColorChecker patches ISO 17321-1's index averages over: the 18 chromatic ones (1–18).
+SMI_PATCHES = slice(0, 18)
+
+
+def sensitivity_metamerism_index(camera: str, illuminant: str) -> float:
+    """ISO 17321-1's Digital Still Camera Sensitivity Metamerism Index of a camera under an
+    illuminant: SMI = 100 − 5.5 × the mean CIE 1976 ΔE*ab of the 18 chromatic ColorChecker patches
+    after the camera's best 3 × 3 for them under that illuminant (the one minimising Σ ΔE*ab²,
+    started from the least-squares fit in XYZ). 100: the camera sees colour as the CIE observer
+    does; a typical DSLR scores 75–90.
+
+    References
+    ----------
+    .. [1] ISO 17321-1:2012, Graphic technology and photography — Colour characterisation of
+       digital still cameras (DSCs) — Part 1: Stimuli, metrology and test procedures, Annex (SMI).
+    .. [2] CIE 15:2004, §8.2.1 (CIELAB, ΔE*ab).
+    """
+    import colour
+
+    from ...colour_ground_truth import illuminant_white_xyz, reflectance_xyz
+    from ...sensor.colour_calibration import camera_responses, xyz_to_camera_matrix
+    from ...spectra import colorchecker_reflectances
+
+    patches = list(colorchecker_reflectances().values())[SMI_PATCHES]
+    fitted = xyz_to_camera_matrix(camera, illuminant, reflectances=patches)  # XYZ → camera, white exact
+    camera_rgb = camera_responses(camera, illuminant, patches)
+    white = camera_responses(camera, illuminant, [1.0])[0]
+    from scipy.optimize import least_squares
+
+    white_xy = colour.XYZ_to_xy(illuminant_white_xyz(illuminant))
+    rgb = camera_rgb / white.max()
+    truth_lab = colour.XYZ_to_Lab(reflectance_xyz(illuminant, patches), white_xy)
+
+    def residuals(m):
+        return (colour.XYZ_to_Lab(rgb @ m.reshape(3, 3).T, white_xy) - truth_lab).ravel()
+
+    # from the least-squares fit in XYZ to the one minimising Σ ΔE*ab² (ISO 17321-1's optimisation)
+    best = least_squares(residuals, np.linalg.inv(fitted).ravel()).x
+    delta = np.linalg.norm(residuals(best).reshape(-1, 3), axis=1)
+    return float(100.0 - 5.5 * delta.mean())
+
+
+def cct_sweep(result: "ValidationResult") -> tuple[list[float], dict[str, list[float]]] | None:
+    """Mean ΔE2000 per pipeline against the illuminants' correlated colour temperature (Robertson
+    1968 on CIE 1960 uv of each illuminant's white), averaged over the other axes; None with fewer
+    than three illuminants. Returns (CCTs in K, ascending; pipeline → means)."""
+    from ...cie import cct_robertson1968, xy_to_uv_1960, xyz_to_xy
+    from ...colour_ground_truth import illuminant_white_xyz
+
+    illuminants = list(result.plan.illuminants)
+    if len(illuminants) < 3:
+        return None
+    ccts = {name: float(cct_robertson1968(xy_to_uv_1960(xyz_to_xy(illuminant_white_xyz(name))))[0])
+            for name in illuminants}
+    order = sorted(illuminants, key=ccts.get)
+    means = {}
+    for pipeline in (p.name for p in result.plan.pipelines):
+        means[pipeline] = [float(np.mean([c.stats["delta_e_mean"] for c in result.cells
+                                          if c.pipeline == pipeline and c.illuminant == name and c.stats] or [np.nan]))
+                           for name in order]
+    return [ccts[name] for name in order], means

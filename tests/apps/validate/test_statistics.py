@@ -79,3 +79,57 @@ def test_a_pipeline_failing_alike_everywhere_is_stopped(tmp_path):
     assert len(sys.modules["always_broken"].calls) == 3
     assert broken[3].failures[0].startswith("not run: it failed the same way on its last 3 cells")
     assert all(c.status == "pass" for c in result.cells if c.pipeline == "ours")
+
+
+def test_the_sensitivity_metamerism_index_is_100_for_the_cie_observer_and_recomputes():
+    """A camera whose curves are the CIE 1931 CMFs scores 100 (within 1e-6) under D65 and A; the D850
+    recomputed independently (colour-science's spectral arithmetic and ΔE 1976, scipy's minimize on
+    the summed squared ΔE) within 0.3; it drops from D65 to A (measured 91.0 → 86.3)."""
+    import colour
+    from scipy.optimize import minimize
+
+    from spectral_cam.apps.validate.statistics import sensitivity_metamerism_index
+    from spectral_cam.reflectance_sets import reflectance_set
+    from spectral_cam.spectra import camera_sensitivities
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    assert sensitivity_metamerism_index(cmfs, "D65") == pytest.approx(100.0, abs=1e-6)
+    assert sensitivity_metamerism_index(cmfs, "A") == pytest.approx(100.0, abs=1e-6)
+
+    shape = colour.SpectralShape(380, 780, 1)
+    curves = camera_sensitivities("nikon_d850").to_colour().copy().align(
+        shape, extrapolator_kwargs={"method": "Constant", "left": 0, "right": 0}).values
+    d65 = colour.SDS_ILLUMINANTS["D65"].copy().align(shape)
+    patches = [sd.to_colour().copy().align(shape) for sd in reflectance_set("colorchecker").sds[:18]]
+    rgb = np.stack([sd.values for sd in patches]) * d65.values @ curves / (d65.values @ curves)[1]
+    xyz = np.stack([colour.sd_to_XYZ(sd, illuminant=d65) for sd in patches]) / 100
+    white = colour.XYZ_to_xy(colour.sd_to_XYZ(colour.sd_ones(shape), illuminant=d65) / 100)
+    lab = colour.XYZ_to_Lab(xyz, white)
+
+    def mean_square(m):
+        return np.mean(colour.delta_E(colour.XYZ_to_Lab(rgb @ m.reshape(3, 3).T, white), lab, method="CIE 1976") ** 2)
+
+    start = np.linalg.lstsq(rgb, xyz, rcond=None)[0].T.ravel()
+    best = minimize(mean_square, start, method="Nelder-Mead", options={"maxiter": 20000, "xatol": 1e-9,
+                                                                          "fatol": 1e-12}).x
+    delta = colour.delta_E(colour.XYZ_to_Lab(rgb @ best.reshape(3, 3).T, white), lab, method="CIE 1976")
+    ours = sensitivity_metamerism_index("nikon_d850", "D65")
+    assert ours == pytest.approx(100 - 5.5 * delta.mean(), abs=0.3)
+    assert sensitivity_metamerism_index("nikon_d850", "A") < ours
+
+
+def test_a_cct_sweep_places_each_illuminant_at_its_colour_temperature():
+    """Blackbodies at 2700, 4000 and 6500 K sit at their temperatures (Robertson's CCT of a Planckian
+    white, within 0.5 %), in order, with each pipeline's mean ΔE; the report draws the sweep."""
+    from spectral_cam.apps.validate.report import render_html
+    from spectral_cam.apps.validate.statistics import cct_sweep
+
+    result = run_plan(plan_from_dict({
+        "validate": {"illuminants": ["blackbody:6500", "blackbody:2700", "blackbody:4000"], "cameras": ["nikon_d850"],
+                     "patch_px": 8, "gap_px": 2, "swatches": "none"},
+        "pipeline": [OURS, {"name": "libraw", "type": "rawpy"}]}))
+    ccts, means = cct_sweep(result)
+    np.testing.assert_allclose(ccts, [2700, 4000, 6500], rtol=0.005)
+    assert set(means) == {"ours", "libraw"} and all(len(v) == 3 and np.all(np.isfinite(v)) for v in means.values())
+    assert means["libraw"][0] > means["libraw"][2]  # the D65 matrix alone drifts under warm light
+    assert "ΔE2000 across colour temperature" in render_html(result)
