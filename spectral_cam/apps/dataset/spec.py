@@ -73,6 +73,24 @@ def _is_whole(dotted: str) -> bool:
     return kinds == ["int"]
 
 
+@functools.lru_cache(maxsize=256)
+def _file_digest(path: str, modified_ns: int, size: int) -> str:
+    """A file's content digest (cached per path, modification time and size: an edited file is read again)."""
+    return "sha256:" + hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _by_content(value: Any) -> Any:
+    """``value`` with every existing CSV/XML file path replaced by its content's digest."""
+    if isinstance(value, dict):
+        return {k: _by_content(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_by_content(v) for v in value]
+    if isinstance(value, str) and value.lower().endswith((".csv", ".xml")) and Path(value).is_file():
+        status = Path(value).stat()
+        return _file_digest(str(Path(value).resolve()), status.st_mtime_ns, status.st_size)
+    return value
+
+
 def _resolve_paths(value: Any, base_dir: Path) -> Any:
     """Make relative CSV/XML paths (in values and choices) absolute against ``base_dir``."""
     if isinstance(value, str) and value.lower().endswith((".csv", ".xml")):
@@ -324,9 +342,11 @@ class DatasetSpec:
     @functools.cached_property
     def hash(self) -> str:
         """SHA-256 of what decides the items (fixed values, distributions, sweeps, seed);
-        not of the outputs or the count, so either can change on resume."""
+        not of the outputs or the count, so either can change on resume. A scene or spectrum
+        file counts by its content, not its path, so the same spec and files give the same items
+        in any folder on any machine (the absolute path of an XML scene made them differ)."""
         decisive = {k: v for k, v in self.to_dict().items() if k not in ("outputs", "count", "source")}
-        text = json.dumps(decisive, sort_keys=True, separators=(",", ":"))
+        text = json.dumps(_by_content(decisive), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
     @property

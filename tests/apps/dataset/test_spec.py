@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -71,3 +73,26 @@ def test_spec_draws_sweeps_and_errors(tmp_path):
 def test_whole_number_bounds_beyond_float_precision_are_refused():
     with pytest.raises(ConfigError, match="below 2\\*\\*53"):
         spec_from_dict({"sensor": {"width_px": {"uniform": [1e30, 2e30]}}})
+
+
+def test_the_same_spec_and_scene_file_give_the_same_items_in_any_folder(tmp_path):
+    """An XML scene counts by its content, not its path: the spec and scene copied to another folder
+    keep the spec hash (so every item's seed; the absolute path once made them differ between a
+    checkout and a fresh clone); an edited scene changes it."""
+    import shutil
+
+    from spectral_cam.apps.dataset import load_spec
+
+    plans = Path(__file__).resolve().parents[3] / "plans"
+    copies = []
+    for name in ("a", "b"):
+        folder = tmp_path / name / "plans"
+        folder.mkdir(parents=True)
+        shutil.copy(plans / "mixed_light_room.toml", folder)
+        (tmp_path / name / "scenes").mkdir()
+        shutil.copy(plans.parent / "scenes" / "mixed_light_room.xml", tmp_path / name / "scenes")
+        copies.append(load_spec(folder / "mixed_light_room.toml"))
+    assert copies[0].hash == copies[1].hash and copies[0].item_seed(3) == copies[1].item_seed(3)
+    scene = tmp_path / "b" / "scenes" / "mixed_light_room.xml"
+    scene.write_text(scene.read_text().replace('value="2856"', 'value="3000"'))
+    assert load_spec(tmp_path / "b" / "plans" / "mixed_light_room.toml").hash != copies[0].hash
