@@ -487,22 +487,69 @@ def _substitute(argument: str, paths: Mapping[str, str]) -> str:
     return argument
 
 
-def register(image: np.ndarray, frame: tuple[int, int], crop) -> np.ndarray:
+def raw_template(raw) -> np.ndarray:
+    """The frame as the RAW saw it: the mosaic above black, averaged over 3 × 3 (centred; every CFA
+    colour in it), on the frame's pixels (inside the DNG's default crop) — what a tool's image is
+    registered against (:func:`find_crop`)."""
+    from scipy.ndimage import uniform_filter
+
+    mosaic = np.asarray(raw.mosaic, dtype=np.float64)
+    mosaic = mosaic.mean(axis=-1) if mosaic.ndim == 3 else mosaic
+    level = uniform_filter(mosaic - np.mean(raw.black_level), size=3, mode="nearest")  # centred, CFA averaged
+    if raw.crop is not None:
+        top, left, height, width = raw.crop
+        level = level[top:top + height, left:left + width]
+    return level
+
+
+def find_crop(image: np.ndarray, template: np.ndarray, *, search_px: int = 16) -> tuple[int, int, int, int]:
+    """Where a tool's image lies on the frame: the offset (within ± ``search_px``) at which its
+    luminance correlates best with ``template`` (the frame's own luminance, :func:`raw_template`),
+    weighted by the share of the image that lands on the frame (a chart repeats, and a shift by
+    one patch period correlates almost as well but leaves part of the image off the frame);
+    returned as ``(top, bottom, left, right)``, the pixels the tool removed from each side."""
+    height, width = template.shape
+    luminance = np.nan_to_num(np.asarray(image, dtype=np.float64)[..., :3].mean(axis=-1))
+    best, where = -np.inf, (0, 0)
+    for top in range(-search_px, search_px + 1):
+        for left in range(-search_px, search_px + 1):
+            # the image's pixel (r, c) lies at the frame's (r + top, c + left)
+            r0, c0 = max(top, 0), max(left, 0)
+            r1, c1 = min(height, top + luminance.shape[0]), min(width, left + luminance.shape[1])
+            if r1 - r0 < height // 2 or c1 - c0 < width // 2:
+                continue
+            a = template[r0:r1, c0:c1].ravel()
+            b = luminance[r0 - top:r1 - top, c0 - left:c1 - left].ravel()
+            if a.std() == 0 or b.std() == 0:
+                continue
+            score = float(np.corrcoef(a, b)[0, 1]) * a.size / luminance.size
+            if score > best + 1e-9:
+                best, where = score, (top, left)
+    top, left = where
+    return top, height - top - luminance.shape[0], left, width - left - luminance.shape[1]
+
+
+def register(image: np.ndarray, frame: tuple[int, int], crop, template: np.ndarray | None = None) -> np.ndarray:
     """A tool's image on the frame's pixel grid.
 
     ``crop = [top, bottom, left, right]``: the pixels the tool removed from each side of the
-    frame (negative: added). ``"auto"``: the difference split evenly (RawTherapee trims 4 px a
-    side for demosaicing; a tool that keeps the DNG's border outside its default crop adds
-    even margins). Pixels the tool removed come back as NaN (no patch interior lies there).
+    frame (negative: added). ``"auto"``: found against ``template`` where it is given
+    (:func:`find_crop`: any offset within 16 px), else the difference split evenly (RawTherapee
+    trims 4 px a side for demosaicing; a tool that keeps the DNG's border outside its default
+    crop adds even margins). Pixels the tool removed come back as NaN (no patch interior lies
+    there).
 
     Raises
     ------
     ConfigError
-        For an uneven difference under ``"auto"``, or a declared crop that does not add up.
+        For an uneven difference under ``"auto"`` without a template, or a declared crop that
+        does not add up.
     """
     height, width = frame
     dy, dx = height - image.shape[0], width - image.shape[1]
-    if crop == "auto":
+    if crop == "auto" and template is not None:
+        top, bottom, left, right = find_crop(image, template)
+    elif crop == "auto":
         if dy % 2 or dx % 2:
             raise ConfigError(f"the image is {image.shape[1]} × {image.shape[0]} px, the frame {width} × {height}: "
                               "not an even margin; declare crop = [top, bottom, left, right] (pixels the tool removed)")
@@ -678,7 +725,7 @@ class CommandPipeline(Pipeline):
                 image = icc_to_linear_srgb(image, profile)
         frame = raw.mosaic.shape[:2] if raw.crop is None else tuple(raw.crop[2:])
         if image.shape[:2] != tuple(frame):
-            image = register(image, tuple(frame), self.crop)
+            image = register(image, tuple(frame), self.crop, raw_template(raw) if self.crop == "auto" else None)
         return image if self.output == "icc" else _to_linear_srgb(image, self.output)
 
     def describe(self) -> str:

@@ -179,3 +179,24 @@ def test_the_tools_embedded_profiles_score_as_their_declared_encodings(tmp_path)
     for name in ("rawtherapee", "darktable"):
         assert cells[f"{name}-icc"].status == "pass"
         assert cells[f"{name}-icc"].stats["delta_e_mean"] == pytest.approx(cells[name].stats["delta_e_mean"], abs=0.01)
+
+
+def test_an_unevenly_cropped_image_is_found_on_the_frame(tmp_path):
+    """A tool that trims 3, 5, 2 and 6 px (top, bottom, left, right): registered automatically
+    against the RAW's own luminance (the chart repeats, so the share of the image on the frame breaks
+    the tie between periods), it scores as the same develop uncropped, to 1e-9."""
+    (tmp_path / "develop.py").write_text(
+        "import sys\nimport numpy as np\nfrom spectral_cam.isp import develop\nfrom spectral_cam.raw import read_raw\n"
+        "linear = develop(read_raw(sys.argv[1])).linear\n"
+        "trim = [int(v) for v in sys.argv[3:]]\n"
+        "if trim:\n    linear = linear[trim[0]:linear.shape[0] - trim[1], trim[2]:linear.shape[1] - trim[3]]\n"
+        "np.save(sys.argv[2], linear.astype(np.float32))\n")
+    python = sys.executable
+    plan = plan_from_dict({"validate": {"patch_px": 12, "gap_px": 4, "swatches": "none"}, "pipeline": [
+        {"name": "whole", "type": "command", "command": f"'{python}' develop.py {{input}} {{output}}",
+         "output_suffix": ".npy"},
+        {"name": "trimmed", "type": "command", "command": f"'{python}' develop.py {{input}} {{output}} 3 5 2 6",
+         "output_suffix": ".npy"}]}, base_dir=tmp_path)
+    whole, trimmed = run_plan(plan).cells
+    assert trimmed.status == "pass"
+    assert trimmed.stats["delta_e_mean"] == pytest.approx(whole.stats["delta_e_mean"], abs=1e-9)
