@@ -368,7 +368,10 @@ def _baseline_exposure(value) -> float:
     """BaselineExposure (SRATIONAL, stops) as a number; 0 when absent or unreadable."""
     if value is None:
         return 0.0
-    flat = np.ravel(np.asarray(value, dtype=float))  # tifffile: (numerator, denominator), or the value
+    try:
+        flat = np.ravel(np.asarray(value, dtype=float))  # tifffile: (numerator, denominator), or the value
+    except (TypeError, ValueError):  # a corrupt tag type (e.g. ASCII) is no tag
+        return 0.0
     ev = flat[0] / flat[1] if flat.size == 2 and flat[1] != 0 else float(flat[0]) if flat.size == 1 else 0.0
     return ev if np.isfinite(ev) and abs(ev) <= 20 else 0.0
 
@@ -377,7 +380,10 @@ def _tone_curve(value) -> np.ndarray | None:
     """ProfileToneCurve (FLOAT pairs) as (N, 2); None when absent or malformed."""
     if value is None:
         return None
-    flat = np.asarray(value, dtype=np.float64).ravel()
+    try:
+        flat = np.asarray(value, dtype=np.float64).ravel()
+    except (TypeError, ValueError):  # a corrupt tag type is no curve
+        return None
     if flat.size < 4 or flat.size % 2 or not np.all(np.isfinite(flat)):
         return None
     return flat.reshape(-1, 2)

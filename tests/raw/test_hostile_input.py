@@ -123,6 +123,7 @@ def _mutations():
 @given(_mutations())
 @example(mutation=("flip", [(362, 0)]))  # once an IndexError: a CalibrationIlluminant of count 0
 @example(mutation=("flip", [(398, 1)]))  # once a TypeError: a NoiseProfile of count 1
+@example(mutation=("flip", [(384, 1)]))  # once a ValueError: a BaselineExposure turned ASCII
 def test_mutated_dngs_read_or_raise_raw_format_error_and_never_develop_to_nan(tmp_path, good_dng, mutation):
     kind, detail = mutation
     data = bytearray(good_dng)
