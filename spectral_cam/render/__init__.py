@@ -24,6 +24,7 @@ from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import SceneConfig
 from ..presets import white_reference_mask
+from .depth import ALBEDO_SPP
 from .layered import render_layered
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
 from .variants import choose_variant
@@ -63,7 +64,7 @@ def render_coverage_map(config: SceneConfig, *, lens: ThinLens | None = None, mo
     return render_shape_coverage(mi, config, lens, model=model, passes=passes)
 
 
-def render_albedo_map(config: SceneConfig, *, lens: ThinLens | None = None, spp: int = 256):
+def render_albedo_map(config: SceneConfig, *, lens: ThinLens | None = None, spp: int = ALBEDO_SPP):
     """(H, W, B) band integrals of the diffuse reflectance each pixel sees
     (:func:`.depth.render_albedo`) and the band grid; the lens is the frame's."""
     import mitsuba as mi

@@ -255,9 +255,12 @@ def _register_albedo(mi) -> None:
 #: The albedo's bands: 5 nm over the camera curves' range (the render's 10-nm bands put the
 #: camera RGB of a ColorChecker patch up to 3.8 % off a 1-nm integral; 5 nm within 1 %).
 ALBEDO_BANDS = "380:720:5"
+#: Rays per pixel of the albedo probe (textures averaged within the pixel).
+ALBEDO_SPP = 256
 
 
-def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = 256, bands: str = ALBEDO_BANDS) -> np.ndarray:
+def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = ALBEDO_SPP,
+                  bands: str = ALBEDO_BANDS) -> np.ndarray:
     """(H, W, B) band integrals of the diffuse reflectance ρ(λ) seen through an ideal pinhole
     over the frame (``spp`` rays per pixel, averaged over textures within the pixel), on
     ``bands`` (:data:`ALBEDO_BANDS`). 0 where nothing is hit.

@@ -417,6 +417,7 @@ def _albedo(item: Item, folder: Path) -> list[Path]:
     from ...colour_ground_truth import adapt_to_d65, band_cmfs, xyz_to_linear_srgb
     from ...image import SpectralImage
     from ...render import render_albedo_map
+    from ...render.depth import ALBEDO_SPP
 
     t0 = time.perf_counter()
     config = item.config
@@ -460,7 +461,7 @@ def _albedo(item: Item, folder: Path) -> list[Path]:
                     "light alone; S is the irradiance there relative to the reference white's (the light's spectrum "
                     "at reference_white_lux: for a lamp, cos of incidence × visibility; under a scene's own "
                     "emitters or the sun, E_lux = S × reference_white_lux is the illuminance there)",
-        "view": "ideal pinhole over the frame, 16 rays per pixel", "bands_nm": list(bands.centres_nm)}
+        "view": f"ideal pinhole over the frame, {ALBEDO_SPP} rays per pixel", "bands_nm": list(bands.centres_nm)}
     item.timings["albedo"] = time.perf_counter() - t0
     return [albedo_path, shading_path]
 

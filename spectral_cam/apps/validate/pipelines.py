@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import abc
 import contextlib
+import functools
 import importlib
 import inspect
 import os
@@ -643,7 +644,6 @@ class CommandPipeline(Pipeline):
         self.command, self.output, self.output_suffix, self.timeout_s = command, output, suffix, float(timeout_s)
         self.shell, self.crop, self.input_min_bytes = shell, _check_crop(name, crop), int(input_min_bytes)
         self.version_command, self.optional, self.base_dir = str(version_command), optional, Path(base_dir).resolve()
-        self.version = self._version()
 
     @classmethod
     def from_table(cls, name: str, options: Mapping[str, Any], *, base_dir: Path, where: str) -> "CommandPipeline":
@@ -659,7 +659,10 @@ class CommandPipeline(Pipeline):
         program = self.program.replace("{plan_dir}", str(self.base_dir))
         return shutil.which(program) is not None or (self.base_dir / program).is_file()
 
-    def _version(self) -> str:
+    @functools.cached_property
+    def version(self) -> str:
+        """The first line ``version_command`` prints (empty without one, or where the tool is
+        absent); run when first asked (the report), not when the plan is read."""
         if not self.version_command or not self.installed():
             return ""
         try:

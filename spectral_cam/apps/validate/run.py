@@ -505,18 +505,22 @@ def _user_frames(trace: str, limit: int = 12) -> str:
     return "\n".join(lines[-3 * limit:])
 
 
+def _cell_fields(pipeline, exposed: _Exposed) -> dict:
+    """What a cell records whatever its pipeline did: its coordinates, chart, truth and RAW."""
+    chart, meta = exposed.chart, exposed.raw.meta or {}
+    return dict(set_name=exposed.refset.name, illuminant=exposed.illuminant, camera=exposed.camera,
+                exposure=exposed.exposure.name, pipeline=pipeline.name, patch_names=[p.name for p in chart.patches],
+                n_set=chart.n_set, white_index=chart.white_index, reference=exposed.reference,
+                exposure_s=float(meta.get("exposure_s", float("nan"))), iso=float(meta.get("iso", exposed.exposure.iso)),
+                gain_dn_per_e=float(meta.get("K_dn_per_e", float("nan"))), dng=f"raw/{exposed.dng_name}",
+                calibration=calibration_sample(exposed.refset.name, meta))
+
+
 def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan: Plan) -> CellResult:
     """One pipeline on one exposed chart; a pipeline that fails gives an ``"error"`` cell with
     its message and traceback."""
     chart, raw = exposed.chart, exposed.raw
-    meta = raw.meta or {}
-    common = dict(set_name=exposed.refset.name, illuminant=exposed.illuminant, camera=exposed.camera,
-                  exposure=exposed.exposure.name, pipeline=pipeline.name, patch_names=[p.name for p in chart.patches],
-                  n_set=chart.n_set, white_index=chart.white_index, reference=exposed.reference,
-                  exposure_s=float(meta.get("exposure_s", float("nan"))),
-                  iso=float(meta.get("iso", exposed.exposure.iso)),
-                  gain_dn_per_e=float(meta.get("K_dn_per_e", float("nan"))), dng=f"raw/{exposed.dng_name}",
-                  calibration=calibration_sample(exposed.refset.name, meta))
+    common = _cell_fields(pipeline, exposed)
     t0 = time.perf_counter()
     try:
         linear = pipeline.develop(raw, dng_path, work_dir, context=_context(exposed))
@@ -539,9 +543,10 @@ def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan:
         warnings.append(f"{int(stats['patches_clipped'])} patch(es) lie outside the sRGB gamut and came out on its "
                         "edge: their ΔE measures the gamut, not the pipeline")
     grey = angular_error_deg(measured["test"][chart.white_index], np.ones(3))
-    if grey < SELF_BALANCED_FRACTION * angular_error_deg(exposed.reference[chart.white_index], np.ones(3)):
+    tint = angular_error_deg(exposed.reference[chart.white_index], np.ones(3))  # the truth's own, from grey
+    if grey < SELF_BALANCED_FRACTION * tint:
         warnings.append(f"the white reference comes out grey ({grey:.3f}° from R = G = B, its truth "
-                        f"{angular_error_deg(exposed.reference[chart.white_index], np.ones(3)):.2f}°): a pipeline that "
+                        f"{tint:.2f}°): a pipeline that "
                         "white-balances on the patch the metric scores makes its WB error the patch's own tint, not "
                         "a measurement of the balance (balance on the light or on another patch)")
     failures = plan.thresholds.failures(stats)
@@ -552,14 +557,9 @@ def _run_cell(pipeline, exposed: _Exposed, dng_path: Path, work_dir: Path, plan:
 
 def _skipped_cell(pipeline, exposed: _Exposed, message: str) -> CellResult:
     """The error cell of a pipeline not run again after failing alike :data:`FAIL_FAST_AFTER` times."""
-    chart = exposed.chart
-    return CellResult(set_name=exposed.refset.name, illuminant=exposed.illuminant, camera=exposed.camera,
-                      exposure=exposed.exposure.name, pipeline=pipeline.name, status="error",
+    return CellResult(status="error",
                       failures=[f"not run: it failed the same way on its last {FAIL_FAST_AFTER} cells ({message})"],
-                      patch_names=[p.name for p in chart.patches], n_set=chart.n_set, white_index=chart.white_index,
-                      reference=exposed.reference, test=None, delta_e=None, snr=None, stats={}, exposure_s=float("nan"),
-                      iso=float(exposed.exposure.iso), gain_dn_per_e=float("nan"), runtime_s=0.0,
-                      dng=f"raw/{exposed.dng_name}")
+                      test=None, delta_e=None, snr=None, stats={}, runtime_s=0.0, **_cell_fields(pipeline, exposed))
 
 
 def _combine(runs: list[CellResult], plan: Plan) -> CellResult:

@@ -27,14 +27,17 @@ PLANS = Path(__file__).resolve().parents[3] / "plans"
 TOOLS = {"dcraw": "dcraw", "rawtherapee": "rawtherapee-cli", "darktable": "darktable-cli"}
 
 
-def _example(pipelines):
+def _example(pipelines, *, variant=None):
     """The example plan cut to one cell (ColorChecker, D65, D850, base exposure) and the named
-    pipelines, read from the file as a user would."""
+    pipelines, read from the file as a user would; ``variant(table)``, where given, adds a second
+    pipeline per named one (a changed copy of its table)."""
     data = read_toml(PLANS / "validate_example.toml", "validation plan")
     data["validate"].update(illuminants=["D65"], cameras=["nikon_d850"], reflectance_sets=["colorchecker"], seeds=1,
                             compare=[])
     data["exposure"] = data["exposure"][:1]
     data["pipeline"] = [p for p in data["pipeline"] if p["name"] in pipelines]
+    if variant is not None:
+        data["pipeline"] += [variant(p) for p in data["pipeline"]]
     return plan_from_dict(data, base_dir=PLANS, source=str(PLANS / "validate_example.toml"))
 
 
@@ -169,13 +172,8 @@ def test_the_tools_embedded_profiles_score_as_their_declared_encodings(tmp_path)
     missing = [program for program in ("rawtherapee-cli", "darktable-cli") if not shutil.which(program)]
     if missing:
         pytest.skip(f"{', '.join(missing)} absent: apt-get install rawtherapee darktable (as .ci/run does)")
-    data = read_toml(PLANS / "validate_example.toml", "validation plan")
-    data["validate"].update(illuminants=["D65"], cameras=["nikon_d850"], reflectance_sets=["colorchecker"], seeds=1,
-                            compare=[])
-    data["exposure"] = data["exposure"][:1]
-    tools = [p for p in data["pipeline"] if p["name"] in ("rawtherapee", "darktable")]
-    data["pipeline"] = tools + [{**p, "name": p["name"] + "-icc", "output": "icc"} for p in tools]
-    cells = {c.pipeline: c for c in run_plan(plan_from_dict(data, base_dir=PLANS)).cells}
+    plan = _example(["rawtherapee", "darktable"], variant=lambda p: {**p, "name": p["name"] + "-icc", "output": "icc"})
+    cells = {c.pipeline: c for c in run_plan(plan).cells}
     for name in ("rawtherapee", "darktable"):
         assert cells[f"{name}-icc"].status == "pass"
         assert cells[f"{name}-icc"].stats["delta_e_mean"] == pytest.approx(cells[name].stats["delta_e_mean"], abs=0.01)
