@@ -40,6 +40,8 @@ __all__ = [
     "mccamy_cct",
     "von_kries_bradford",
     "dng_camera_to_xyz_d65",
+    "dng_profile_camera_to_xyz_d65",
+    "calibration_weight",
     "camera_to_xyz",
     "camera_to_linear_srgb",
     "xyz_to_linear_srgb",
@@ -52,7 +54,7 @@ ROOT_POLYNOMIAL_TERMS = {3: 1, 6: 2, 13: 3, 22: 4}
 
 # The few colorimetric constants a develop needs are written out here rather than taken from
 # colour-science: ``import colour`` loads matplotlib and scipy (0.8–1.1 s), which a ``develop``
-# of a DNG must not pay. tests/isp/test_colour_constants.py checks each against colour-science.
+# of a DNG must not pay. tests/test_cie.py checks each against colour-science.
 
 # (the sRGB white and matrices, Bradford and xy → XYZ: spectral_cam.cie, shared with the ground truth)
 
@@ -80,9 +82,10 @@ von_kries_bradford = bradford_adaptation
 CCT_D65_K, CCT_A_K = 6504.0, 2856.0
 
 
-def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, iterations: int = 20) -> np.ndarray:
-    """The XYZ → camera matrix for the scene white, interpolated between the D65 and A
-    calibrations linearly in inverse correlated colour temperature (DNG ch. 6).
+def calibration_weight(color_matrix_d65, color_matrix_a, neutral, *, iterations: int = 20) -> float:
+    """The weight of the D65 calibration for a scene white, between the D65 and Standard A
+    calibrations, linear in inverse correlated colour temperature (DNG ch. 6); the colour
+    matrices, forward matrices and hue/sat maps of a dual-illuminant DNG all take it.
 
     The white's CCT depends on the matrix and the matrix on the CCT, so both are iterated:
     XYZ_white = M(T)⁻¹·neutral → xy → CCT (McCamy 1992), clamped to [2856, 6504] K.
@@ -90,14 +93,14 @@ def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, itera
     Parameters
     ----------
     color_matrix_d65, color_matrix_a
-        (3, 3) XYZ → camera under D65 (ColorMatrix1) and Standard Illuminant A.
+        (3, 3) XYZ → camera under D65 and Standard Illuminant A.
     neutral
         (3,) camera RGB of the scene white.
 
     Returns
     -------
-    numpy.ndarray
-        (3, 3) interpolated XYZ → camera matrix.
+    float
+        In [0, 1]: 1 at or above 6504 K, 0 at or below 2856 K.
 
     References
     ----------
@@ -119,10 +122,34 @@ def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, itera
         cct = min(max(cct, CCT_A_K), CCT_D65_K) if np.isfinite(cct) else CCT_D65_K
         new = (1 / cct - 1 / CCT_A_K) / (1 / CCT_D65_K - 1 / CCT_A_K)
         if abs(new - weight) < 1e-6:
-            weight = new
-            break
+            return float(new)
         weight = new
-    return weight * d65 + (1 - weight) * tungsten
+    return float(weight)
+
+
+def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, iterations: int = 20) -> np.ndarray:
+    """The XYZ → camera matrix for the scene white: :func:`calibration_weight` of the D65
+    matrix, the rest of the Standard A one (DNG ch. 6).
+
+    Parameters
+    ----------
+    color_matrix_d65, color_matrix_a
+        (3, 3) XYZ → camera under D65 (ColorMatrix1) and Standard Illuminant A.
+    neutral
+        (3,) camera RGB of the scene white.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3, 3) interpolated XYZ → camera matrix.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (interpolation by inverse CCT).
+    """
+    weight = calibration_weight(color_matrix_d65, color_matrix_a, neutral, iterations=iterations)
+    return weight * np.asarray(color_matrix_d65, float).reshape(3, 3) \
+        + (1 - weight) * np.asarray(color_matrix_a, float).reshape(3, 3)
 
 
 def dng_camera_to_xyz_d65(color_matrix, neutral, *, color_matrix_2=None, adaptation: str = "Bradford") -> np.ndarray:
@@ -332,6 +359,59 @@ def _dng(raw, gains, supplied):
     return dng_camera_to_xyz_d65(raw.color_matrix, 1.0 / gains, color_matrix_2=getattr(raw, "color_matrix_2", None))
 
 
+def dng_profile_camera_to_xyz_d65(raw, neutral):
+    """White-balanced camera RGB → XYZ(D65) the way an Adobe-path develop uses a DNG camera
+    profile: the ForwardMatrix (camera → XYZ D50) into linear ProPhoto RGB, the ProfileHueSatMap
+    there when the RAW has one, back to XYZ D50 and Bradford to D65. With two calibrations the
+    forward matrices and maps are blended with the colour matrices' weight for the scene white.
+
+    Parameters
+    ----------
+    raw : RawImage
+        Its ``forward_matrix`` (D65) and optional ``forward_matrix_2`` (A), ``hue_sat_map`` /
+        ``hue_sat_map_2``, and ``color_matrix`` / ``color_matrix_2`` for the weight.
+    neutral : array_like
+        (3,) camera RGB of the white the white balance assumes.
+
+    Returns
+    -------
+    numpy.ndarray or callable
+        A (3, 3) matrix without a map, else a callable (..., 3) → (..., 3).
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (ForwardMatrix, ProfileHueSatMap).
+    """
+    from .hue_sat_map import PROPHOTO_TO_XYZ_D50, XYZ_D50_TO_PROPHOTO, apply_hue_sat_map
+
+    forward, hue_sat = raw.forward_matrix, getattr(raw, "hue_sat_map", None)
+    if forward is None:
+        raise ConfigError("isp.colour_matrix = 'dng_profile' needs the RAW's ForwardMatrix; this RAW has none "
+                          "(valid: 'dng', 'fitted', 'none')")
+    forward = np.asarray(forward, dtype=np.float64)
+    if raw.forward_matrix_2 is not None and raw.color_matrix is not None and raw.color_matrix_2 is not None:
+        weight = calibration_weight(raw.color_matrix, raw.color_matrix_2, neutral)
+        forward = weight * forward + (1 - weight) * np.asarray(raw.forward_matrix_2, dtype=np.float64)
+        if hue_sat is not None and getattr(raw, "hue_sat_map_2", None) is not None:
+            hue_sat = hue_sat.blend(raw.hue_sat_map_2, weight)
+    d50 = PROPHOTO_TO_XYZ_D50 @ np.ones(3)
+    forward = forward * (d50 / (forward @ np.ones(3)))[:, None]  # the white onto D50 (DNG ch. 6)
+    to_d65 = von_kries_bradford(d50, xyz_d65_white())
+    if hue_sat is None:
+        return to_d65 @ forward
+    into, back = XYZ_D50_TO_PROPHOTO @ forward, to_d65 @ PROPHOTO_TO_XYZ_D50
+
+    def transform(rgb):
+        rgb = np.asarray(rgb)
+        return (apply_hue_sat_map(rgb.reshape(-1, 3) @ into.T, hue_sat) @ back.T).reshape(rgb.shape)
+
+    return transform
+
+
+def _dng_profile(raw, gains, supplied):
+    return dng_profile_camera_to_xyz_d65(raw, 1.0 / gains)
+
+
 def _supplied(method: str, key: str):
     def transform_of(raw, gains, supplied):
         transform = supplied if supplied is not None else (raw.meta or {}).get(key)
@@ -358,6 +438,8 @@ def _auto(raw, gains, supplied):
 COLOUR_MATRIX = Registry("colour matrix source")
 COLOUR_MATRIX.add("auto", _auto, description="'fitted' when the RAW carries a fitted matrix, else 'dng', else 'none'")
 COLOUR_MATRIX.add("dng", _dng, description="the DNG's ColorMatrix1/2 (interpolated by CCT) and AsShotNeutral")
+COLOUR_MATRIX.add("dng_profile", _dng_profile,
+                  description="the DNG's ForwardMatrix1/2 and ProfileHueSatMap (Adobe's camera-profile path)")
 COLOUR_MATRIX.add("fitted", _supplied("fitted", META_CAMERA_TO_XYZ),
                   description="a 3×3 matrix fitted from the measured curves (RawImage.meta)")
 COLOUR_MATRIX.add("root_polynomial", _supplied("root_polynomial", META_CAMERA_TO_XYZ_ROOT_POLY),

@@ -48,10 +48,14 @@ DNG_TAGS = {
     "CalibrationIlluminant2": 50779,
     "ForwardMatrix1": 50964,
     "ForwardMatrix2": 50965,
+    "ProfileHueSatMapDims": 50937,
+    "ProfileHueSatMapData1": 50938,
+    "ProfileHueSatMapData2": 50939,
     "NoiseProfile": 51041,
     "BaselineExposure": 50730,
     "ProfileToneCurve": 50940,
     "ProfileName": 50936,
+    "ProfileEmbedPolicy": 50941,
     "DefaultBlackRender": 51110,
     "DefaultCropOrigin": 50719,
     "DefaultCropSize": 50720,
@@ -129,15 +133,26 @@ def _colour_tags(raw: RawImage) -> list[tuple]:
     with one, D65 is slot 1."""
     if raw.color_matrix is None:
         return []
-    calibrations = [(ILLUMINANT_D65, raw.color_matrix, raw.forward_matrix)]
+    calibrations = [(ILLUMINANT_D65, raw.color_matrix, raw.forward_matrix, raw.hue_sat_map)]
     if raw.color_matrix_2 is not None:
-        calibrations.insert(0, (ILLUMINANT_A, raw.color_matrix_2, raw.forward_matrix_2))
+        calibrations.insert(0, (ILLUMINANT_A, raw.color_matrix_2, raw.forward_matrix_2, raw.hue_sat_map_2))
     tags = []
-    for number, (illuminant, matrix, forward) in enumerate(calibrations, start=1):
+    maps = [hsm for *_, hsm in calibrations]
+    if any(hsm is not None for hsm in maps) and (any(hsm is None for hsm in maps)
+                                                   or len({hsm.dims for hsm in maps}) > 1):
+        raise RawFormatError("hue/sat maps: give one per calibration (hue_sat_map, and hue_sat_map_2 with "
+                             "color_matrix_2), all of the same divisions (DNG ProfileHueSatMapDims is shared)")
+    for number, (illuminant, matrix, forward, hue_sat) in enumerate(calibrations, start=1):
         tags += [_matrix_tag(f"ColorMatrix{number}", matrix),
                  (DNG_TAGS[f"CalibrationIlluminant{number}"], _TIFF_SHORT, 1, (illuminant,), True)]
         if forward is not None:
             tags.append(_matrix_tag(f"ForwardMatrix{number}", forward))
+        if hue_sat is not None:
+            data = hue_sat.dng_data()
+            tags.append((DNG_TAGS[f"ProfileHueSatMapData{number}"], _TIFF_FLOAT, data.size,
+                         tuple(float(v) for v in data), True))
+    if maps[0] is not None:
+        tags.append((DNG_TAGS["ProfileHueSatMapDims"], _TIFF_LONG, 3, maps[0].dims, True))
     return tags
 
 
@@ -389,4 +404,57 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
             with tifffile.TiffFile(tmp, mode="r+b") as tif:
                 tif.pages[0].tags["PhotometricInterpretation"].overwrite(PHOTOMETRIC_LINEAR_RAW)
         _write_exif_ifd(tmp, exif)
+    return path
+
+
+#: The byte-order mark and magic of a DNG camera profile file (DCP): TIFF's layout, "IIRC" for "II*\0".
+DCP_MAGIC = b"IIRC"
+
+
+def write_dcp(raw: RawImage, path, *, name: str | None = None) -> Path:
+    """Write a RAW's camera profile as a DNG Camera Profile file (``.dcp``, atomically).
+
+    What the DNG carries of its colour — ColorMatrix1/2, CalibrationIlluminant1/2, ForwardMatrix1/2
+    and ProfileHueSatMap — in the standalone form RawTherapee (``InputProfile=file:<path>``),
+    Lightroom and Camera Raw load as an input profile. A TIFF structure whose magic is "IIRC".
+
+    Parameters
+    ----------
+    raw : RawImage
+        A RAW with ``color_matrix`` (and optionally the rest of the profile).
+    path : str or path-like
+        Output file (``.dcp``).
+    name : str, optional
+        ProfileName; default the DNG's ("spectral_cam: matrices fitted on ...").
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    RawFormatError
+        If the RAW has no colour matrix.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 "Camera Profiles" (the DCP file:
+       "IIRC" header, UniqueCameraModel, ProfileName, ProfileEmbedPolicy and the colour tags).
+    """
+    import tifffile
+
+    if raw.color_matrix is None:
+        raise RawFormatError("a camera profile needs the RAW's color_matrix (ColorMatrix1); this RAW has none")
+    path = Path(path)
+    calibration = (raw.meta or {}).get("colour_calibration")
+    if name is None:
+        name = (f"spectral_cam: matrices fitted on {calibration['training_set']}" if calibration
+                else f"spectral_cam {raw.camera_model}")
+    tags = [(DNG_TAGS["UniqueCameraModel"], _TIFF_ASCII, 0, _ascii(raw.camera_model or "spectral_cam"), True),
+            (DNG_TAGS["ProfileName"], _TIFF_ASCII, 0, _ascii(name), True),
+            (DNG_TAGS["ProfileEmbedPolicy"], _TIFF_LONG, 1, (3,), True)] + _colour_tags(raw)
+    with atomic_path(path) as tmp:
+        tifffile.imwrite(tmp, np.zeros((1, 1), np.uint8), extratags=tags, metadata=None)
+        with open(tmp, "r+b") as handle:
+            handle.write(DCP_MAGIC)
     return path

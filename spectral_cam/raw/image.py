@@ -64,6 +64,9 @@ class RawImage:
     profile_tone_curve
         (N, 2) linear input → output pairs of the tone curve the default rendering applies (DNG
         ProfileToneCurve), or None.
+    hue_sat_map, hue_sat_map_2
+        :class:`spectral_cam.isp.hue_sat_map.HueSatMap` of the D65 and the Standard A calibration
+        (DNG ProfileHueSatMapData, beside the forward matrices), or None.
     """
 
     mosaic: np.ndarray
@@ -81,6 +84,8 @@ class RawImage:
     crop: tuple[int, int, int, int] | None = None
     baseline_exposure: float = 0.0
     profile_tone_curve: np.ndarray | None = None
+    hue_sat_map: object | None = None
+    hue_sat_map_2: object | None = None
 
 
 def check_raw(raw: RawImage) -> np.ndarray:

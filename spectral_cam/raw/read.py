@@ -22,7 +22,7 @@ from typing import Iterator, NamedTuple
 import numpy as np
 
 from ..cfa import LINEAR
-from ..errors import RawFormatError
+from ..errors import ConfigError, RawFormatError
 from .dng import DNG_TAGS, ILLUMINANT_A
 from .image import RawImage
 
@@ -83,7 +83,9 @@ def _tiff_extras(path: Path) -> dict:
                 tags = page.tags
                 for name in ("NoiseProfile", "UniqueCameraModel", "Make", "Model", "ColorMatrix1",
                              "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2", "WhiteLevel",
-                             "DefaultCropOrigin", "DefaultCropSize", "BaselineExposure", "ProfileToneCurve"):
+                             "DefaultCropOrigin", "DefaultCropSize", "BaselineExposure", "ProfileToneCurve",
+                             "ForwardMatrix1", "ForwardMatrix2", "ProfileHueSatMapDims", "ProfileHueSatMapData1",
+                             "ProfileHueSatMapData2"):
                     tag = tags.get(DNG_TAGS[name])
                     if tag is not None and name not in extras:
                         extras[name] = tag.value
@@ -351,17 +353,48 @@ def _rational_matrix(value) -> np.ndarray | None:
     return flat.reshape(3, 3) if flat.size == 9 and np.all(np.isfinite(flat)) else None
 
 
-def _tungsten_matrix(extras: dict) -> np.ndarray | None:
-    """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
+def _tungsten_slot(extras: dict) -> int | None:
+    """The calibration slot (1 or 2) calibrated under Standard Illuminant A, if any."""
     for number in (1, 2):
         try:
             codes = np.asarray(extras.get(f"CalibrationIlluminant{number}", []), dtype=float).reshape(-1)
         except (TypeError, ValueError):  # a corrupt tag type (e.g. ASCII) is no tag
             continue
         if codes.size and codes[0] in _TUNGSTEN_CODES:  # a tag of count 0 (a corrupt file) is no tag
-            value = extras.get(f"ColorMatrix{number}")
-            return None if value is None else _rational_matrix(value)
+            return number
     return None
+
+
+def _tungsten_matrix(extras: dict) -> np.ndarray | None:
+    """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
+    slot = _tungsten_slot(extras)
+    value = extras.get(f"ColorMatrix{slot}") if slot else None
+    return None if value is None else _rational_matrix(value)
+
+
+def _profile(extras: dict) -> dict:
+    """ForwardMatrix and ProfileHueSatMap per calibration: ``forward_matrix``/``hue_sat_map`` of the
+    daylight slot (the one that is not Standard A), ``..._2`` of the Standard A slot; None where a
+    tag is absent or malformed (a corrupt profile is no profile, as Adobe's reader treats it)."""
+    from ..isp.hue_sat_map import HueSatMap
+
+    tungsten = _tungsten_slot(extras)
+    daylight = next((n for n in (1, 2) if n != tungsten and f"ColorMatrix{n}" in extras), None)
+    out = dict.fromkeys(("forward_matrix", "forward_matrix_2", "hue_sat_map", "hue_sat_map_2"))
+    for slot, suffix in ((daylight, ""), (tungsten, "_2")):
+        if slot is None:
+            continue
+        value = extras.get(f"ForwardMatrix{slot}")
+        out[f"forward_matrix{suffix}"] = None if value is None else _rational_matrix(value)
+        dims, data = extras.get("ProfileHueSatMapDims"), extras.get(f"ProfileHueSatMapData{slot}")
+        if dims is not None and data is not None:
+            try:
+                out[f"hue_sat_map{suffix}"] = HueSatMap.from_dng(np.ravel(dims), data)
+            except (ConfigError, TypeError, ValueError):
+                pass
+    if out["hue_sat_map"] is None or (tungsten and out["hue_sat_map_2"] is None):
+        out["hue_sat_map"] = out["hue_sat_map_2"] = None  # half a dual-illuminant profile is none
+    return out
 
 
 def _baseline_exposure(value) -> float:
@@ -508,6 +541,7 @@ def read_raw(path) -> RawImage:
         crop=_default_crop(path, extras, sizes, mosaic.shape[:2]),
         color_matrix=matrix,
         color_matrix_2=_tungsten_matrix(extras) if matrix is not None else None,
+        **(_profile(extras) if matrix is not None else {}),
         as_shot_neutral=neutral,
         noise_profile=noise_profile,
         camera_model=str(extras.get("UniqueCameraModel", "")).strip(),

@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import SensorError
 from ..isp.tone import profile_tone_curve
 from ..raw.image import RawImage
-from .dng_colour import _colour_matrix, _fitted_corrections, _forward_matrix
+from .dng_colour import _colour_matrix, _fitted_corrections, _forward_matrix, _hue_sat_map
 from .metered_exposure import auto_exposure_time, expected_electrons, exposure_index, resolve_exposure
 from .noise import (
     HYBRID_POISSON_BELOW_E,
@@ -202,6 +202,8 @@ def expose(
         color_matrix_2=colour["matrix_a"],
         forward_matrix=colour["forward"],
         forward_matrix_2=colour["forward_a"],
+        hue_sat_map=colour["hue_sat"],
+        hue_sat_map_2=colour["hue_sat_a"],
         crop=radiance.frame_window if hasattr(radiance, "frame_window") else None,
         baseline_exposure=index["baseline_exposure_ev"],
         profile_tone_curve=profile_tone_curve(config.isp.tone),
@@ -220,17 +222,18 @@ def _check_expose_arguments(radiance, sensor, frame_seed, shot_noise_method: str
 
 def _colour_metadata(radiance, config, model) -> dict:
     """The colour tags of the RAW: AsShotNeutral (the sensor's own response to the light's
-    white, max 1), ColorMatrix1/2 (XYZ → camera under D65 and A) and ForwardMatrix1/2; all
-    None for a monochrome sensor, the matrices None for an ``"ideal"`` one."""
+    white, max 1), ColorMatrix1/2 (XYZ → camera under D65 and A), ForwardMatrix1/2 and their
+    ProfileHueSatMaps; all None for a monochrome sensor, the matrices None for an ``"ideal"`` one."""
     sensor, specs = config.sensor, model.transmission_specs
-    colour = dict.fromkeys(("neutral", "matrix", "matrix_a", "forward", "forward_a"))
+    colour = dict.fromkeys(("neutral", "matrix", "matrix_a", "forward", "forward_a", "hue_sat", "hue_sat_a"))
     if sensor.cfa == "none":
         return colour
     response = white_response(radiance, config, model)
     colour["neutral"] = response / response.max() if response.max() > 0 else None
     if sensor.model != "ideal":
         colour.update(matrix=_colour_matrix(sensor.model, specs), matrix_a=_colour_matrix(sensor.model, specs, "A"),
-                      forward=_forward_matrix(sensor.model, specs), forward_a=_forward_matrix(sensor.model, specs, "A"))
+                      forward=_forward_matrix(sensor.model, specs), forward_a=_forward_matrix(sensor.model, specs, "A"),
+                      hue_sat=_hue_sat_map(sensor.model, specs), hue_sat_a=_hue_sat_map(sensor.model, specs, "A"))
     return colour
 
 

@@ -65,3 +65,16 @@ def _forward_matrix(model: str, specs: tuple, illuminant: str = "D65") -> np.nda
         return None
     forward = bradford_adaptation(xy_to_xyz(illuminant_xy("D65")), D50_WHITE_XYZ) @ to_d65
     return forward * (D50_WHITE_XYZ / (forward @ np.ones(3)))[:, None]  # exact D50 white, row by row
+
+
+@functools.lru_cache(maxsize=32)
+def _hue_sat_map(model: str, specs: tuple, illuminant: str = "D65"):
+    """The DNG ProfileHueSatMap beside :func:`_forward_matrix` for ``illuminant``: what the forward
+    matrix leaves of the training set's colours
+    (:func:`spectral_cam.sensor.colour_calibration.fit_hue_sat_map`); None without a forward matrix."""
+    from . import colour_calibration
+
+    forward = _forward_matrix(model, specs, illuminant)
+    if forward is None:
+        return None
+    return colour_calibration.fit_hue_sat_map(model, illuminant, forward_matrix=forward, transmission=list(specs))

@@ -374,6 +374,31 @@ def _metamerism_html(result) -> list[str]:
     return rows + ["</table>"]
 
 
+def _change_of_light_html(result) -> list[str]:
+    """Each pipeline's CIE metamerism index for a change in illuminant (pair: its patch and the truth)."""
+    from .statistics import pipeline_metamerism
+
+    rows = pipeline_metamerism(result)
+    if not rows:
+        return []
+    esc = html.escape
+    tests = list(dict.fromkeys(row["test"] for row in rows))
+    pipelines = list(dict.fromkeys(row["pipeline"] for row in rows))
+    out = ["<h2>Metamerism index for a change in illuminant (CIE 15:2004 §8.2)</h2>",
+           '<p class="small">Each patch as the pipeline reproduced it and its truth, a pair nearly matched under '
+           f"{esc(_short(rows[0]['reference']))}: ΔE*ab of the pair under each other illuminant less its mismatch "
+           "under the reference (the additive correction), mean over the patches, sets, cameras and exposures. "
+           "What goes wrong only when the light changes (the camera's metamerism and a matrix made for another "
+           'light); <a href="metamerism.csv">metamerism.csv</a>.</p>',
+           "<table><tr><th>pipeline</th>" + "".join(f"<th>→ {esc(_short(t))}</th>" for t in tests) + "</tr>"]
+    for name in pipelines:
+        values = [np.mean([r["index_mean"] for r in rows if r["pipeline"] == name and r["test"] == t] or [np.nan])
+                  for t in tests]
+        out.append(f"<tr><td>{esc(name)}</td>" + "".join(f'<td class="num">{_cell_text(v)}</td>' for v in values)
+                   + "</tr>")
+    return out + ["</table>"]
+
+
 def _cct_html(result) -> list[str]:
     """Mean ΔE2000 against the illuminants' CCT per pipeline, with three or more illuminants."""
     from .statistics import cct_sweep
@@ -501,7 +526,8 @@ def render_html(result, *, generated: str | None = None) -> str:
             where = f"{c.set_name} · {_short(c.illuminant)} · {c.camera} · {c.exposure} · {c.pipeline}"
             parts.append(f"<details><summary>{esc(where)}: {esc(c.failures[0])}</summary>"
                          f"<pre>{esc(c.traceback)}</pre></details>")
-    parts += _pivot_html(result) + _comparisons_html(result) + _metamerism_html(result) + _cct_html(result)
+    parts += _pivot_html(result) + _comparisons_html(result) + _metamerism_html(result) + _change_of_light_html(result)
+    parts += _cct_html(result)
     cdf = _cdf_uri(result)
     if cdf:
         parts.append("<h2>ΔE2000 distribution</h2>")
@@ -540,9 +566,9 @@ def write_report(result, folder: str | Path) -> dict[str, Path]:
     Returns
     -------
     dict
-        ``{"html", "cells_csv", "patches_csv", "pivot_csv", "comparisons_csv"}`` → path.
+        ``{"html", "cells_csv", "patches_csv", "pivot_csv", "comparisons_csv", "metamerism_csv"}`` → path.
     """
-    from .statistics import compare_pipelines, pivot
+    from .statistics import METAMERISM_COLUMNS, compare_pipelines, pipeline_metamerism, pivot
 
     folder = Path(folder)
     paths = {"cells_csv": write_cells_csv(result, folder / "cells.csv"),
@@ -554,6 +580,8 @@ def write_report(result, folder: str | Path) -> dict[str, Path]:
     paths["comparisons_csv"] = write_csv(({**row, "significant": str(row["significant"]).lower()}
                                           for row in compare_pipelines(result)), folder / "comparisons.csv",
                                          COMPARISON_COLUMNS, number=exact_number)
+    paths["metamerism_csv"] = write_csv(pipeline_metamerism(result), folder / "metamerism.csv", METAMERISM_COLUMNS,
+                                        number=exact_number)
     page = render_html(result)
     with atomic_path(folder / "report.html") as tmp:
         tmp.write_text(page, encoding="utf-8")

@@ -4,6 +4,9 @@ pivot of mean ΔE2000 by pipeline × illuminant (the report's tables, comparison
 References
 ----------
 .. [1] Student (1908). The probable error of a mean. Biometrika 6(1), 1–25 (paired t interval).
+.. [2] CIE 15:2004, Colorimetry, §8.2 (metamerism indices: change in illuminant).
+.. [3] Fairman, H. S. (1987). Metameric correction using parameric decomposition. Color Research
+   & Application 12(5), 261–265 (additive and multiplicative corrections of a near-match).
 """
 
 from __future__ import annotations
@@ -16,7 +19,8 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from .run import ValidationResult
 
-__all__ = ["compare_pipelines", "pivot", "sensitivity_metamerism_index", "cct_sweep"]
+__all__ = ["compare_pipelines", "pivot", "sensitivity_metamerism_index", "cct_sweep",
+           "illuminant_metamerism_index", "pipeline_metamerism", "METAMERISM_COLUMNS"]
 
 
 def compare_pipelines(result: "ValidationResult") -> list[dict]:
@@ -132,3 +136,90 @@ def cct_sweep(result: "ValidationResult") -> tuple[list[float], dict[str, list[f
                                           if c.pipeline == pipeline and c.illuminant == name and c.stats] or [np.nan]))
                            for name in order]
     return [ccts[name] for name in order], means
+
+
+def illuminant_metamerism_index(reference_pair, test_pair) -> np.ndarray:
+    """CIE special metamerism index for a change in illuminant, with the additive correction.
+
+    Two samples that match under a reference illuminant may not under a test one; the index is
+    their CIE 1976 colour difference under the test illuminant. When they do not match exactly under
+    the reference, the reference mismatch is taken off component by component in CIELAB (the
+    additive correction): M_t = ‖(Lab_b − Lab_a)_test − (Lab_b − Lab_a)_reference‖.
+
+    Parameters
+    ----------
+    reference_pair : tuple of array_like
+        (Lab_a, Lab_b), each (..., 3) CIELAB under the reference illuminant.
+    test_pair : tuple of array_like
+        (Lab_a, Lab_b) under the test illuminant.
+
+    Returns
+    -------
+    numpy.ndarray
+        (...) the index in ΔE*ab units; 0 where the pair's difference does not change.
+
+    References
+    ----------
+    .. [1] CIE 15:2004, Colorimetry, §8.2 (special metamerism index: change in illuminant).
+    .. [2] Fairman (1987), Color Res. Appl. 12(5), 261–265 (the additive correction).
+    """
+    ref_a, ref_b = (np.asarray(lab, dtype=float) for lab in reference_pair)
+    test_a, test_b = (np.asarray(lab, dtype=float) for lab in test_pair)
+    return np.linalg.norm((test_b - test_a) - (ref_b - ref_a), axis=-1)
+
+
+#: Columns of metamerism.csv (:func:`pipeline_metamerism`).
+METAMERISM_COLUMNS = ("set", "camera", "exposure", "pipeline", "reference", "test", "index_mean", "index_max",
+                      "delta_e_ab_reference", "delta_e_ab_test")
+
+
+def pipeline_metamerism(result: "ValidationResult", reference: str | None = None) -> list[dict]:
+    """Each pipeline's metamerism index for a change in illuminant, per set × camera × exposure.
+
+    The pair is the pipeline's reproduction of each patch and its truth (both in CIELAB, D65, the
+    white Bradford-adapted as the report scores them). Under the reference illuminant they nearly
+    match; :func:`illuminant_metamerism_index` says how much of the mismatch under each other
+    illuminant is new: a camera whose curves are not colour-matching functions, and a pipeline whose
+    matrix was made for another light, reproduce the change of light wrongly. The first noise
+    seed's patches, the set's own (not the white reference's padding).
+
+    Parameters
+    ----------
+    result : ValidationResult
+    reference : str, optional
+        The reference illuminant; default D65 where the plan has it, else its first.
+
+    Returns
+    -------
+    list of dict
+        :data:`METAMERISM_COLUMNS`: the index's mean and max over the patches, and the mean ΔE*ab
+        of the pair under the reference and the test illuminant.
+
+    References
+    ----------
+    .. [1] CIE 15:2004, Colorimetry, §8.2 (special metamerism index: change in illuminant).
+    """
+    from ...metrics.image_quality import linear_srgb_to_lab
+
+    illuminants = list(result.plan.illuminants)
+    if reference is None:
+        reference = "D65" if "D65" in illuminants else illuminants[0]
+    by_key = {cell.key: cell for cell in result.cells if cell.test is not None}
+    rows = []
+    for (set_name, illuminant, camera, exposure, pipeline), cell in by_key.items():
+        if illuminant != reference:
+            continue
+        for test in illuminants:
+            other = by_key.get((set_name, test, camera, exposure, pipeline))
+            if test == reference or other is None:
+                continue
+            n = min(cell.n_set, other.n_set)
+            ref_pair = (linear_srgb_to_lab(cell.reference[:n]), linear_srgb_to_lab(cell.test[:n]))
+            test_pair = (linear_srgb_to_lab(other.reference[:n]), linear_srgb_to_lab(other.test[:n]))
+            index = illuminant_metamerism_index(ref_pair, test_pair)
+            rows.append({"set": set_name, "camera": camera, "exposure": exposure, "pipeline": pipeline,
+                         "reference": reference, "test": test, "index_mean": float(index.mean()),
+                         "index_max": float(index.max()),
+                         "delta_e_ab_reference": float(np.linalg.norm(ref_pair[1] - ref_pair[0], axis=1).mean()),
+                         "delta_e_ab_test": float(np.linalg.norm(test_pair[1] - test_pair[0], axis=1).mean())})
+    return rows

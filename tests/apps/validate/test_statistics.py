@@ -133,3 +133,77 @@ def test_a_cct_sweep_places_each_illuminant_at_its_colour_temperature():
     assert set(means) == {"ours", "libraw"} and all(len(v) == 3 and np.all(np.isfinite(v)) for v in means.values())
     assert means["libraw"][0] > means["libraw"][2]  # the D65 matrix alone drifts under warm light
     assert "ΔE2000 across colour temperature" in render_html(result)
+
+
+def _metameric_pair():
+    """A ColorChecker grey and it plus a metameric black for D65 (the component of a smooth wave in
+    the null space of the CIE 1931 CMFs weighted by D65, 1 nm): the same XYZ under D65."""
+    import colour
+
+    from spectral_cam.reflectance_sets import reflectance_set
+
+    shape = colour.SpectralShape(380, 780, 1)
+    base = reflectance_set("colorchecker").sds[20].to_colour().copy().align(shape)  # neutral 6.5
+    weights = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape).values \
+        * colour.SDS_ILLUMINANTS["D65"].copy().align(shape).values[:, None]
+    wave = np.sin(np.linspace(0, 6 * np.pi, len(shape.wavelengths)))
+    black = wave - weights @ np.linalg.lstsq(weights, wave, rcond=None)[0]
+    black *= 0.12 / np.abs(black).max()
+    assert np.all((base.values + black > 0) & (base.values + black < 1))  # a reflectance, unclipped
+    return shape, base, colour.SpectralDistribution(base.values + black, shape.wavelengths)
+
+
+def test_the_illuminant_metamerism_index_of_a_metameric_pair_is_its_difference_under_the_test_light():
+    """CIE 15:2004 §8.2: a pair matched under D65 (colour-science: ΔE*ab < 0.01) has as its index its
+    ΔE*ab under A and FL2, computed with colour-science's sd_to_XYZ, XYZ_to_Lab and delta_E alone
+    (within 1e-9); a near-match's mismatch under the reference is taken off (additive correction)."""
+    import colour
+
+    from spectral_cam.apps.validate.statistics import illuminant_metamerism_index
+
+    shape, a, b = _metameric_pair()
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)
+
+    def lab(sd, name):
+        light = colour.SDS_ILLUMINANTS[name].copy().align(shape)
+        white = colour.XYZ_to_xy(colour.sd_to_XYZ(colour.sd_ones(shape), cmfs, light))
+        return colour.XYZ_to_Lab(colour.sd_to_XYZ(sd, cmfs, light) / 100, white)
+
+    assert colour.delta_E(lab(a, "D65"), lab(b, "D65"), method="CIE 1976") < 0.01
+    for test in ("A", "FL2"):
+        expected = colour.delta_E(lab(a, test), lab(b, test), method="CIE 1976")
+        assert expected > 1.0  # a real metameric pair: it splits under the other light
+        index = illuminant_metamerism_index((lab(a, "D65"), lab(b, "D65")), (lab(a, test), lab(b, test)))
+        assert index == pytest.approx(expected, abs=0.01)
+    # a constant offset of the pair's difference under both lights is no metamerism
+    offset = np.array([1.0, -2.0, 0.5])
+    assert illuminant_metamerism_index((lab(a, "D65"), lab(a, "D65") + offset),
+                                       (lab(a, "A"), lab(a, "A") + offset)) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_report_writes_each_pipelines_metamerism_for_a_change_of_light(example, read_csv):
+    """metamerism.csv: every pipeline × camera × exposure × set that ran under D65 and another light
+    has a row; a row recomputed from patches.csv with colour-science's sRGB → XYZ → Lab (D65) equals
+    it within 1e-6; our pipeline's index under A is above 0 (the D850 is not colorimetric)."""
+    import colour
+
+    result, folder, _ = example
+    rows = read_csv(folder / "metamerism.csv")
+    assert rows and {r["reference"] for r in rows} == {"D65"}
+    patches = read_csv(folder / "patches.csv")
+    row = next(r for r in rows if r["pipeline"] == "ours" and r["test"] == "A")
+
+    def labs(illuminant):
+        chosen = [p for p in patches if p["illuminant"] == illuminant and p["pipeline"] == row["pipeline"]
+                  and p["camera"] == row["camera"] and p["exposure"] == row["exposure"] and p["set"] == row["set"]
+                  and p["role"] != "white reference"]
+        rgb = {k: np.array([[float(p[f"{k}_{c}"]) for c in "rgb"] for p in chosen]) for k in ("reference", "test")}
+        space = colour.RGB_COLOURSPACES["sRGB"]
+        return [colour.XYZ_to_Lab(colour.RGB_to_XYZ(rgb[k], space, apply_cctf_decoding=False), space.whitepoint)
+                for k in ("reference", "test")]
+
+    ref, test = labs("D65"), labs("A")
+    recomputed = np.linalg.norm((test[1] - test[0]) - (ref[1] - ref[0]), axis=1).mean()
+    assert float(row["index_mean"]) == pytest.approx(recomputed, abs=1e-6)
+    assert float(row["index_mean"]) > 0.1
+    assert "Metamerism index for a change in illuminant" in (folder / "report.html").read_text(encoding="utf-8")
