@@ -397,6 +397,7 @@ class SensorSection:
     shot_noise: bool = True
     vignetting: bool = True
     crop_margin_px: int = 8
+    olpf: float | str = "off"
 
     def __post_init__(self) -> None:
         for key in ("width_px", "height_px"):
@@ -430,6 +431,9 @@ class SensorSection:
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
             _fail("sensor.seed", self.seed, "must be a whole number >= 0")
         spectra.validate_transmission(self.ir_cut)
+        from .sensor.olpf import parse_olpf
+
+        parse_olpf(self.olpf)
 
     @property
     def width_m(self) -> float:

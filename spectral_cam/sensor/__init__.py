@@ -164,7 +164,8 @@ def expose(
     timings["setup"] = time.perf_counter() - started
 
     t0 = time.perf_counter()
-    rate = electron_rates(radiance.data, model.weights, cfa=sensor.cfa, cos4=model.cos4, workers=workers)
+    rate = electron_rates(radiance.data, model.weights, cfa=sensor.cfa, cos4=model.cos4, workers=workers,
+                          olpf_px=model.olpf_px)
     timings["electron_rates"] = time.perf_counter() - t0
 
     gain = system_gain(sensor, exposure.iso)
@@ -267,6 +268,8 @@ def _exposure_record(config, model, radiance, *, gain: float, exposure_s: float,
         "working_f_number": model.working_f_number,
         "pixel_area_m2": model.pixel_area_m2,
         "vignetting": bool(sensor.vignetting),
+        "olpf": {"separation_px": model.olpf_px, "separation_um": model.olpf_px * sensor.pixel_pitch_um,
+                 "why": model.olpf_note},
         "shot_noise": bool(sensor.shot_noise),
         "shot_noise_method": shot_noise_method,
         "seeds": {"sensor": int(sensor.seed), "frame": frame_seed},

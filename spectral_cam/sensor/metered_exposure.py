@@ -267,7 +267,8 @@ def expected_electrons(radiance: "SpectralImage", config: "SceneConfig", *, expo
     .. [1] EMVA 1288 Release 4.0, §2.1 (μ_e = η·μ_p).
     """
     model = signal_model(radiance, config)
-    rate = electron_rates(radiance.data, model.weights, cfa=config.sensor.cfa, cos4=model.cos4)
+    rate = electron_rates(radiance.data, model.weights, cfa=config.sensor.cfa, cos4=model.cos4,
+                          olpf_px=model.olpf_px)
     if exposure_s is None:
         exposure_s, _ = resolve_exposure(radiance, config, model, white_mask=white_mask)
     return rate * np.float32(exposure_s), float(exposure_s)

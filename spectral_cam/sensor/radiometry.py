@@ -246,7 +246,7 @@ def _bad_value_message(block: np.ndarray, row0: int) -> str:
 
 
 def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.ndarray | None = None,
-                   workers: int | None = None) -> np.ndarray:
+                   workers: int | None = None, olpf_px: float = 0.0) -> np.ndarray:
     """Mean photo-electron rate of every pixel through its CFA filter (e⁻/s).
 
     ``rate = cos⁴θ · Σ_b L_b · w_b,c(pixel)``, computed for each pixel's own channel only
@@ -265,6 +265,10 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
         (H, W) natural vignetting; None for none.
     workers : int, optional
         Threads (default: the CPUs this process may use, at most 8).
+    olpf_px : float
+        Spot separation of an optical low-pass filter in pixels (0: none): then every channel's
+        full-resolution plane is formed, filtered (:func:`spectral_cam.sensor.olpf.apply_olpf`)
+        and sampled through the CFA.
 
     Returns
     -------
@@ -287,6 +291,8 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
         raise SensorError(f"weights must be (bands={bands}, channels); got {weights.shape}")
     if layout is None and weights.shape[1] != 1:
         raise SensorError("a monochrome sensor (cfa = 'none') needs one QE channel")
+    if olpf_px:
+        return _filtered_rates(data, weights, cfa, cos4, olpf_px, workers)
     vectors = [np.ascontiguousarray(weights[:, c]) for c in range(weights.shape[1])]
     rate = np.empty((height, width), dtype=np.float32)
 
@@ -311,6 +317,35 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
 
     run_chunks(work, row_chunks(height, width), workers_for(workers))
     return rate
+
+
+def _filtered_rates(data, weights, cfa: str, cos4, olpf_px: float, workers) -> np.ndarray:
+    """:func:`electron_rates` behind an optical low-pass filter: all channels' planes, filtered
+    (linear in the bands, so equal to filtering each band's irradiance), then the CFA's samples."""
+    from ..cfa import channel_index
+    from .olpf import apply_olpf
+
+    height, width, _ = data.shape
+    planes = np.empty((height, width, weights.shape[1]), dtype=np.float32)
+
+    def work(span):
+        r0, r1 = span
+        block = data[r0:r1].astype(np.float32, copy=False)
+        if not block.min() >= 0:  # also catches NaN
+            raise SensorError(_bad_value_message(block, r0))
+        with np.errstate(over="ignore", invalid="ignore"):
+            np.matmul(block, weights, out=planes[r0:r1])
+        if not np.isfinite(planes[r0:r1]).all():
+            raise SensorError(_bad_value_message(block, r0))
+        if cos4 is not None:
+            planes[r0:r1] *= cos4[r0:r1, :, None]
+
+    run_chunks(work, row_chunks(height, width), workers_for(workers))
+    planes = apply_olpf(planes, olpf_px)
+    if tile_layout(cfa) is None:
+        return np.ascontiguousarray(planes[..., 0])
+    index = channel_index((height, width), cfa).astype(np.intp)
+    return np.take_along_axis(planes, index[..., None], axis=2)[..., 0]
 
 
 def _row_dot(x: np.ndarray, vector: np.ndarray) -> np.ndarray:
@@ -439,6 +474,8 @@ class SignalModel:
     pixel_area_m2: float
     transmission_specs: tuple
     camera_channels: bool
+    olpf_px: float = 0.0
+    olpf_note: str = "no optical low-pass filter"
 
 
 def film_curves(config: "SceneConfig", wavelengths_nm) -> np.ndarray:
@@ -531,12 +568,20 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
         weights[:3, :3] = np.eye(3) * geometry * float(photons_per_joule(FILM_REFERENCE_NM))
         qe = np.zeros_like(weights)
         qe[:3, :3] = np.eye(3)
-        return SignalModel(weights, cos4, qe, n_w, area, trans_specs, True)
+        return SignalModel(weights, cos4, qe, n_w, area, trans_specs, True, *_olpf(sensor))
     wavelengths = np.asarray(radiance.wavelengths_nm, dtype=float)
     transmission = _transmission_at(trans_specs, tuple(wavelengths.tolist()))
     qe = quantum_efficiency(sensor.model, wavelengths, peak_qe=sensor.peak_qe, monochrome=sensor.cfa == "none")
     weights = band_weights(wavelengths, qe, working_f_number=n_w, pixel_area_m2=area, transmission=transmission)
-    return SignalModel(weights, cos4, qe, n_w, area, trans_specs, False)
+    return SignalModel(weights, cos4, qe, n_w, area, trans_specs, False, *_olpf(sensor))
+
+
+def _olpf(sensor: "SensorSection") -> tuple[float, str]:
+    from .olpf import olpf_separation_px
+
+    if sensor.cfa == "none" and sensor.olpf == "camera":
+        return 0.0, "a monochrome sensor: no optical low-pass filter"
+    return olpf_separation_px(sensor.olpf, model=sensor.model, pixel_pitch_um=sensor.pixel_pitch_um)
 
 
 def electrons_per_band_radiance(config: "SceneConfig", wavelength_nm: float) -> float:

@@ -1,6 +1,6 @@
 """``spectral-cam stress``: where each method of the chain stops being trustworthy.
 
-Six studies, one module each; a study function returns its numbers (``rows`` for the
+Seven studies, one module each; a study function returns its numbers (``rows`` for the
 summary table, ``data`` for ``results.json``) and a plot function draws them (matplotlib
 Figure objects through :mod:`spectral_cam.viz`). :func:`run_studies` runs the studies of
 the :data:`STUDIES` registry into one output folder:
@@ -18,6 +18,8 @@ the :data:`STUDIES` registry into one output folder:
     illuminants far from the D65 calibration, per colour matrix and white balance.
 (f) :mod:`.lenses` — where the thin lens stops describing the bundled prescriptions: the
     in-focus spot against f-number and field angle, and cat's-eye vignetting.
+(g) :mod:`.olpf` — false colour and sharpness of every demosaic against the optical low-pass
+    filter's spot separation, on a neutral zone plate.
 
 :mod:`.settings` holds the sizes (:class:`StressSettings`), :mod:`.summary` the summary
 table and ``results.json``, :mod:`.run` the registry; the command line is
@@ -36,6 +38,7 @@ from .exposure import EXPOSURE_SENSORS, exposure_study, mono_config, neutral_chr
 from .illuminants import (NARROW_LED_FWHM_NM, NARROW_LED_PEAKS_NM, STUDY_COLOUR_MATRICES, STUDY_ILLUMINANTS,
                           STUDY_WHITE_BALANCE, illuminant_study, plot_illuminants, write_narrow_band_led)
 from .lenses import LENS_F_NUMBERS, LENS_FIELDS_DEG, lens_study, plot_lenses
+from .olpf import STUDY_SEPARATIONS, olpf_study, plot_olpf
 from .optics import (OPTICS_RENDERS, band_sum, bokeh_scene, chart_lens, diffraction_limit_f_number, optics_study,
                      plot_optics)
 from .run import STUDIES, Study, run_studies
@@ -53,4 +56,5 @@ __all__ = [
     "STUDY_ILLUMINANTS", "NARROW_LED_PEAKS_NM", "NARROW_LED_FWHM_NM", "STUDY_WHITE_BALANCE",
     "STUDY_COLOUR_MATRICES", "write_narrow_band_led", "illuminant_study", "plot_illuminants",
     "LENS_F_NUMBERS", "LENS_FIELDS_DEG", "lens_study", "plot_lenses",
+    "STUDY_SEPARATIONS", "olpf_study", "plot_olpf",
 ]

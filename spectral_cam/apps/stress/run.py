@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Callable
 
 from ...registry import Registry
-from . import bokeh, demosaic, exposure, illuminants, lenses, optics
+from . import bokeh, demosaic, exposure, illuminants, lenses, olpf, optics
 from .settings import StressSettings
 from .summary import write_results, write_summary
 
@@ -71,6 +71,8 @@ STUDIES.add("illuminants", Study(illuminants.illuminant_study, illuminants.plot_
             description="ΔE2000 under A, FL11 and LEDs vs white balance")
 STUDIES.add("lenses", Study(lenses.lens_study, lenses.plot_lenses), options=("lens_pixel_um",),
             description="thin lens vs real prescriptions: in-focus spot and cat's-eye vignetting")
+STUDIES.add("olpf", Study(olpf.olpf_study, olpf.plot_olpf), options=("zone_plate_px", "frequency_bins"),
+            description="false colour and sharpness vs optical low-pass filter strength, per demosaic")
 
 
 def run_studies(directory: Path, settings: StressSettings, *, only=None, log=None) -> dict:
