@@ -398,6 +398,7 @@ class SensorSection:
     vignetting: bool = True
     crop_margin_px: int = 8
     olpf: float | str = "off"
+    angular_response_deg: float | str | tuple = "off"
 
     def __post_init__(self) -> None:
         for key in ("width_px", "height_px"):
@@ -432,8 +433,12 @@ class SensorSection:
             _fail("sensor.seed", self.seed, "must be a whole number >= 0")
         spectra.validate_transmission(self.ir_cut)
         from .sensor.olpf import parse_olpf
+        from .sensor.shading import parse_angular_response
 
         parse_olpf(self.olpf)
+        if isinstance(self.angular_response_deg, list):
+            object.__setattr__(self, "angular_response_deg", tuple(self.angular_response_deg))
+        parse_angular_response(self.angular_response_deg)
 
     @property
     def width_m(self) -> float:

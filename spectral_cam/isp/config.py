@@ -105,6 +105,10 @@ class ISPConfig:
         ``"exr"`` (linear sRGB, float32).
     jpeg_quality
         JPEG quality 1..100.
+    shading
+        ``"off"`` or the path of a lens-shading table (:func:`spectral_cam.isp.shading.
+        calibrate_flat_field`, saved as JSON): each pixel times its channel's gain before white
+        balance.
 
     References
     ----------
@@ -125,6 +129,7 @@ class ISPConfig:
     sharpen_radius_px: float = 1.0
     outputs: tuple[str, ...] = ("png",)
     jpeg_quality: int = 95
+    shading: str = "off"
 
     def __post_init__(self) -> None:
         _choice("white_balance", self.white_balance, WHITE_BALANCE_METHODS)
@@ -157,6 +162,8 @@ class ISPConfig:
         for name in self.outputs:
             _choice("outputs", name, OUTPUT_FORMATS)
         object.__setattr__(self, "outputs", tuple(self.outputs))
+        if not isinstance(self.shading, str) or not self.shading:
+            _fail("shading", self.shading, "'off' or the path of a lens-shading table (JSON)")
         if (not isinstance(self.jpeg_quality, int) or isinstance(self.jpeg_quality, bool)
                 or not 1 <= self.jpeg_quality <= 100):
             _fail("jpeg_quality", self.jpeg_quality, "must be a whole number in 1..100")

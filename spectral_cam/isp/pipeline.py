@@ -2,7 +2,7 @@
 order of the design, each a pure function on float32 arrays:
 
     black level + normalise → denoise (Poisson–Gaussian, on the linear mosaic)
-    → white balance → demosaic → highlight handling → camera RGB → XYZ(D65) → linear sRGB
+    → lens-shading correction (a flat-field table, when given) → white balance → demosaic → highlight handling → camera RGB → XYZ(D65) → linear sRGB
     → exposure → tone → sharpen
 
 It sees only the RAW and its metadata (never spectra), so it develops any DNG: ours or a
@@ -128,7 +128,7 @@ def _crop_slices(raw) -> tuple[slice, slice]:
     return slice(top, top + rows), slice(left, left + cols)
 
 
-def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> DevelopedImage:
+def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None, shading_table=None) -> DevelopedImage:
     """Develop a RAW into a display sRGB image.
 
     Parameters
@@ -142,6 +142,9 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
         Optional white-balanced camera RGB → XYZ(D65) transform for ``colour_matrix``
         ``"fitted"``/``"root_polynomial"``/``"auto"`` (a (3, 3) or (3, N) root-polynomial
         matrix, or a callable); overrides the RAW's ``meta`` entries.
+    shading_table
+        A :class:`~spectral_cam.isp.shading.ShadingTable` to correct lens and colour shading with
+        (overrides ``config.shading``).
 
     Returns
     -------
@@ -201,6 +204,21 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None) -> Deve
         mosaic = denoise_mosaic(mosaic, cfa, noise=noise, strength=strength, method=config.denoise_method)
         info["noise_model"] = {"S": noise.gain, "O": noise.offset, "source": noise.source}
     timings["denoise"] = clock() - t
+
+    t = clock()
+    if shading_table is None and config.shading != "off":
+        from .shading import load_shading_table
+
+        shading_table = load_shading_table(config.shading)
+    if shading_table is not None:
+        if linear_raw:
+            raise ConfigError("lens-shading correction works on a raw mosaic; this RAW is linear (three colours "
+                              "per pixel): set isp.shading = 'off'")
+        from .shading import correct_shading
+
+        mosaic = correct_shading(mosaic, cfa, shading_table)
+        info["shading"] = "flat-field table" if config.shading == "off" else config.shading
+    timings["shading"] = clock() - t
 
     if monochrome:
         t = clock()

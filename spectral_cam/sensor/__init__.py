@@ -165,7 +165,7 @@ def expose(
 
     t0 = time.perf_counter()
     rate = electron_rates(radiance.data, model.weights, cfa=sensor.cfa, cos4=model.cos4, workers=workers,
-                          olpf_px=model.olpf_px)
+                          olpf_px=model.olpf_px, channel_gain=model.channel_gain)
     timings["electron_rates"] = time.perf_counter() - t0
 
     gain = system_gain(sensor, exposure.iso)
@@ -270,6 +270,7 @@ def _exposure_record(config, model, radiance, *, gain: float, exposure_s: float,
         "vignetting": bool(sensor.vignetting),
         "olpf": {"separation_px": model.olpf_px, "separation_um": model.olpf_px * sensor.pixel_pitch_um,
                  "why": model.olpf_note},
+        "angular_response_deg": sensor.angular_response_deg,
         "shot_noise": bool(sensor.shot_noise),
         "shot_noise_method": shot_noise_method,
         "seeds": {"sensor": int(sensor.seed), "frame": frame_seed},

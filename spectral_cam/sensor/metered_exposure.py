@@ -268,7 +268,7 @@ def expected_electrons(radiance: "SpectralImage", config: "SceneConfig", *, expo
     """
     model = signal_model(radiance, config)
     rate = electron_rates(radiance.data, model.weights, cfa=config.sensor.cfa, cos4=model.cos4,
-                          olpf_px=model.olpf_px)
+                          olpf_px=model.olpf_px, channel_gain=model.channel_gain)
     if exposure_s is None:
         exposure_s, _ = resolve_exposure(radiance, config, model, white_mask=white_mask)
     return rate * np.float32(exposure_s), float(exposure_s)

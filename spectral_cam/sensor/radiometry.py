@@ -246,7 +246,8 @@ def _bad_value_message(block: np.ndarray, row0: int) -> str:
 
 
 def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.ndarray | None = None,
-                   workers: int | None = None, olpf_px: float = 0.0) -> np.ndarray:
+                   workers: int | None = None, olpf_px: float = 0.0,
+                   channel_gain: np.ndarray | None = None) -> np.ndarray:
     """Mean photo-electron rate of every pixel through its CFA filter (e⁻/s).
 
     ``rate = cos⁴θ · Σ_b L_b · w_b,c(pixel)``, computed for each pixel's own channel only
@@ -269,6 +270,9 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
         Spot separation of an optical low-pass filter in pixels (0: none): then every channel's
         full-resolution plane is formed, filtered (:func:`spectral_cam.sensor.olpf.apply_olpf`)
         and sampled through the CFA.
+    channel_gain : numpy.ndarray, optional
+        (H, W, C) pixel acceptance per channel (:mod:`spectral_cam.sensor.shading`): a property of
+        each pixel, so it acts on what reaches the pixel, after the low-pass filter in front of it.
 
     Returns
     -------
@@ -292,7 +296,7 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
     if layout is None and weights.shape[1] != 1:
         raise SensorError("a monochrome sensor (cfa = 'none') needs one QE channel")
     if olpf_px:
-        return _filtered_rates(data, weights, cfa, cos4, olpf_px, workers)
+        return _filtered_rates(data, weights, cfa, cos4, olpf_px, workers, channel_gain)
     vectors = [np.ascontiguousarray(weights[:, c]) for c in range(weights.shape[1])]
     rate = np.empty((height, width), dtype=np.float32)
 
@@ -316,13 +320,24 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
             rate[r0:r1] *= cos4[r0:r1]
 
     run_chunks(work, row_chunks(height, width), workers_for(workers))
+    if channel_gain is not None:
+        rate *= _sampled(channel_gain, cfa)
     return rate
 
 
-def _filtered_rates(data, weights, cfa: str, cos4, olpf_px: float, workers) -> np.ndarray:
+def _sampled(planes: np.ndarray, cfa: str) -> np.ndarray:
+    """Each pixel's own channel of (H, W, C) planes, through the CFA."""
+    from ..cfa import channel_index
+
+    if tile_layout(cfa) is None:
+        return np.ascontiguousarray(planes[..., 0])
+    index = channel_index(planes.shape[:2], cfa).astype(np.intp)
+    return np.take_along_axis(planes, index[..., None], axis=2)[..., 0]
+
+
+def _filtered_rates(data, weights, cfa: str, cos4, olpf_px: float, workers, channel_gain=None) -> np.ndarray:
     """:func:`electron_rates` behind an optical low-pass filter: all channels' planes, filtered
     (linear in the bands, so equal to filtering each band's irradiance), then the CFA's samples."""
-    from ..cfa import channel_index
     from .olpf import apply_olpf
 
     height, width, _ = data.shape
@@ -342,10 +357,9 @@ def _filtered_rates(data, weights, cfa: str, cos4, olpf_px: float, workers) -> n
 
     run_chunks(work, row_chunks(height, width), workers_for(workers))
     planes = apply_olpf(planes, olpf_px)
-    if tile_layout(cfa) is None:
-        return np.ascontiguousarray(planes[..., 0])
-    index = channel_index((height, width), cfa).astype(np.intp)
-    return np.take_along_axis(planes, index[..., None], axis=2)[..., 0]
+    if channel_gain is not None:
+        planes *= channel_gain
+    return _sampled(planes, cfa)
 
 
 def _row_dot(x: np.ndarray, vector: np.ndarray) -> np.ndarray:
@@ -476,6 +490,7 @@ class SignalModel:
     camera_channels: bool
     olpf_px: float = 0.0
     olpf_note: str = "no optical low-pass filter"
+    channel_gain: np.ndarray | None = None
 
 
 def film_curves(config: "SceneConfig", wavelengths_nm) -> np.ndarray:
@@ -568,12 +583,39 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
         weights[:3, :3] = np.eye(3) * geometry * float(photons_per_joule(FILM_REFERENCE_NM))
         qe = np.zeros_like(weights)
         qe[:3, :3] = np.eye(3)
-        return SignalModel(weights, cos4, qe, n_w, area, trans_specs, True, *_olpf(sensor))
+        return SignalModel(weights, cos4, qe, n_w, area, trans_specs, True, *_olpf(sensor),
+                           _channel_gain(lens, config, 3))
     wavelengths = np.asarray(radiance.wavelengths_nm, dtype=float)
     transmission = _transmission_at(trans_specs, tuple(wavelengths.tolist()))
     qe = quantum_efficiency(sensor.model, wavelengths, peak_qe=sensor.peak_qe, monochrome=sensor.cfa == "none")
     weights = band_weights(wavelengths, qe, working_f_number=n_w, pixel_area_m2=area, transmission=transmission)
-    return SignalModel(weights, cos4, qe, n_w, area, trans_specs, False, *_olpf(sensor))
+    return SignalModel(weights, cos4, qe, n_w, area, trans_specs, False, *_olpf(sensor),
+                       _channel_gain(lens, config, weights.shape[1]))
+
+
+@functools.lru_cache(maxsize=4)
+def _channel_gain_cached(lens: "ThinLens", model: str, prescription: str, focus_m: float, halves: tuple,
+                         channels: int) -> np.ndarray:
+    from types import SimpleNamespace
+
+    from .shading import channel_gains
+
+    config = SimpleNamespace(lens=SimpleNamespace(model=model, prescription=prescription, focus_distance_m=focus_m),
+                             sensor=SimpleNamespace(angular_response_deg=list(halves)))
+    gains = channel_gains(lens, config, channels)
+    gains.setflags(write=False)
+    return gains
+
+
+def _channel_gain(lens: "ThinLens", config: "SceneConfig", channels: int) -> np.ndarray | None:
+    """The pixels' acceptance per channel (:mod:`spectral_cam.sensor.shading`), None when off."""
+    from .shading import parse_angular_response
+
+    halves = parse_angular_response(config.sensor.angular_response_deg, channels)
+    if halves is None:
+        return None
+    return _channel_gain_cached(lens, config.lens.model, config.lens.prescription, float(lens.focus_distance_m),
+                                halves, channels)
 
 
 def _olpf(sensor: "SensorSection") -> tuple[float, str]:

@@ -487,7 +487,7 @@ def test_develop_flat_grey_target_with_dng_matrix_is_neutral():
                    color_matrix=cm, as_shot_neutral=neutral)
     out = develop(raw, ISPConfig(colour_matrix="dng", tone="linear"))
     np.testing.assert_allclose(out.linear, 0.5, atol=2e-3)
-    stages = ["normalise", "denoise", "white_balance", "demosaic", "highlights", "colour", "tone", "sharpen"]
+    stages = ["normalise", "denoise", "shading", "white_balance", "demosaic", "highlights", "colour", "tone", "sharpen"]
     assert list(out.timings_s) == stages and out.total_s > 0
     display = develop(raw, ISPConfig(colour_matrix="dng", tone="srgb")).image
     np.testing.assert_allclose(display, srgb_oetf(np.float32(0.5)), atol=2e-3)

@@ -1,0 +1,84 @@
+"""Pixel angular response: lens shading and colour shading from the chief-ray angle.
+
+A pixel's microlens and stack accept light best at normal incidence; off axis the chief ray
+arrives at the chief-ray angle (CRA) θ and the pixel collects a fraction A_c(θ) of it, smaller for
+the channels whose light spreads more into the neighbours. Over the frame this is lens shading
+(luminance falling towards the corners, on top of the cos⁴ law) and colour shading (the corners'
+tint where the channels' responses differ), which a phone ISP corrects from a flat-field
+calibration (:mod:`spectral_cam.isp.shading`).
+
+The acceptance is the stated one: A_c(θ) = 2^(−(θ/θ½,c)²), a Gaussian in angle falling to half at
+θ½,c (``sensor.angular_response_deg``: one θ½, or one per channel R, G, B).
+
+The CRA at image height r: through the thin lens's centre, θ = atan(r / v) (v the image distance,
+the angle of the cos⁴ law); behind a prescription, through the exit pupil's centre,
+θ = atan(r / (d + z_xp)), d the last vertex to the sensor and z_xp the exit pupil in front of the
+last vertex (paraxial).
+
+References
+----------
+.. [1] Catrysse, P. B., & Wandell, B. A. (2002). Optical efficiency of image sensor pixels. JOSA A
+   19(8), 1610–1620 (pixel acceptance against incidence angle).
+.. [2] Catrysse, P. B., Liu, X., & El Gamal, A. (2000). QE reduction due to pixel vignetting in
+   CMOS image sensors. Proc. SPIE 3965 (pixel vignetting, colour shading).
+.. [3] Smith, W. J. (2008). Modern Optical Engineering, 4th ed., §6 (chief ray, exit pupil).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = ["parse_angular_response", "acceptance", "chief_ray_angles_deg", "channel_gains"]
+
+
+def parse_angular_response(value, channels: int = 3) -> tuple[float, ...] | None:
+    """``sensor.angular_response_deg`` as θ½ per channel (degrees), or None for "off"."""
+    if isinstance(value, str) and value.strip().lower() == "off":
+        return None
+    values = list(value) if isinstance(value, (list, tuple)) else [value]
+    if not values or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < v <= 90)
+                         for v in values) or len(values) not in (1, 3):
+        raise ConfigError(f"sensor.angular_response_deg = {value!r}; valid: 'off', or the angle of half response "
+                          "in degrees (0 < θ½ <= 90), one for every channel or three (R, G, B), e.g. [18, 20, 22]")
+    return tuple(float(v) for v in values) * (channels if len(values) == 1 else 1)
+
+
+def acceptance(theta_deg, half_deg: float) -> np.ndarray:
+    """A(θ) = 2^(−(θ/θ½)²): 1 on axis, ½ at θ½."""
+    return np.exp2(-(np.asarray(theta_deg, dtype=float) / half_deg) ** 2)
+
+
+def _radius_m(lens) -> np.ndarray:
+    pitch = lens.pixel_pitch_m
+    x = (np.arange(lens.width_px) + 0.5 - lens.width_px / 2) * pitch
+    y = (np.arange(lens.height_px) + 0.5 - lens.height_px / 2) * pitch
+    return np.hypot(x[None, :], y[:, None])
+
+
+def chief_ray_angles_deg(lens, config) -> np.ndarray:
+    """(H, W) chief-ray angle of every pixel centre (degrees) for the render's lens: the thin lens
+    through its centre, or the prescription through its exit pupil."""
+    radius = _radius_m(lens)
+    if config.lens.model == "prescription":
+        from ..optics.prescription import load_prescription
+
+        prescription = load_prescription(config.lens.prescription)
+        back = prescription.sensor_distance_m(config.lens.focus_distance_m)
+        distance = back + prescription.exit_pupil()[0]
+        if not distance > 0:
+            raise ConfigError(f"{config.lens.prescription}: its exit pupil lies behind the sensor; the chief-ray angle "
+                              "is undefined")
+    else:
+        distance = lens.image_distance_m
+    return np.degrees(np.arctan(radius / distance))
+
+
+def channel_gains(lens, config, channels: int) -> np.ndarray | None:
+    """(H, W, C) float32 acceptance of every pixel for every channel, or None when off."""
+    halves = parse_angular_response(config.sensor.angular_response_deg, channels)
+    if halves is None:
+        return None
+    theta = chief_ray_angles_deg(lens, config)
+    return np.stack([acceptance(theta, halves[c]) for c in range(channels)], axis=-1).astype(np.float32)
