@@ -293,16 +293,39 @@ class IlluminantSection:
     """The light: a named SPD, ``blackbody:<K>``, ``daylight:<CCT>`` or a CSV path, at ``illuminance_lux`` on a
     surface facing the camera. ``spd = "auto"``: the scene's own light, D65 for a preset and
     its emitters' spectrum for an XML scene (``emitter`` names the one to use when it has
-    several; otherwise the one sending the camera most light: ``render/lights.py``)."""
+    several; otherwise the one sending the camera most light: ``render/lights.py``). ``flicker_hz``,
+    ``flicker_depth``, ``flicker_waveform`` and ``flicker_duty`` modulate its power in time
+    (:mod:`spectral_cam.sensor.temporal`)."""
 
     spd: str = "auto"
     illuminance_lux: float = 1000.0
     emitter: str = ""
+    flicker_hz: float = 0.0
+    flicker_depth: float = 1.0
+    flicker_waveform: str = "sine"
+    flicker_duty: float = 0.5
 
     def __post_init__(self) -> None:
         _within("illuminant.illuminance_lux", self.illuminance_lux)
+        _flicker_check(self)
         if self.spd != "auto":
             spectra.validate_illuminant(self.spd)
+
+
+def _flicker_check(light) -> None:
+    """The light's modulation in time (:mod:`spectral_cam.sensor.temporal`)."""
+    def number(value):
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+    if not (number(light.flicker_hz) and 0 <= light.flicker_hz <= 1e6):
+        _fail("illuminant.flicker_hz", light.flicker_hz, "the light's flicker frequency in 0..1e6 Hz (0: steady; "
+              "100 or 120 for a lamp on 50 or 60 Hz mains, an LED's PWM frequency)")
+    if not (number(light.flicker_depth) and 0 <= light.flicker_depth <= 1):
+        _fail("illuminant.flicker_depth", light.flicker_depth, "the modulation depth in 0..1 (1: the light goes dark)")
+    if light.flicker_waveform not in ("sine", "pwm"):
+        _fail("illuminant.flicker_waveform", light.flicker_waveform, "valid: 'sine' (mains), 'pwm' (a dimmed LED)")
+    if not (number(light.flicker_duty) and 0 < light.flicker_duty <= 1):
+        _fail("illuminant.flicker_duty", light.flicker_duty, "the PWM duty cycle in (0, 1]")
 
 
 @dataclass(frozen=True)
@@ -399,6 +422,8 @@ class SensorSection:
     crop_margin_px: int = 8
     olpf: float | str = "off"
     angular_response_deg: float | str | tuple = "off"
+    shutter: str = "global"
+    row_time_s: float = 10e-6
 
     def __post_init__(self) -> None:
         for key in ("width_px", "height_px"):
@@ -439,6 +464,13 @@ class SensorSection:
         if isinstance(self.angular_response_deg, list):
             object.__setattr__(self, "angular_response_deg", tuple(self.angular_response_deg))
         parse_angular_response(self.angular_response_deg)
+        if self.shutter not in ("global", "rolling"):
+            _fail("sensor.shutter", self.shutter, "valid: 'global' (every row at once), 'rolling' (row by row, "
+                  "row_time_s apart)")
+        if isinstance(self.row_time_s, bool) or not isinstance(self.row_time_s, (int, float)) \
+                or not 0 < self.row_time_s <= 0.01:
+            _fail("sensor.row_time_s", self.row_time_s, "must be the readout time of one row in (0, 0.01] s "
+                  "(a full-frame sensor reads a row in ~5-20 µs)")
 
     @property
     def width_m(self) -> float:
@@ -462,10 +494,15 @@ class ExposureSection:
     metering: str = "average"
     compensation_ev: float = 0.0
     iso_definition: str = "sos"
+    start_s: float = 0.0
 
     def __post_init__(self) -> None:
         from .metering import ISO_DEFINITIONS, METERING
 
+        if isinstance(self.start_s, bool) or not isinstance(self.start_s, (int, float)) \
+                or not (math.isfinite(self.start_s) and abs(self.start_s) <= 1e6):
+            _fail("exposure.start_s", self.start_s, "the frame's start time in seconds (for a flickering light's "
+                  "phase), a number within ±1e6")
         if self.time_s != "auto":
             _within("exposure.time_s", self.time_s)
         _within("exposure.iso", self.iso)

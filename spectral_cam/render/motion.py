@@ -7,6 +7,12 @@ so each slice moves the sensor, and a named object (``motion.object``) by updati
 ``mi.traverse``; with no object named, ``motion.object_velocity_mps`` moves the whole scene
 rigidly, which is the camera moving the other way.
 
+A rolling shutter (``sensor.shutter = "rolling"``) exposes row r over [r·t_row, r·t_row + T]: the
+sub-frames then span the whole readout, S = T + (H − 1)·t_row (t = 0 its middle, the middle row's
+exposure middle), and each row averages the sub-frames inside its own window, each weighted by its
+overlap with it (:func:`rolling_row_weights`): a vertical edge moving across the frame shears by
+v·t_row·H·m/p pixels. Each row then gets T/S of the samples.
+
 K (``motion.subframes = "auto"``) is one sub-frame per half pixel of the largest image motion:
 translation across the view |v_xy|·T/z_near·(v/p), along it |v_z|·T/z_near·r_corner, rotation
 |ω_yaw,pitch|·T·(v/p) + |ω_roll|·T·r_corner (v the image distance, p the pixel pitch, r_corner
@@ -30,7 +36,8 @@ from ..optics import ThinLens
 from ..scene import SceneConfig
 
 __all__ = ["motion_blur_px", "plan_subframes", "subframe_transform", "ObjectMotion", "camera_move_matrix",
-           "relative_velocity", "motion_flow_px", "pose_flow_px", "is_object_part"]
+           "relative_velocity", "motion_flow_px", "pose_flow_px", "is_object_part", "exposure_span_s",
+           "subframe_time_s", "rolling_row_weights", "is_rolling"]
 
 #: Largest image motion (px) one sub-frame stands for.
 PX_PER_SUBFRAME = 0.5
@@ -63,22 +70,64 @@ def motion_blur_px(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray | No
     return across + along + turning
 
 
+#: Sub-frames at least in each row's exposure window under a rolling shutter.
+MIN_SUBFRAMES_PER_ROW = 4
+
+
+def is_rolling(config: SceneConfig) -> bool:
+    """Whether the sensor reads row by row (``sensor.shutter = "rolling"``)."""
+    return getattr(config.sensor, "shutter", "global") == "rolling"
+
+
+def exposure_span_s(config: SceneConfig, rows: int) -> float:
+    """From the first row's exposure start to the last row's end (s): T for a global shutter,
+    T + (rows − 1)·t_row for a rolling one."""
+    exposure = float(config.exposure.time_s)
+    return exposure + (rows - 1) * float(config.sensor.row_time_s) if is_rolling(config) else exposure
+
+
+def subframe_time_s(config: SceneConfig, index: int, count: int, span_s: float | None = None) -> float:
+    """The middle of sub-frame ``index`` of ``count`` (s from the span's middle)."""
+    span = float(config.exposure.time_s) if span_s is None else span_s
+    return ((index + 0.5) / count - 0.5) * span
+
+
+def rolling_row_weights(config: SceneConfig, rows: int, first: int, last: int, index: int, count: int) -> np.ndarray:
+    """(last − first,) weight of sub-frame ``index`` in rows ``first``..``last`` − 1 of a rolling-shutter
+    frame of ``rows`` rows: the sub-frame's overlap with each row's exposure window over T, times
+    ``count`` (the sub-frames are averaged with equal samples, so the weights of a row sum to count)."""
+    exposure, span = float(config.exposure.time_s), exposure_span_s(config, rows)
+    width = span / count
+    centre = subframe_time_s(config, index, count, span)
+    start = np.arange(first, last, dtype=np.float64) * float(config.sensor.row_time_s) - span / 2.0
+    overlap = np.clip(np.minimum(centre + width / 2, start + exposure) - np.maximum(centre - width / 2, start), 0, None)
+    return (overlap / exposure * count).astype(np.float32)
+
+
 def plan_subframes(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray | None, spp: int) -> tuple[int, dict]:
     """(K, record): the number of sub-frames and the decision record for meta.json."""
     blur = motion_blur_px(config, lens, depth_m)
     asked = config.motion.subframes
-    wanted = min(max(1, math.ceil(blur / PX_PER_SUBFRAME)), MAX_AUTO_SUBFRAMES) if asked == "auto" else int(asked)
+    per_window = max(1, math.ceil(blur / PX_PER_SUBFRAME))
+    if is_rolling(config):  # enough in every row's own window, which is T of the span S
+        per_window = max(per_window, MIN_SUBFRAMES_PER_ROW)
+        per_window = math.ceil(per_window * exposure_span_s(config, lens.height_px) / float(config.exposure.time_s))
+    wanted = min(per_window, MAX_AUTO_SUBFRAMES) if asked == "auto" else int(asked)
     wanted = min(wanted, spp)
     count = next(k for k in range(wanted, spp + 1) if spp % k == 0)  # equal samples per slice
     reason = (f"{blur:.2f} px of motion, one sub-frame per {PX_PER_SUBFRAME} px" if asked == "auto"
               else "motion.subframes")
+    if asked == "auto" and is_rolling(config):
+        reason += (f", at least {MIN_SUBFRAMES_PER_ROW} in each row's window of the rolling shutter's "
+                   f"{exposure_span_s(config, lens.height_px) * 1e3:.3g} ms span")
     return count, {"choice": count, "reason": f"{reason}, rounded up to a divisor of {spp} spp",
                    "motion_px": blur, "spp_per_subframe": spp // count}
 
 
-def subframe_transform(mi, config: SceneConfig, index: int, count: int):
-    """The camera's move (in its own frame) at the middle of sub-frame ``index`` of ``count``."""
-    t = ((index + 0.5) / count - 0.5) * float(config.exposure.time_s)
+def subframe_transform(mi, config: SceneConfig, index: int, count: int, span_s: float | None = None):
+    """The camera's move (in its own frame) at the middle of sub-frame ``index`` of ``count`` (over
+    ``span_s``, default the exposure time)."""
+    t = subframe_time_s(config, index, count, span_s)
     yaw, pitch, roll = (float(w) * t for w in config.motion.camera_angular_velocity_dps)
     offset = [float(v) for v in relative_velocity(config) * t]
     return (mi.ScalarTransform4f().translate(offset).rotate([0, 1, 0], yaw).rotate([1, 0, 0], -pitch)
@@ -220,8 +269,8 @@ class ObjectMotion:
         pose = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
         self.velocity = pose[:3, :3] @ np.asarray(config.motion.object_velocity_mps, dtype=float)
 
-    def place(self, index: int, count: int) -> None:
-        t = ((index + 0.5) / count - 0.5) * float(self.config.exposure.time_s)
+    def place(self, index: int, count: int, span_s: float | None = None) -> None:
+        t = subframe_time_s(self.config, index, count, span_s)
         offset = self.velocity * t
         for key in self.keys:
             if key.endswith(".to_world"):

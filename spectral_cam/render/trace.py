@@ -26,7 +26,7 @@ from ..scene import SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass
 from .robust import adaptive_median_of_means
 from .films import render_film
-from .motion import ObjectMotion, subframe_transform
+from .motion import ObjectMotion, exposure_span_s, is_rolling, rolling_row_weights, subframe_transform
 from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, configured_camera, exact_pass_spp, frame_tiles,
                          moved_sensor, pass_seed, release_render_memory, tile_sensors)
 
@@ -313,6 +313,7 @@ class _TileRenderer:
     def render_frame(self, sensor, width: int, height: int) -> np.ndarray:
         """(H, W, channels) float32: each tile's estimate, Mitsuba's rounding below zero cleared."""
         tiles = self.passes.tiles
+        self.frame_rows = height  # a rolling shutter's readout spans the whole frame
         data = np.empty((height, width, self.n_channels), np.float32) if len(tiles) > 1 else None
         radiance_range = _RadianceRange()
         for tile, rows, tile_camera, seed_key in tile_sensors(self.mi, sensor, self.camera, tiles):
@@ -332,13 +333,19 @@ class _TileRenderer:
         # the adaptive median of means keeps K equal groups of passes apart (no sub-frames then)
         group_means = np.empty((groups, rows[1] - rows[0], width, self.n_channels), np.float32) if groups > 1 else None
         group, share = 0, self.passes.target_spp // self.subframes // groups
+        rolling = self.subframes > 1 and is_rolling(self.config)
+        span = exposure_span_s(self.config, self.frame_rows) if rolling else None
         for subframe in range(self.subframes):
             frame_camera = tile_camera if self.subframes == 1 else moved_sensor(
-                mi, tile_camera, self.camera, subframe_transform(mi, self.config, subframe, self.subframes))
+                mi, tile_camera, self.camera, subframe_transform(mi, self.config, subframe, self.subframes, span))
             if self.mover is not None:
-                self.mover.place(subframe, self.subframes)
+                self.mover.place(subframe, self.subframes, span)
+            weights = rolling_row_weights(self.config, self.frame_rows, rows[0], rows[1], subframe,
+                                          self.subframes)[:, None, None] if rolling else None
             for spp in self.passes.sizes(self.subframes, groups):
                 image = self._one_pass(frame_camera, spp, seed_key, rows, width)
+                if weights is not None:  # each row keeps the sub-frames inside its own exposure window
+                    image = image * weights
                 accumulated.add(image, spp)  # equal samples per sub-frame: equal time shares
                 if self.progress is not None:
                     _report(self.progress, self.done, self.passes.target_spp, time.perf_counter() - self.started,

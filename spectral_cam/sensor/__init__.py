@@ -26,8 +26,18 @@ import numpy as np
 from ..errors import SensorError
 from ..isp.tone import profile_tone_curve
 from ..raw.image import RawImage
-from .dng_colour import _colour_matrix, _fitted_corrections, _forward_matrix, _hue_sat_map
-from .metered_exposure import auto_exposure_time, expected_electrons, exposure_index, resolve_exposure
+from .dng_colour import (
+    _colour_matrix,
+    _fitted_corrections,
+    _forward_matrix,
+    _hue_sat_map,
+)
+from .metered_exposure import (
+    auto_exposure_time,
+    expected_electrons,
+    exposure_index,
+    resolve_exposure,
+)
 from .noise import (
     HYBRID_POISSON_BELOW_E,
     SHOT_NOISE_METHODS,
@@ -55,6 +65,7 @@ from .radiometry import (
     validate_radiance,
     white_response,
 )
+from .temporal import row_exposure_factors
 
 __all__ = [
     "expose", "quantum_efficiency", "camera_equation_irradiance", "photons_per_joule", "band_weights",
@@ -173,6 +184,9 @@ def expose(
     exposure_s, reference_rate = resolve_exposure(radiance, config, model, white_mask=white_mask)
     timings["auto_exposure"] = time.perf_counter() - t0
 
+    rows = row_exposure_factors(config, rate.shape[0], exposure_s)  # a flickering light, row by row
+    if rows is not None:
+        rate = rate * rows
     t0 = time.perf_counter()
     mosaic, chain_cpu = simulate_frame(rate, sensor, exposure_s=exposure_s, gain=gain, frame_seed=int(frame_seed),
                                        shot_noise_method=shot_noise_method, workers=workers)
@@ -271,6 +285,12 @@ def _exposure_record(config, model, radiance, *, gain: float, exposure_s: float,
         "olpf": {"separation_px": model.olpf_px, "separation_um": model.olpf_px * sensor.pixel_pitch_um,
                  "why": model.olpf_note},
         "angular_response_deg": sensor.angular_response_deg,
+        "shutter": sensor.shutter,
+        "row_time_s": sensor.row_time_s if sensor.shutter == "rolling" else None,
+        "exposure_start_s": exposure.start_s,
+        "flicker": None if not config.illuminant.flicker_hz else {
+            "frequency_hz": config.illuminant.flicker_hz, "depth": config.illuminant.flicker_depth,
+            "waveform": config.illuminant.flicker_waveform, "duty": config.illuminant.flicker_duty},
         "shot_noise": bool(sensor.shot_noise),
         "shot_noise_method": shot_noise_method,
         "seeds": {"sensor": int(sensor.seed), "frame": frame_seed},

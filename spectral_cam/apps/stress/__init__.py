@@ -1,6 +1,6 @@
 """``spectral-cam stress``: where each method of the chain stops being trustworthy.
 
-Seven studies, one module each; a study function returns its numbers (``rows`` for the
+Eight studies, one module each; a study function returns its numbers (``rows`` for the
 summary table, ``data`` for ``results.json``) and a plot function draws them (matplotlib
 Figure objects through :mod:`spectral_cam.viz`). :func:`run_studies` runs the studies of
 the :data:`STUDIES` registry into one output folder:
@@ -20,6 +20,8 @@ the :data:`STUDIES` registry into one output folder:
     in-focus spot against f-number and field angle, and cat's-eye vignetting.
 (g) :mod:`.olpf` — false colour and sharpness of every demosaic against the optical low-pass
     filter's spot separation, on a neutral zone plate.
+(h) :mod:`.rolling` — flicker bands of a rolling shutter and a global shutter's frame-to-frame
+    swing against exposure time (mains and LED PWM); rolling-shutter skew against pan speed.
 
 :mod:`.settings` holds the sizes (:class:`StressSettings`), :mod:`.summary` the summary
 table and ``results.json``, :mod:`.run` the registry; the command line is
@@ -41,6 +43,7 @@ from .lenses import LENS_F_NUMBERS, LENS_FIELDS_DEG, lens_study, plot_lenses
 from .olpf import STUDY_SEPARATIONS, olpf_study, plot_olpf
 from .optics import (OPTICS_RENDERS, band_sum, bokeh_scene, chart_lens, diffraction_limit_f_number, optics_study,
                      plot_optics)
+from .rolling import FLICKER_CASES, STUDY_SPEEDS_MPS, plot_rolling, rolling_study
 from .run import STUDIES, Study, run_studies
 from .settings import STUDY_CAMERA, StressSettings
 from .summary import SUMMARY_FIELDS, summary_row, write_results, write_summary
@@ -57,4 +60,5 @@ __all__ = [
     "STUDY_COLOUR_MATRICES", "write_narrow_band_led", "illuminant_study", "plot_illuminants",
     "LENS_F_NUMBERS", "LENS_FIELDS_DEG", "lens_study", "plot_lenses",
     "STUDY_SEPARATIONS", "olpf_study", "plot_olpf",
+    "FLICKER_CASES", "STUDY_SPEEDS_MPS", "rolling_study", "plot_rolling",
 ]

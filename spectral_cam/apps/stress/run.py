@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Callable
 
 from ...registry import Registry
-from . import bokeh, demosaic, exposure, illuminants, lenses, olpf, optics
+from . import bokeh, demosaic, exposure, illuminants, lenses, olpf, optics, rolling
 from .settings import StressSettings
 from .summary import write_results, write_summary
 
@@ -73,6 +73,8 @@ STUDIES.add("lenses", Study(lenses.lens_study, lenses.plot_lenses), options=("le
             description="thin lens vs real prescriptions: in-focus spot and cat's-eye vignetting")
 STUDIES.add("olpf", Study(olpf.olpf_study, olpf.plot_olpf), options=("zone_plate_px", "frequency_bins"),
             description="false colour and sharpness vs optical low-pass filter strength, per demosaic")
+STUDIES.add("rolling", Study(rolling.rolling_study, rolling.plot_rolling), options=("flicker_exposures", "skew_px"),
+            description="flicker bands vs exposure time, rolling-shutter skew vs speed")
 
 
 def run_studies(directory: Path, settings: StressSettings, *, only=None, log=None) -> dict:

@@ -55,6 +55,10 @@ class StressSettings:
         Side of a ColorChecker patch in the illuminant study, pixels.
     lens_pixel_um
         Pixel pitch the lens study measures spots in, µm.
+    flicker_exposures
+        Exposure times of the flicker study (log-spaced 0.1–40 ms, plus 10 and 20 ms).
+    skew_px
+        Height of the rolling-shutter skew renders, pixels (width 1.5×).
     seed
         Seed of every render and frame (each gets its own derived seed, :meth:`seed_for`).
     """
@@ -75,6 +79,8 @@ class StressSettings:
     bokeh_reference_spp: int = 65536
     patch_px: int = 20
     lens_pixel_um: float = 6.0
+    flicker_exposures: int = 25
+    skew_px: int = 48
     seed: int = 7
 
     @classmethod
@@ -90,7 +96,8 @@ class StressSettings:
                    highlight_factors=(0.5, 0.8, 1.0, 1.5, 2.0, 4.0, 16.0, 64.0),
                    optics_px=40, optics_spp=256,
                    bokeh_thin_spp=(16, 64, 256, 1024, 4096), bokeh_tracer_spp=(4, 16, 64, 256, 1024),
-                   bokeh_remedy_spp=(4, 16, 64, 256), bokeh_reference_spp=8192, patch_px=16)
+                   bokeh_remedy_spp=(4, 16, 64, 256), bokeh_reference_spp=8192, patch_px=16,
+                   flicker_exposures=13, skew_px=32)
 
     def replace(self, **changes) -> "StressSettings":
         """A copy with some fields changed (e.g. tiny settings for tests)."""
