@@ -1,10 +1,13 @@
-"""Bayer colour-filter-array geometry: the one place that knows the 2×2 tiles.
+"""Colour-filter-array geometry: the one place that knows the tiles (2×2 Bayer, X-Trans, Quad Bayer).
 
 The scene validation, the sensor, the DNG writer and reader, the ISP stages and the EMVA
 1288 analysis all ask this module, so a bad CFA name gets the same error everywhere.
 
 A CFA is named by its 2×2 tile read row by row from the top-left pixel ("RGGB" has red at
-(0, 0), green at (0, 1) and (1, 0), blue at (1, 1)), the DNG CFAPattern convention.
+(0, 0), green at (0, 1) and (1, 0), blue at (1, 1)), the DNG CFAPattern convention. Two larger
+repeating tiles are named by their kind: ``"XTRANS"`` (Fujifilm's 6×6: 20 green, 8 red, 8 blue, every
+row and column holding all three; the tile dcraw and LibRaw use) and ``"QUAD_RGGB"`` (Quad Bayer:
+each site of an RGGB tile a 2×2 cell of one colour, a 4×4 tile; Sony's IMX586 and phones since 2018).
 OpenCV names a Bayer pattern by the tile that starts at pixel (1, 1) instead, so RGGB is
 OpenCV's ``BayerBG``.
 
@@ -13,6 +16,9 @@ References
 .. [1] Bayer, B. E. (1976). Color imaging array. US Patent 3,971,065.
 .. [2] Adobe (2023). Digital Negative (DNG) Specification 1.7.1.0, tag CFAPattern.
 .. [3] OpenCV documentation, "Color conversions: Bayer → RGB" (imgproc, cvtColor).
+.. [4] Fujifilm (2012). X-Trans CMOS sensor (the 6×6 aperiodic-looking array); Coffin, D., dcraw.c
+   (its ``xtrans`` table, LibRaw's too).
+.. [5] Sony Semiconductor Solutions (2018). IMX586 "Quad Bayer coding" (2×2 same-colour cells).
 """
 
 from __future__ import annotations
@@ -34,14 +40,31 @@ __all__ = [
     "opencv_bayer_name",
     "opencv_bayer_code",
     "plane_offsets",
+    "EXTENDED_PATTERNS",
+    "cfa_pattern",
+    "is_bayer",
+    "cfa_period",
 ]
 
 #: The 2×2 Bayer tiles, read row by row from the top-left pixel.
 BAYER_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
+#: Larger tiles: channel codes (0 = R, 1 = G, 2 = B) row by row.
+EXTENDED_PATTERNS = {
+    "XTRANS": ((1, 1, 0, 1, 1, 2),
+               (1, 1, 2, 1, 1, 0),
+               (2, 0, 1, 0, 2, 1),
+               (1, 1, 2, 1, 1, 0),
+               (1, 1, 0, 1, 1, 2),
+               (0, 2, 1, 2, 0, 1)),
+    "QUAD_RGGB": ((0, 0, 1, 1),
+                  (0, 0, 1, 1),
+                  (1, 1, 2, 2),
+                  (1, 1, 2, 2)),
+}
 #: A sensor without a colour filter array (one channel, flat QE).
 MONOCHROME = "none"
 #: Every CFA a sensor, RAW or analysis accepts.
-CFA_PATTERNS = (*BAYER_PATTERNS, MONOCHROME)
+CFA_PATTERNS = (*BAYER_PATTERNS, *EXTENDED_PATTERNS, MONOCHROME)
 #: A RAW already holding three colours per pixel (DNG LinearRaw, PhotometricInterpretation
 #: 34892 with three samples: phones' ProRAW, converted raws): (H, W, 3), no mosaic.
 LINEAR = "linear"
@@ -50,8 +73,8 @@ CHANNEL_CODES = {"R": 0, "G": 1, "B": 2}
 _CHANNEL = CHANNEL_CODES
 
 
-def check_cfa(cfa: str, *, allow_monochrome: bool = False) -> str:
-    """Return the upper-case Bayer tile name (or ``"none"``), or raise.
+def check_cfa(cfa: str, *, allow_monochrome: bool = False, allow_extended: bool = False) -> str:
+    """Return the upper-case Bayer tile name (or ``"none"``, or an extended tile's name), or raise.
 
     Parameters
     ----------
@@ -59,6 +82,8 @@ def check_cfa(cfa: str, *, allow_monochrome: bool = False) -> str:
         Bayer tile read row by row from the top-left pixel, e.g. ``"RGGB"``.
     allow_monochrome
         Also accept ``"none"`` (a monochrome sensor).
+    allow_extended
+        Also accept the larger tiles of :data:`EXTENDED_PATTERNS` (``"XTRANS"``, ``"QUAD_RGGB"``).
 
     Raises
     ------
@@ -80,10 +105,41 @@ def check_cfa(cfa: str, *, allow_monochrome: bool = False) -> str:
     if allow_monochrome and text.lower() == MONOCHROME:
         return MONOCHROME
     name = text.upper()
+    if allow_extended and name in EXTENDED_PATTERNS:
+        return name
     if name not in BAYER_PATTERNS:
-        valid = CFA_PATTERNS if allow_monochrome else BAYER_PATTERNS
-        raise ConfigError(f"CFA pattern {cfa!r} is not a Bayer tile; valid: {', '.join(valid)}")
+        valid = list(BAYER_PATTERNS) + (list(EXTENDED_PATTERNS) if allow_extended else []) \
+            + ([MONOCHROME] if allow_monochrome else [])
+        extra = "" if allow_extended or name not in EXTENDED_PATTERNS else \
+            f" ({name} is a larger tile this step does not handle: it needs a 2×2 Bayer mosaic)"
+        raise ConfigError(f"CFA pattern {cfa!r} is not a Bayer tile{extra}; valid: {', '.join(valid)}")
     return name
+
+
+def is_bayer(cfa: str) -> bool:
+    """Whether ``cfa`` names a 2×2 Bayer tile."""
+    return str(cfa).upper() in BAYER_PATTERNS
+
+
+def cfa_pattern(cfa: str) -> np.ndarray:
+    """The repeating tile of any named CFA as channel codes (0 = R, 1 = G, 2 = B), (rows, cols) uint8.
+
+    Examples
+    --------
+    >>> cfa_pattern("GRBG").tolist(), cfa_pattern("XTRANS").shape
+    ([[1, 0], [2, 1]], (6, 6))
+    """
+    name = check_cfa(cfa, allow_extended=True)
+    if name in EXTENDED_PATTERNS:
+        return np.array(EXTENDED_PATTERNS[name], dtype=np.uint8)
+    return np.array([_CHANNEL[c] for c in name], dtype=np.uint8).reshape(2, 2)
+
+
+def cfa_period(cfa: str) -> tuple[int, int]:
+    """(rows, cols) of the CFA's repeating tile; (1, 1) for a monochrome sensor."""
+    if str(cfa).lower() == MONOCHROME:
+        return 1, 1
+    return tuple(cfa_pattern(cfa).shape)
 
 
 def tile_layout(cfa: str) -> tuple[tuple[int, int], tuple[int, int]] | None:
@@ -119,9 +175,17 @@ def cfa_at(cfa: str, row: int, col: int) -> str:
     --------
     >>> cfa_at("RGGB", 0, 1), cfa_at("RGGB", 1, 0), cfa_at("RGGB", 2, 2)
     ('GRBG', 'GBRG', 'RGGB')
+
+    A larger tile has no name for its other phases: a crop must start on a whole tile.
     """
-    name = check_cfa(cfa, allow_monochrome=True)
+    name = check_cfa(cfa, allow_monochrome=True, allow_extended=True)
     if name == MONOCHROME:
+        return name
+    if name in EXTENDED_PATTERNS:
+        rows, cols = cfa_period(name)
+        if row % rows or col % cols:
+            raise ConfigError(f"a crop of a {name} mosaic must start on a whole {rows}×{cols} tile; it starts at "
+                              f"({row}, {col})")
         return name
     return "".join(name[2 * ((row + r) % 2) + (col + c) % 2] for r in (0, 1) for c in (0, 1))
 
@@ -149,9 +213,10 @@ def channel_index(shape: tuple[int, int], cfa: str) -> np.ndarray:
         if len(shape) != 3 or shape[2] != 3:
             raise ConfigError(f"a linear (three-colour) raw is (H, W, 3); got shape {tuple(shape)}")
         return np.broadcast_to(np.arange(3, dtype=np.uint8), tuple(shape))
-    tile = np.array([_CHANNEL[c] for c in check_cfa(cfa)], dtype=np.uint8).reshape(2, 2)
+    tile = cfa_pattern(cfa)
     h, w = int(shape[0]), int(shape[1])
-    return np.tile(tile, ((h + 1) // 2, (w + 1) // 2))[:h, :w]
+    rows, cols = tile.shape
+    return np.tile(tile, (-(-h // rows), -(-w // cols)))[:h, :w]
 
 
 def channel_masks(shape: tuple[int, int], cfa: str) -> np.ndarray:

@@ -31,6 +31,7 @@ from importlib import resources
 import numpy as np
 
 __all__ = [
+    "D50_WHITE_XYZ",
     "BRADFORD",
     "SRGB_TO_XYZ",
     "SRGB_WHITE_XY",
@@ -137,6 +138,10 @@ def xy_to_xyz(xy) -> np.ndarray:
     xy = np.asarray(xy, dtype=np.float64)
     x, y = xy[..., 0], xy[..., 1]
     return np.stack([x / y, np.ones_like(x), (1.0 - x - y) / y], axis=-1)
+
+
+#: The PCS white of ICC profiles and DNG forward matrices: CIE D50, Y = 1 (ICC.1:2010 §7.2.16).
+D50_WHITE_XYZ = np.array([0.9642, 1.0, 0.8249])
 
 
 def xyz_d65_white() -> np.ndarray:

@@ -1,4 +1,8 @@
-"""Demosaicing: a registry of Bayer interpolators with one call, :func:`demosaic`.
+"""Demosaicing: a registry of interpolators with one call, :func:`demosaic`.
+
+Larger tiles (X-Trans, Quad Bayer; :data:`spectral_cam.cfa.EXTENDED_PATTERNS`) have their own
+methods, ``colour_difference`` (any CFA), ``quad_binning`` and ``quad_remosaic``, listed in
+:data:`CFA_METHODS`; :func:`method_for` picks one when a Bayer method is asked of another tile.
 
 Every method takes the (white-balanced) float32 linear mosaic and returns (H, W, 3)
 float32 linear RGB, unclipped, for any of the four Bayer phases and any image size
@@ -41,11 +45,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cfa import check_cfa, opencv_bayer_code
+from ..cfa import channel_index, check_cfa, is_bayer, opencv_bayer_code
 from ..errors import ConfigError
 from ..registry import Registry
 
-__all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "vng", "ea"]
+__all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "vng", "ea", "colour_difference",
+           "quad_binning", "quad_remosaic", "method_for", "CFA_METHODS", "bayer_methods"]
 
 _F32 = np.float32
 
@@ -447,7 +452,125 @@ def ea(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     return _opencv_layers(mosaic, cfa, "EA", 16, False)
 
 
-#: Demosaicing methods by name.
+# ----------------------------------------------------------------------------- larger tiles
+def _masked_mean(values: np.ndarray, mask: np.ndarray, radius: int) -> np.ndarray:
+    """Normalised masked convolution with a separable tent of ``radius`` px: the weighted mean of the
+    samples where ``mask`` is set, near each pixel (mirror padding keeps the CFA's phase at edges)."""
+    import cv2
+
+    tent = np.array([radius + 1 - abs(k) for k in range(-radius, radius + 1)], dtype=_F32)
+    tent /= tent.sum()
+    border = cv2.BORDER_REFLECT_101
+    num = cv2.sepFilter2D(values * mask, -1, tent, tent, borderType=border)
+    den = cv2.sepFilter2D(mask, -1, tent, tent, borderType=border)
+    return num / np.maximum(den, 1e-12)
+
+
+#: Interpolation radius (px) per colour for a tile: every pixel sees a sample of each colour within it.
+def _radii(cfa: str) -> tuple[int, int, int]:
+    from ..cfa import cfa_period
+
+    rows, _ = cfa_period(cfa)
+    return {2: (1, 1, 1), 4: (2, 2, 2), 6: (2, 1, 2)}.get(rows, (rows // 2,) * 3)
+
+
+def colour_difference(mosaic: np.ndarray, cfa: str) -> np.ndarray:
+    """Any CFA (Bayer, X-Trans, Quad Bayer): green by normalised masked convolution, then R − G and
+    B − G at the red and blue sites interpolated the same way and added to green — colour varies
+    more slowly than luminance, so the differences interpolate with fewer fringes than the colours
+    themselves (Adams 1997). Measured samples are kept.
+
+    References
+    ----------
+    .. [1] Adams, J. E. (1997). Design of practical color filter array interpolation algorithms for
+       digital cameras. Proc. SPIE 3028, 117–125 (colour-difference interpolation).
+    .. [2] Knutsson, H., & Westin, C.-F. (1993). Normalized and differential convolution. Proc. CVPR,
+       515–523.
+    """
+    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
+    if mosaic.ndim != 2:
+        raise ConfigError(f"demosaicing needs a 2-D mosaic; got shape {mosaic.shape}")
+    name = check_cfa(cfa, allow_extended=True)
+    index = channel_index(mosaic.shape, name)
+    masks = [(index == c).astype(_F32) for c in range(3)]
+    radius_r, radius_g, radius_b = _radii(name)
+    green = np.where(masks[1] > 0, mosaic, _masked_mean(mosaic, masks[1], radius_g))
+    out = np.empty((*mosaic.shape, 3), dtype=_F32)
+    out[..., 1] = green
+    for c, radius in ((0, radius_r), (2, radius_b)):
+        difference = _masked_mean(mosaic - green, masks[c], radius)
+        out[..., c] = np.where(masks[c] > 0, mosaic, green + difference)
+    return out
+
+
+def _quad_cells(mosaic: np.ndarray) -> np.ndarray:
+    """Each 2×2 same-colour cell of a Quad Bayer mosaic averaged: an RGGB Bayer mosaic of half size."""
+    h, w = (mosaic.shape[0] // 4) * 4, (mosaic.shape[1] // 4) * 4
+    return mosaic[:h, :w].reshape(h // 2, 2, w // 2, 2).mean(axis=(1, 3)).astype(_F32)
+
+
+def quad_binning(mosaic: np.ndarray, cfa: str) -> np.ndarray:
+    """Quad Bayer binned: each 2×2 cell's mean (4× the signal, half the resolution, as a phone's
+    low-light mode reads it), an RGGB mosaic demosaiced by ``menon2007``, brought back to full size
+    by bilinear interpolation (pixel centres aligned).
+
+    References
+    ----------
+    .. [1] Sony Semiconductor Solutions (2018), IMX586 Quad Bayer coding (binning mode).
+    """
+    import cv2
+
+    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
+    if check_cfa(cfa, allow_extended=True) != "QUAD_RGGB":
+        raise ConfigError(f"quad_binning needs a QUAD_RGGB mosaic; this one is {cfa}: use colour_difference")
+    if mosaic.shape[0] < 8 or mosaic.shape[1] < 8:
+        raise ConfigError(f"a Quad Bayer mosaic needs at least 8×8 pixels; got {mosaic.shape}")
+    half = menon2007(_quad_cells(mosaic), "RGGB")
+    full = cv2.resize(half, (half.shape[1] * 2, half.shape[0] * 2), interpolation=cv2.INTER_LINEAR)
+    out = np.empty((*mosaic.shape, 3), dtype=_F32)
+    out[:full.shape[0], :full.shape[1]] = full
+    out[full.shape[0]:, :full.shape[1]] = full[-1:]  # rows and columns past the last whole tile
+    out[:, full.shape[1]:] = out[:, full.shape[1] - 1:full.shape[1]]
+    return out
+
+
+def quad_remosaic(mosaic: np.ndarray, cfa: str) -> np.ndarray:
+    """Quad Bayer remosaiced to full-resolution RGGB (as a phone's full-resolution mode does): the
+    colour-difference estimate of every colour, sampled through an RGGB tile — the Quad samples
+    that already sit on their Bayer colour kept — then demosaiced by ``menon2007``.
+
+    References
+    ----------
+    .. [1] Sony Semiconductor Solutions (2018), IMX586 Quad Bayer coding (remosaic to Bayer).
+    """
+    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
+    if check_cfa(cfa, allow_extended=True) != "QUAD_RGGB":
+        raise ConfigError(f"quad_remosaic needs a QUAD_RGGB mosaic; this one is {cfa}: use colour_difference")
+    full = colour_difference(mosaic, cfa)
+    bayer = np.take_along_axis(full, channel_index(mosaic.shape, "RGGB").astype(np.intp)[..., None], axis=2)[..., 0]
+    return menon2007(np.ascontiguousarray(bayer), "RGGB")
+
+
+def bayer_methods() -> list[str]:
+    """The registered methods that take a 2×2 Bayer mosaic (all but the Quad Bayer ones)."""
+    return [name for name in DEMOSAIC if name not in ("quad_binning", "quad_remosaic")]
+
+
+#: The methods that take each larger tile, the first its default (:func:`method_for`).
+CFA_METHODS = {"XTRANS": ("colour_difference",), "QUAD_RGGB": ("quad_remosaic", "quad_binning", "colour_difference")}
+
+
+def method_for(cfa: str, asked: str) -> str:
+    """``asked`` where it takes ``cfa``, else the tile's default: a Bayer method on an X-Trans or Quad
+    Bayer mosaic becomes ``colour_difference`` or ``quad_remosaic`` (the develop records it)."""
+    name = check_cfa(cfa, allow_extended=True)
+    if is_bayer(name):
+        if asked in ("quad_binning", "quad_remosaic"):
+            raise ConfigError(f"demosaic {asked!r} needs a QUAD_RGGB mosaic; this one is {name}")
+        return asked
+    return asked if asked in CFA_METHODS[name] else CFA_METHODS[name][0]
+
+
 #: Demosaicing methods by name (``isp.demosaic``); a new method is one entry here.
 DEMOSAIC = Registry("demosaic method")
 DEMOSAIC.add("bilinear", bilinear, description="normalised masked convolution")
@@ -455,6 +578,10 @@ DEMOSAIC.add("malvar2004", malvar2004, description="gradient-corrected linear (M
 DEMOSAIC.add("menon2007", menon2007, description="directional filtering, a posteriori decision (Menon et al. 2007)")
 DEMOSAIC.add("vng", vng, description="OpenCV variable number of gradients")
 DEMOSAIC.add("ea", ea, description="OpenCV edge-aware")
+DEMOSAIC.add("colour_difference", colour_difference,
+             description="any CFA (X-Trans, Quad Bayer, Bayer): green, then colour differences, masked convolution")
+DEMOSAIC.add("quad_remosaic", quad_remosaic, description="Quad Bayer remosaiced to RGGB, then menon2007")
+DEMOSAIC.add("quad_binning", quad_binning, description="Quad Bayer 2×2 cells binned, menon2007, upsampled")
 
 
 def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", *, method: str = "malvar2004") -> np.ndarray:

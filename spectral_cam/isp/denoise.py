@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cfa import check_cfa
+from ..cfa import cfa_period, check_cfa
 from ..errors import ConfigError
 from ..registry import Registry
 
@@ -250,11 +250,12 @@ def estimate_noise(mosaic: np.ndarray, cfa: str) -> NoiseModel:
        shrinkage. Biometrika 81(3), 425–455.
     """
     if str(cfa).lower() != "none":
-        check_cfa(cfa)
+        check_cfa(cfa, allow_extended=True)
+    rows, cols = (2, 2) if str(cfa).lower() == "none" else cfa_period(cfa)  # one colour per sub-sampled plane
     sigmas = []
-    for dy in (0, 1):
-        for dx in (0, 1):
-            plane = np.asarray(mosaic[dy::2, dx::2], dtype=np.float64)
+    for dy in range(rows):
+        for dx in range(cols):
+            plane = np.asarray(mosaic[dy::rows, dx::cols], dtype=np.float64)
             h, w = (plane.shape[0] // 2) * 2, (plane.shape[1] // 2) * 2
             p = plane[:h, :w]
             # orthonormal Haar HH sub-band
@@ -363,15 +364,15 @@ def denoise_mosaic(
         raise ConfigError(f"denoising needs a 2-D mosaic; got shape {mosaic.shape}")
     monochrome = str(cfa).lower() == "none"
     if not monochrome:
-        check_cfa(cfa)
+        check_cfa(cfa, allow_extended=True)
     if strength == 0:
         return mosaic.copy()
     stabilised = generalized_anscombe(mosaic, noise=noise)
     out = np.empty_like(stabilised)
-    step = 1 if monochrome else 2
-    for dy in range(step):
-        for dx in range(step):
-            plane = np.ascontiguousarray(stabilised[dy::step, dx::step])
+    rows, cols = (1, 1) if monochrome else cfa_period(cfa)  # each sub-sampled plane holds one colour
+    for dy in range(rows):
+        for dx in range(cols):
+            plane = np.ascontiguousarray(stabilised[dy::rows, dx::cols])
             if plane.size:
-                out[dy::step, dx::step] = DENOISERS[method](plane, strength)
+                out[dy::rows, dx::cols] = DENOISERS[method](plane, strength)
     return inverse_generalized_anscombe(out, noise=noise, method=inverse)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cfa import LINEAR, cfa_at, check_cfa
+from ..cfa import LINEAR, cfa_at, cfa_period, check_cfa, is_bayer
 from ..errors import ConfigError
 from .colour_correction import (
     META_CAMERA_TO_XYZ,
@@ -31,7 +31,7 @@ from .colour_correction import (
     colour_transform,
 )
 from .config import ISPConfig
-from .demosaic import demosaic
+from .demosaic import demosaic, method_for
 from .denoise import NoiseModel, denoise_mosaic, estimate_noise
 from .highlights import clipped_mask, handle_highlights
 from .normalise import normalise
@@ -189,7 +189,7 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None, shading
     mosaic = normalise(raw.mosaic, black_level=raw.black_level, white_level=raw.white_level)
     monochrome = str(raw.cfa).lower() == "none"
     linear_raw = raw.cfa == LINEAR  # three colours per pixel already: no mosaic to denoise or demosaic
-    cfa = raw.cfa if monochrome or linear_raw else check_cfa(raw.cfa)
+    cfa = raw.cfa if monochrome or linear_raw else check_cfa(raw.cfa, allow_extended=True)
     # the image is the raw's default crop: the margin around it is demosaiced (so the crop's
     # edges are interpolated from real data) and then dropped; statistics come from the crop
     crop = _crop_slices(raw)
@@ -229,8 +229,13 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None, shading
         timings["demosaic"] = 0.0
     else:
         t = clock()
-        gains = white_balance_gains(mosaic[crop], cfa if linear_raw else cfa_at(cfa, crop[0].start, crop[1].start),
-                                    method=config.white_balance, as_shot_neutral=raw.as_shot_neutral,
+        # the crop's statistics (a Bayer tile has a name at every phase); a larger tile's crop off its
+        # tile grid: the whole mosaic's
+        rows, cols = (1, 1) if linear_raw or is_bayer(cfa) else cfa_period(cfa)
+        on_grid = crop[0].start % rows == 0 and crop[1].start % cols == 0
+        stats, stats_cfa = (mosaic[crop], cfa if linear_raw else cfa_at(cfa, crop[0].start, crop[1].start)) \
+            if on_grid else (mosaic, cfa)
+        gains = white_balance_gains(stats, stats_cfa, method=config.white_balance, as_shot_neutral=raw.as_shot_neutral,
                                     gains=config.wb_gains or None)
         balanced = apply_white_balance(mosaic, cfa, gains=gains)
         timings["white_balance"] = clock() - t
@@ -239,7 +244,10 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None, shading
         if linear_raw:
             rgb, mask = balanced[crop], clipped_mask(mosaic, radius_px=0).any(axis=-1)[crop]
         else:
-            rgb = demosaic(balanced, cfa, method=config.demosaic)[crop]
+            method = method_for(cfa, config.demosaic)
+            if method != config.demosaic:
+                info["demosaic"] = f"{method} ({config.demosaic} needs a 2×2 Bayer mosaic; this RAW is {cfa})"
+            rgb = demosaic(balanced, cfa, method=method)[crop]
             mask = clipped_mask(mosaic, radius_px=2)[crop]
         timings["demosaic"] = clock() - t
 

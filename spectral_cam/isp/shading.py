@@ -105,9 +105,9 @@ def _terms(shape, degree: int, *, centre: bool = False, rows=None, cols=None) ->
 
 
 def _channels(cfa: str, shape) -> tuple[np.ndarray, int]:
-    from ..cfa import channel_index, tile_layout
+    from ..cfa import channel_index
 
-    if str(cfa).lower() == "none" or tile_layout(cfa) is None:
+    if str(cfa).lower() == "none":
         return np.zeros(shape, dtype=np.intp), 1
     return channel_index(shape, cfa).astype(np.intp), 3
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cfa import channel_index, tile_gain_map, tile_layout
+from ..cfa import channel_index, is_bayer, tile_gain_map, tile_layout
 from ..errors import ConfigError
 from ..registry import Registry
 from .highlights import clipped_mask
@@ -156,9 +156,9 @@ def apply_white_balance(mosaic: np.ndarray, cfa: str, *, gains) -> np.ndarray:
     mosaic = np.asarray(mosaic, dtype=np.float32)
     if mosaic.ndim == 3:  # a linear raw: one gain per colour plane
         return mosaic * np.asarray(gains, dtype=np.float32).reshape(3)
-    layout = tile_layout(cfa)
-    if layout is None:
+    if not is_bayer(cfa):  # a larger tile: one gain per pixel from its colour
         return mosaic * tile_gain_map(mosaic.shape, cfa, gains)
+    layout = tile_layout(cfa)
     # one gain per CFA site, on strided views: no full-frame gain map (2× the memory traffic)
     balanced = mosaic.copy()
     values = np.asarray(gains, dtype=np.float32).reshape(3)

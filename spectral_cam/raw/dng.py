@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cfa import CHANNEL_CODES, LINEAR
+from ..cfa import LINEAR, cfa_pattern
 from ..errors import RawFormatError
 from ..io import atomic_path
 from .image import RawImage, check_raw
@@ -371,9 +371,10 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     tags.append((DNG_TAGS["WhiteLevel"], _TIFF_LONG, samples, (int(raw.white_level),) * samples, True))
     if not monochrome:
         if not linear:
+            pattern = cfa_pattern(raw.cfa)  # 2×2 Bayer, 6×6 X-Trans, 4×4 Quad Bayer
             tags += [
-                (DNG_TAGS["CFARepeatPatternDim"], _TIFF_SHORT, 2, (2, 2), True),
-                (DNG_TAGS["CFAPattern"], _TIFF_BYTE, 4, tuple(CHANNEL_CODES[c] for c in raw.cfa), True),
+                (DNG_TAGS["CFARepeatPatternDim"], _TIFF_SHORT, 2, tuple(int(n) for n in pattern.shape), True),
+                (DNG_TAGS["CFAPattern"], _TIFF_BYTE, pattern.size, tuple(int(c) for c in pattern.ravel()), True),
                 (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, 3, (0, 1, 2), True),
                 (DNG_TAGS["CFALayout"], _TIFF_SHORT, 1, (1,), True),
             ]

@@ -99,7 +99,7 @@ def check_raw(raw: RawImage) -> np.ndarray:
             raise RawFormatError(f"RawImage.mosaic must hold whole numbers in 0..65535; got {mosaic.dtype}")
         mosaic = mosaic.astype(np.uint16)
     if not linear:
-        check_cfa(raw.cfa, allow_monochrome=True)
+        check_cfa(raw.cfa, allow_monochrome=True, allow_extended=True)
     black = np.asarray(raw.black_level, dtype=float)
     if black.shape not in ((), (2, 2)) and not (linear and black.shape == (3,)):
         raise RawFormatError(f"black_level must be a number, a 2×2 array per CFA site or (linear raws) one per "

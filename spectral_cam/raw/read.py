@@ -21,7 +21,7 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
-from ..cfa import LINEAR
+from ..cfa import EXTENDED_PATTERNS, LINEAR
 from ..errors import ConfigError, RawFormatError
 from .dng import DNG_TAGS, ILLUMINANT_A
 from .image import RawImage
@@ -62,10 +62,16 @@ def _cfa_string(pattern, description: bytes, colors: int) -> str:
         return "none"
     pattern = np.asarray(pattern)
     letters = description.decode("ascii", "replace")
+    if pattern.shape != (2, 2) and colors == 3:  # a larger tile LibRaw knows (X-Trans)
+        codes = np.array([{"R": 0, "G": 1, "B": 2}.get(letters[i], -1) for i in pattern.ravel()]).reshape(pattern.shape)
+        for name, tile in EXTENDED_PATTERNS.items():
+            if np.array_equal(codes, np.array(tile)):
+                return name
     if pattern.shape != (2, 2) or colors != 3:
         raise RawFormatError(
             f"unsupported colour filter array ({pattern.shape[0]}×{pattern.shape[1]} tile of "
-            f"{letters!r}); spectral_cam reads 2×2 Bayer (RGGB, BGGR, GRBG, GBRG) and monochrome raws")
+            f"{letters!r}); spectral_cam reads 2×2 Bayer (RGGB, BGGR, GRBG, GBRG), X-Trans, Quad Bayer and "
+            "monochrome raws")
     cfa = "".join(letters[i] for i in pattern.ravel())
     if sorted(cfa) != sorted("RGGB"):
         raise RawFormatError(f"unsupported colour filter array {cfa!r}; need a Bayer tile of R, G, G, B")
@@ -180,6 +186,7 @@ class _Ifd(NamedTuple):
     data_end: int  # where its last strip or tile ends, bytes
     data_bytes: int
     cfa_pattern: tuple = ()  # CFAPattern's colour codes (0 red, 1 green, 2 blue, …)
+    cfa_dims: tuple = ()  # CFARepeatPatternDim (rows, columns)
 
 
 def _tiff_ifds(path: Path) -> list[_Ifd]:
@@ -210,7 +217,8 @@ def _tiff_ifds(path: Path) -> list[_Ifd]:
                     pixels=int(np.prod(shape[:2])) if len(shape) >= 2 else 0,
                     data_end=max((int(o) + int(c) for o, c in zip(offsets, counts)), default=0),
                     data_bytes=int(sum(int(c) for c in counts)),
-                    cfa_pattern=_pattern_codes(page.tags.get(33422))))
+                    cfa_pattern=_pattern_codes(page.tags.get(33422)),
+                    cfa_dims=_pattern_codes(page.tags.get(33421))))
     except Exception:  # not a TIFF container, or corrupt: LibRaw gives the verdict
         return []
     return found
@@ -259,6 +267,18 @@ def _pattern_codes(tag) -> tuple:
         return tuple(int(v) for v in (value if isinstance(value, (tuple, list, bytes, np.ndarray)) else [value]))
     except (TypeError, ValueError):
         return ()
+
+
+def _declared_tile(ifds: list[_Ifd]) -> str | None:
+    """A larger tile (:data:`~spectral_cam.cfa.EXTENDED_PATTERNS`) the raw IFD's CFARepeatPatternDim and
+    CFAPattern declare, or None. LibRaw describes a CFA by dcraw's ``filters``, 8 rows × 2 columns at
+    most: it reads a 4 × 4 Quad Bayer DNG as a wrong 2 × 2 tile, so the file's own tags decide."""
+    for ifd in ifds:
+        if ifd.top_level and ifd.photometric == 32803 and len(ifd.cfa_dims) == 2 and ifd.cfa_dims != (2, 2):
+            for name, tile in EXTENDED_PATTERNS.items():
+                if tuple(ifd.cfa_dims) == np.array(tile).shape and tuple(ifd.cfa_pattern) == tuple(np.ravel(tile)):
+                    return name
+    return None
 
 
 def _check_tiff_cfa(path: Path, ifds: list[_Ifd]) -> None:
@@ -483,7 +503,7 @@ def read_raw(path) -> RawImage:
                 # a Linear Raw DNG: LibRaw stacks R, G, B (and a spare fourth plane) per pixel
                 mosaic, cfa = np.ascontiguousarray(mosaic[..., :3]), LINEAR
             else:
-                cfa = _cfa_string(handle.raw_pattern, bytes(handle.color_desc), colors)
+                cfa = _declared_tile(ifds) or _cfa_string(handle.raw_pattern, bytes(handle.color_desc), colors)
             black_levels = [float(v) for v in handle.black_level_per_channel]
             pattern = np.asarray(handle.raw_pattern)
             white = int(handle.white_level)

@@ -447,9 +447,8 @@ def fit_hue_sat_map(
     .. [2] Hastie, Tibshirani & Friedman (2009). The Elements of Statistical Learning, §5.4
        (penalised least squares), §7.10 (cross-validation).
     """
-    from ..cie import bradford_adaptation
+    from ..cie import D50_WHITE_XYZ, bradford_adaptation
     from ..isp.hue_sat_map import XYZ_D50_TO_PROPHOTO, HueSatMap, interpolation_weights, rgb_to_hsv
-    from .dng_colour import D50_WHITE_XYZ
 
     hues, sats = (int(d) for d in divisions)
     if hues < 1 or sats < 2 or not smoothness >= 0:

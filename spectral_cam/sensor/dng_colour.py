@@ -13,6 +13,7 @@ import functools
 
 import numpy as np
 
+from ..cie import D50_WHITE_XYZ  # the PCS white of DNG forward matrices (re-exported here)
 from ..errors import ConfigError
 
 
@@ -47,8 +48,6 @@ def _fitted_corrections(model: str, illuminant: str, specs: tuple) -> dict:
             "colour_calibration": training_record()}
 
 
-#: The PCS white of DNG forward matrices: CIE D50 (ICC.1:2010 §7.2.16), Y = 1.
-D50_WHITE_XYZ = np.array([0.9642, 1.0, 0.8249])
 
 
 @functools.lru_cache(maxsize=32)

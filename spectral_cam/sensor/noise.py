@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..cfa import tile_layout
+from ..cfa import check_cfa
 from ..errors import SensorError
 from .parallel import row_chunks, run_chunks, workers_for
 
@@ -126,7 +126,7 @@ def _check_sensor(sensor: "SensorSection") -> None:
                           f"0..{2 ** sensor.bit_depth - 2}")
     if not (isinstance(sensor.peak_qe, (int, float)) and 0 < sensor.peak_qe <= 1):
         raise SensorError(f"sensor.peak_qe = {sensor.peak_qe!r} must lie in (0, 1]")
-    tile_layout(sensor.cfa)
+    check_cfa(sensor.cfa, allow_monochrome=True, allow_extended=True)
     for key in ("read_noise_e", "dark_current_e_per_s", "dsnu_e", "prnu"):
         value = getattr(sensor, key)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import spectra
-from ..cfa import tile_layout
+from ..cfa import is_bayer, tile_layout
 from ..errors import ConfigError, SensorError
 from .parallel import row_chunks, run_chunks, workers_for
 
@@ -288,15 +288,15 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
     ----------
     .. [1] EMVA 1288 Release 4.0, §2.1 (μ_e = η·μ_p).
     """
-    layout = tile_layout(cfa)
     height, width, bands = data.shape
     weights = np.asarray(weights, dtype=np.float32)
     if weights.ndim != 2 or weights.shape[0] != bands:
         raise SensorError(f"weights must be (bands={bands}, channels); got {weights.shape}")
-    if layout is None and weights.shape[1] != 1:
+    if cfa == "none" and weights.shape[1] != 1:
         raise SensorError("a monochrome sensor (cfa = 'none') needs one QE channel")
-    if olpf_px:
+    if olpf_px or (cfa != "none" and not is_bayer(cfa)):  # a larger tile: every channel's plane, then sampled
         return _filtered_rates(data, weights, cfa, cos4, olpf_px, workers, channel_gain)
+    layout = tile_layout(cfa)
     vectors = [np.ascontiguousarray(weights[:, c]) for c in range(weights.shape[1])]
     rate = np.empty((height, width), dtype=np.float32)
 
@@ -329,15 +329,16 @@ def _sampled(planes: np.ndarray, cfa: str) -> np.ndarray:
     """Each pixel's own channel of (H, W, C) planes, through the CFA."""
     from ..cfa import channel_index
 
-    if tile_layout(cfa) is None:
+    if cfa == "none":
         return np.ascontiguousarray(planes[..., 0])
     index = channel_index(planes.shape[:2], cfa).astype(np.intp)
     return np.take_along_axis(planes, index[..., None], axis=2)[..., 0]
 
 
 def _filtered_rates(data, weights, cfa: str, cos4, olpf_px: float, workers, channel_gain=None) -> np.ndarray:
-    """:func:`electron_rates` behind an optical low-pass filter: all channels' planes, filtered
-    (linear in the bands, so equal to filtering each band's irradiance), then the CFA's samples."""
+    """:func:`electron_rates` behind an optical low-pass filter or through a larger CFA tile: all
+    channels' planes, filtered (linear in the bands, so equal to filtering each band's irradiance),
+    then the CFA's samples."""
     from .olpf import apply_olpf
 
     height, width, _ = data.shape
@@ -356,7 +357,8 @@ def _filtered_rates(data, weights, cfa: str, cos4, olpf_px: float, workers, chan
             planes[r0:r1] *= cos4[r0:r1, :, None]
 
     run_chunks(work, row_chunks(height, width), workers_for(workers))
-    planes = apply_olpf(planes, olpf_px)
+    if olpf_px:
+        planes = apply_olpf(planes, olpf_px)
     if channel_gain is not None:
         planes *= channel_gain
     return _sampled(planes, cfa)

@@ -15,7 +15,7 @@ from spectral_cam.errors import ConfigError
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.isp import config as isp_config
 from spectral_cam.cfa import channel_index, opencv_bayer_code, opencv_bayer_name
-from spectral_cam.isp.demosaic import DEMOSAIC, demosaic
+from spectral_cam.isp.demosaic import DEMOSAIC, bayer_methods, demosaic
 from spectral_cam.isp.denoise import (DENOISERS, NoiseModel, denoise_mosaic, estimate_noise,
                                       generalized_anscombe, inverse_generalized_anscombe)
 from spectral_cam.isp.encode import quantise, write_image, write_outputs
@@ -30,7 +30,7 @@ from spectral_cam.raw import RawImage
 pytestmark = pytest.mark.timeout(120)
 
 PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
-METHODS = tuple(DEMOSAIC)
+METHODS = tuple(bayer_methods())  # the Bayer mosaics of these tests; larger tiles: tests/raw/test_cfa_tiles.py
 # where each pattern has its first red site (row, column)
 RED_SITE = {"RGGB": (0, 0), "GRBG": (0, 1), "GBRG": (1, 0), "BGGR": (1, 1)}
 

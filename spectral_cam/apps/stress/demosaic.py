@@ -176,9 +176,9 @@ def demosaic_study(settings: StressSettings, *, methods=None) -> dict:
     .. [1] Li, Gunturk & Zhang (2008), Proc. SPIE 6822.
     .. [2] Malvar, He & Cutler (2004); Menon, Andriani & Calvagno (2007) (the methods).
     """
-    from ...isp.demosaic import DEMOSAIC
+    from ...isp.demosaic import bayer_methods
 
-    methods = list(DEMOSAIC) if methods is None else list(methods)
+    methods = bayer_methods() if methods is None else list(methods)
     sizes = [int(s) for s in settings.square_sizes_px]
     phases = [(0, 0), (0, 1), (1, 0), (1, 1)]
     data: dict = {"square_sizes_px": sizes, "tolerance": LOSSLESS_TOLERANCE, "methods": {}}

@@ -60,9 +60,9 @@ def olpf_study(settings: StressSettings, *, methods=None) -> dict:
         ``crops`` for the figure.
     """
     from ...isp import ISPConfig, develop
-    from ...isp.demosaic import DEMOSAIC
+    from ...isp.demosaic import bayer_methods
 
-    methods = list(DEMOSAIC) if methods is None else list(methods)
+    methods = bayer_methods() if methods is None else list(methods)
     plate, frequency = zone_plate(settings.zone_plate_px, max_frequency=0.5)
     edges = np.linspace(0.0, 0.5, settings.frequency_bins + 1)
     ring_of = np.digitize(frequency, edges) - 1
