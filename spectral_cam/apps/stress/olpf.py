@@ -1,8 +1,9 @@
-"""Study (g): false colour and sharpness against the optical low-pass filter's strength, per demosaic.
+"""Study (g): false colour and sharpness against the optical low-pass filter's strength, per CFA and
+demosaic.
 
 A neutral zone plate (grey D65 reflector, local frequency 0 … 0.5 cycle per pixel) is exposed
-noise-free through an RGGB sensor behind a four-spot filter of spot separation d (0 = none … 1.5
-pitch) and developed by each registered demosaic. Every colour in the result is false: the
+noise-free through an RGGB, an X-Trans and a Quad Bayer sensor behind a four-spot filter of spot
+separation d (0 = none … 1.5 pitch) and developed by each demosaic that takes the tile. Every colour in the result is false: the
 false colour per frequency ring is the mean chroma (max − min channel) over the mean level; the
 sharpness the filter costs is the zone plate's luminance modulation kept at 0.25 cycle per pixel,
 against its analytic |sinc(f)|·|cos(π f d)|² (pixel aperture, filter in x and y; the demosaic
@@ -32,8 +33,8 @@ STUDY_SEPARATIONS = (0.0, 0.5, 0.75, 1.0, 1.25, 1.5)
 SHARPNESS_FREQUENCY = 0.25
 
 
-def olpf_capture(pattern: np.ndarray, separation_px: float):
-    """A noise-free RGGB capture of a grey D65 reflector modulated by ``pattern`` (0 … 1)."""
+def olpf_capture(pattern: np.ndarray, separation_px: float, cfa: str = "RGGB"):
+    """A noise-free capture through ``cfa`` of a grey D65 reflector modulated by ``pattern`` (0 … 1)."""
     import spectral_cam as sc
     from spectral_cam.image import SpectralImage
     from spectral_cam.radiance_targets import lambertian_radiance, uniform_image
@@ -42,7 +43,7 @@ def olpf_capture(pattern: np.ndarray, separation_px: float):
     grey = uniform_image(lambertian_radiance("D65", [0.5])[0], (h, w))
     data = grey.data * (0.05 + 0.9 * pattern[..., None]).astype(np.float32)
     scene = sc.scene_from_dict({
-        "sensor": {"width_px": w, "height_px": h, "olpf": float(separation_px), "shot_noise": False,
+        "sensor": {"width_px": w, "height_px": h, "olpf": float(separation_px), "cfa": cfa, "shot_noise": False,
                    "read_noise_e": 0.0, "dark_current_e_per_s": 0.0, "dsnu_e": 0.0, "prnu": 0.0,
                    "vignetting": False, "bit_depth": 14},
         "exposure": {"time_s": "auto"}, "illuminant": {"spd": "D65"}})
@@ -60,9 +61,12 @@ def olpf_study(settings: StressSettings, *, methods=None) -> dict:
         ``crops`` for the figure.
     """
     from ...isp import ISPConfig, develop
-    from ...isp.demosaic import bayer_methods
+    from ...isp.demosaic import CFA_METHODS, bayer_methods
 
-    methods = bayer_methods() if methods is None else list(methods)
+    cases = [("RGGB", m) for m in (bayer_methods() if methods is None else methods)]
+    if methods is None:
+        cases += [(cfa, m) for cfa, names in CFA_METHODS.items() for m in names if m != "colour_difference"
+                  or cfa == "XTRANS"]
     plate, frequency = zone_plate(settings.zone_plate_px, max_frequency=0.5)
     edges = np.linspace(0.0, 0.5, settings.frequency_bins + 1)
     ring_of = np.digitize(frequency, edges) - 1
@@ -73,10 +77,11 @@ def olpf_study(settings: StressSettings, *, methods=None) -> dict:
     data = {"separations_px": list(STUDY_SEPARATIONS), "frequency_edges": [float(e) for e in edges],
             "sharpness_frequency": SHARPNESS_FREQUENCY, "methods": {}}
     crops, rows = {}, []
-    for method in methods:
-        entry = {"false_colour": [], "false_colour_per_ring": [], "modulation_kept": []}
+    for cfa, method in cases:
+        label = method if cfa == "RGGB" else f"{cfa} {method}"
+        entry = {"cfa": cfa, "false_colour": [], "false_colour_per_ring": [], "modulation_kept": []}
         for separation in STUDY_SEPARATIONS:
-            raw = olpf_capture(plate, separation)
+            raw = olpf_capture(plate, separation, cfa)
             rgb = develop(raw, ISPConfig(demosaic=method, tone="linear", white_balance="as_shot")).linear
             rgb = np.asarray(rgb, dtype=float)
             level = rgb[inner].mean()
@@ -89,12 +94,12 @@ def olpf_study(settings: StressSettings, *, methods=None) -> dict:
             # the filter moves the image d/2 right and down: the fit follows it
             entry["modulation_kept"].append(_modulation(luminance[near],
                                                         _plate_phase(plate.shape, shift_px=separation / 2)[near]))
-            if method == methods[0] or method == "menon2007":
-                crops[(method, separation)] = rgb
-        data["methods"][method] = entry
-        rows += [summary_row("olpf", method, f"false colour, d = {d:g} pitch", fc, "of mean level")
+            if label in ("bilinear", "menon2007", "XTRANS colour_difference", "QUAD_RGGB quad_remosaic"):
+                crops[(label, separation)] = rgb
+        data["methods"][label] = entry
+        rows += [summary_row("olpf", label, f"false colour, d = {d:g} pitch", fc, "of mean level")
                  for d, fc in zip(STUDY_SEPARATIONS, entry["false_colour"])]
-        rows.append(summary_row("olpf", method, f"modulation kept at {SHARPNESS_FREQUENCY:g} cycle/px, d = 1",
+        rows.append(summary_row("olpf", label, f"modulation kept at {SHARPNESS_FREQUENCY:g} cycle/px, d = 1",
                                 entry["modulation_kept"][STUDY_SEPARATIONS.index(1.0)], "of the scene's",
                                 f"analytic sinc·cos² = {_analytic_kept(1.0):.3f}"))
     data["analytic_modulation_kept"] = [_analytic_kept(d) for d in STUDY_SEPARATIONS]
@@ -149,7 +154,7 @@ def plot_olpf(result: dict, directory: Path) -> list[str]:
     ax1.set_ylabel("false colour (mean chroma / level)")
     ax1.set_title("False colour on a neutral zone plate")
     ax2.set_xlabel("local frequency (cycles/px)")
-    ax2.set_title(f"per frequency ({next(iter(data['methods']))})")
+    ax2.set_title(f"per frequency ({next(iter(data['methods']))}, RGGB)")
     ax2.axvline(0.25, color="grey", linestyle=":")
     ax3.set_xlabel("spot separation d (pixel pitches)")
     ax3.set_ylabel(f"modulation kept at {data['sharpness_frequency']:g} cycle/px")
@@ -161,9 +166,10 @@ def plot_olpf(result: dict, directory: Path) -> list[str]:
 
     crops = result.get("crops", {})
     chosen = [key for key in crops if key[1] in (0.0, 1.0)]
-    fig = figure(3.2 * max(1, len(chosen)), 3.4)
+    columns = 4
+    fig = figure(3.2 * columns, 3.4 * -(-len(chosen) // columns))
     for index, key in enumerate(chosen):
-        ax = fig.add_subplot(1, len(chosen), index + 1)
+        ax = fig.add_subplot(-(-len(chosen) // columns), columns, index + 1)
         rgb = crops[key]
         ax.imshow(np.clip(rgb / np.percentile(rgb, 99), 0, 1) ** (1 / 2.2), interpolation="nearest")
         ax.set_title(f"{key[0]}, d = {key[1]:g}", fontsize=9)
