@@ -32,6 +32,7 @@ _LAZY = {
     "write_spectral_exr": ("spectral_exr", "write_spectral_exr"),
     "read_spectral_exr": ("spectral_exr", "read_spectral_exr"),
     "expose": ("sensor", "expose"),
+    "expose_photon_counting": ("sensor.photon_counting", "expose_photon_counting"),
     "RawImage": ("raw", "RawImage"),
     "write_dng": ("raw", "write_dng"),
     "read_raw": ("raw", "read_raw"),

@@ -48,6 +48,9 @@ def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str
             sizes[name] = header + (sensor.width_px + margin) * (sensor.height_px + margin) * 2.0
         elif name == "image":
             sizes[name] = pixels * sum(_IMAGE_BYTES_PER_PIXEL.get(f, 12) for f in config.isp.outputs)
+        elif name == "photon_counts":  # packed bits (or a byte a count), before compression
+            per_frame = (sensor.width_px + margin) * (sensor.height_px + margin) / (8.0 if sensor.jot_bits == 1 else 1.0)
+            sizes[name] = header + sensor.jot_frames * per_frame
         else:
             sizes[name] = 64e3  # scene.toml and a light's CSV
     return sizes

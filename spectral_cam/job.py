@@ -61,6 +61,7 @@ class Simulation:
     raw: "RawImage"  # noqa: F821
     developed: "DevelopedImage"  # noqa: F821
     timings_s: dict
+    photon_counts: "PhotonCountingCapture | None" = None  # noqa: F821  (sensor.kind "qis" or "spad")
 
 
 def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, float], None] | None = None,
@@ -106,13 +107,21 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     captured = render(plan, progress=progress)
     timings.update({f"render_{k}": v for k, v in captured.meta["timings_s"].items()})
     t0 = time.perf_counter()
-    raw = expose(captured, config)
+    counts = None
+    if config.sensor.kind == "cmos":
+        raw = expose(captured, config)
+    else:  # a single-photon sensor: its frames, and their reconstruction as the RAW the ISP develops
+        from .sensor.photon_counting import expose_photon_counting
+
+        counts = expose_photon_counting(captured, config)
+        raw = counts.to_raw()
+        raw.crop = captured.frame_window if hasattr(captured, "frame_window") else None
     radiance = captured.framed()
     timings["sensor"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     developed = develop(raw, config.isp)
     timings["isp"] = time.perf_counter() - t0
-    return Simulation(config, lens, radiance, raw, developed, timings)
+    return Simulation(config, lens, radiance, raw, developed, timings, counts)
 
 
 def _write_radiance(sim: Simulation, folder: Path, stem: str) -> list[Path]:
@@ -132,6 +141,12 @@ def _write_raw(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     from .raw import write_dng
 
     return [write_dng(sim.raw, folder / "raw.dng")]
+
+
+def _write_photon_counts(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    if sim.photon_counts is None:
+        return []
+    return [sim.photon_counts.save(folder / "photon_counts.npz")]
 
 
 def _write_image(sim: Simulation, folder: Path, stem: str) -> list[Path]:
@@ -186,7 +201,8 @@ def _write_illuminant(sim: Simulation, folder: Path, stem: str) -> list[Path]:
 
 
 _WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
-            "camera": _write_camera, "illuminant": _write_illuminant, "scene": _write_scene}
+            "camera": _write_camera, "illuminant": _write_illuminant, "scene": _write_scene,
+            "photon_counts": _write_photon_counts}
 #: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
 #: ``<stem>.<isp.outputs>``, camera.json, illuminant.json and scene.toml.
 RESULT_FILES = tuple(_WRITERS)
@@ -274,6 +290,8 @@ def render_job_files(config: SceneConfig, spectral_output: bool | None = None) -
     hold one, then depth, RAW, image, camera.json, illuminant.json and scene."""
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
     names = ["depth", "raw", "image", "camera", "illuminant", "scene"]
+    if config.sensor.kind != "cmos":
+        names.insert(2, "photon_counts")
     if spectral_output and config.render.bands != "camera":
         names.insert(0, "radiance")
     return names

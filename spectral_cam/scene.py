@@ -312,6 +312,30 @@ class IlluminantSection:
             spectra.validate_illuminant(self.spd)
 
 
+def _check_photon_counting(sensor) -> None:
+    """``sensor.kind`` and the single-photon keys (:mod:`spectral_cam.sensor.photon_counting`)."""
+    def whole(value, low, high):
+        return isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
+
+    def number(value, low, high):
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high
+
+    if sensor.kind not in ("cmos", "qis", "spad"):
+        _fail("sensor.kind", sensor.kind, "valid: 'cmos' (integrating, the EMVA 1288 model), 'qis' (a quanta image "
+              "sensor: binary or few-bit jots), 'spad' (single-photon avalanche diodes: dead time, afterpulsing)")
+    if not whole(sensor.jot_frames, 1, 65536):
+        _fail("sensor.jot_frames", sensor.jot_frames, "the frames of a single-photon capture, a whole number in 1..65536")
+    if not whole(sensor.jot_bits, 1, 8):
+        _fail("sensor.jot_bits", sensor.jot_bits, "bits per jot and frame, a whole number in 1..8")
+    if not number(sensor.dead_time_s, 0.0, 1.0):
+        _fail("sensor.dead_time_s", sensor.dead_time_s, "a SPAD's dead time in 0..1 s (tens of ns are typical)")
+    if not number(sensor.afterpulsing, 0.0, 1.0):
+        _fail("sensor.afterpulsing", sensor.afterpulsing, "a SPAD's afterpulsing probability in 0..1")
+    if sensor.kind != "spad" and (sensor.dead_time_s or sensor.afterpulsing):
+        _fail("sensor.dead_time_s" if sensor.dead_time_s else "sensor.afterpulsing",
+              sensor.dead_time_s or sensor.afterpulsing, "dead time and afterpulsing belong to sensor.kind = 'spad'")
+
+
 def _flicker_check(light) -> None:
     """The light's modulation in time (:mod:`spectral_cam.sensor.temporal`)."""
     def number(value):
@@ -424,6 +448,11 @@ class SensorSection:
     angular_response_deg: float | str | tuple = "off"
     shutter: str = "global"
     row_time_s: float = 10e-6
+    kind: str = "cmos"
+    jot_frames: int = 256
+    jot_bits: int = 1
+    dead_time_s: float = 0.0
+    afterpulsing: float = 0.0
 
     def __post_init__(self) -> None:
         for key in ("width_px", "height_px"):
@@ -467,6 +496,7 @@ class SensorSection:
         if self.shutter not in ("global", "rolling"):
             _fail("sensor.shutter", self.shutter, "valid: 'global' (every row at once), 'rolling' (row by row, "
                   "row_time_s apart)")
+        _check_photon_counting(self)
         if isinstance(self.row_time_s, bool) or not isinstance(self.row_time_s, (int, float)) \
                 or not 0 < self.row_time_s <= 0.01:
             _fail("sensor.row_time_s", self.row_time_s, "must be the readout time of one row in (0, 0.01] s "

@@ -170,6 +170,10 @@ def expose(
     config = _with_scene_light(config, radiance)
     sensor, exposure = config.sensor, config.exposure
     frame_seed = config.render.seed if frame_seed is None else frame_seed
+    if getattr(sensor, "kind", "cmos") != "cmos":
+        raise SensorError(f"sensor.kind = {sensor.kind!r} counts single photons: expose it with "
+                          "spectral_cam.expose_photon_counting (its reconstruction's to_raw() is the RAW); "
+                          "expose() is the integrating CMOS sensor (sensor.kind = 'cmos')")
     _check_expose_arguments(radiance, sensor, frame_seed, shot_noise_method)
     model = signal_model(radiance, config)
     timings["setup"] = time.perf_counter() - started

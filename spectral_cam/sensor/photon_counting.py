@@ -1,0 +1,245 @@
+"""Single-photon sensors: quanta image sensors (QIS) and SPAD arrays, from the same spectral radiance.
+
+A jot (a QIS pixel) or a SPAD counts photo-detections in each of F short frames. Its mean number of
+detections per frame, H = (rate·η + DCR)·t_f, comes from the camera equation with the photon
+detection efficiency η(λ) of the sensor's spectral curves (the CMOS model's QE, ``peak_qe`` included)
+and the dark count rate DCR (``sensor.dark_current_e_per_s``: thermal carriers trigger counts as they
+add dark current). Per frame the detections are Poisson(H), read out with ``jot_bits`` bits (a count
+saturating at 2^b − 1; one bit: "any photon"). A SPAD (``kind = "spad"``) has a dead time τ after
+each detection (a non-paralysable counter: P(N ≥ n) = P(Γ(n, λ) ≤ t_f − (n − 1)τ), λ = H/t_f) and
+afterpulses (each detection adds one more with probability p_ap).
+
+Reconstruction: the per-jot mean count S/F inverts the expected count E[N](H) of the model (for one
+bit 1 − e^(−H), so Ĥ = −ln(1 − S/F): the maximum-likelihood estimate of binary frames), minus the dark
+counts; its standard error for one bit is √((e^H − 1)/F) (the Fisher information of F Bernoulli
+frames). The reconstruction is also a RawImage (linear, the CFA's, black 0) that the ISP develops.
+
+References
+----------
+.. [1] Fossum, E. R. (2005). What to do with sub-diffraction-limit (SDL) pixels? — A proposal for a
+   gigapixel digital film sensor (DFS). IEEE Workshop on CCDs and Advanced Image Sensors.
+.. [2] Yang, F., Lu, Y. M., Sbaiz, L., & Vetterli, M. (2012). Bits from photons: oversampled image
+   acquisition using binary Poisson statistics. IEEE Trans. Image Process. 21(4), 1421–1436 (the
+   MLE −ln(1 − S/F)).
+.. [3] Müller, J. W. (1973). Dead-time problems. Nucl. Instrum. Methods 112, 47–57 (counting with a
+   non-paralysable dead time).
+.. [4] Ma, S., Gupta, S., Ulku, A. C., Bruschini, C., Charbon, E., & Gupta, M. (2020). Quanta burst
+   photography. ACM Trans. Graph. 39(4) (SPAD binary frames, dark counts).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError, SensorError
+
+__all__ = ["PhotonCountingCapture", "expose_photon_counting", "expected_count", "SENSOR_KINDS"]
+
+#: ``sensor.kind`` choices.
+SENSOR_KINDS = ("cmos", "qis", "spad")
+
+
+def expected_count(h, *, bits: int, frame_s: float, dead_time_s: float = 0.0) -> np.ndarray:
+    """E[min(N, 2^b − 1)] of one frame for a mean of ``h`` detections without dead time.
+
+    P(N ≥ n) = P(Γ(n, λ) ≤ t_f − (n − 1)·τ) with λ = h/t_f (Poisson counts when τ = 0).
+    """
+    from scipy.special import gammainc
+
+    h = np.asarray(h, dtype=np.float64)
+    rate = h / frame_s
+    total = np.zeros_like(h)
+    for n in range(1, 2 ** bits):
+        window = frame_s - (n - 1) * dead_time_s
+        if window <= 0:
+            break
+        total += gammainc(n, rate * window)
+    return total
+
+
+#: Where ``exposure.time_s = "auto"`` puts the reference's mean count, as a share of a frame's range:
+#: one bit at 1 − e^(−H) = 0.8 (H = 1.6), b bits at 0.8·(2^b − 1).
+AUTO_SHARE = 0.8
+
+
+def auto_detections(bits: int) -> float:
+    """Mean detections per frame the auto exposure gives the reference (white) jots."""
+    return -np.log(1.0 - AUTO_SHARE) if bits == 1 else AUTO_SHARE * (2 ** bits - 1)
+
+
+def _inverse_table(bits: int, frame_s: float, dead_time_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(h, E[count]) on a log grid of h, for inverting the mean count."""
+    h = np.concatenate([[0.0], np.geomspace(1e-6, 60.0 * 2 ** bits, 4000)])
+    return h, expected_count(h, bits=bits, frame_s=frame_s, dead_time_s=dead_time_s)
+
+
+@dataclass
+class PhotonCountingCapture:
+    """The frames of a single-photon sensor and what they were.
+
+    Attributes
+    ----------
+    counts : numpy.ndarray
+        (F, H, W) uint8 detections per frame and jot (0/1 for one bit).
+    cfa : str
+        The colour filter array over the jots (``"none"``: monochrome).
+    kind, bits, frame_s, dark_count_rate_hz, dead_time_s, afterpulsing
+        The sensor.
+    meta : dict
+        The record (the CMOS RAW's fields that apply, and the mean detections per frame).
+    colour : dict
+        The colour metadata a CMOS RAW of the same light carries (for :meth:`to_raw`; not saved).
+    """
+
+    counts: np.ndarray
+    cfa: str
+    kind: str
+    bits: int
+    frame_s: float
+    dark_count_rate_hz: float
+    dead_time_s: float = 0.0
+    afterpulsing: float = 0.0
+    meta: dict = field(default_factory=dict)
+    colour: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def frames(self) -> int:
+        return int(self.counts.shape[0])
+
+    def sum(self) -> np.ndarray:
+        """(H, W) float64 detections summed over the frames."""
+        return self.counts.sum(axis=0, dtype=np.float64)
+
+    def reconstruct(self) -> np.ndarray:
+        """(H, W) estimated photo-detections per frame from the light, Ĥ − DCR·t_f (see the module).
+
+        Jots whose every frame saturated are given the estimate of half a frame short of that."""
+        cap = 2 ** self.bits - 1
+        mean = self.sum() / self.frames
+        mean = np.minimum(mean, cap * (1.0 - 0.5 / self.frames))
+        h, table = _inverse_table(self.bits, self.frame_s, self.dead_time_s)
+        estimate = np.interp(mean, table, h)
+        return estimate - self.dark_count_rate_hz * self.frame_s
+
+    def standard_error(self) -> np.ndarray:
+        """(H, W) predicted standard error of :meth:`reconstruct` for one-bit frames: √((e^H − 1)/F)."""
+        if self.bits != 1:
+            raise ConfigError("the closed-form standard error holds for one-bit frames (jot_bits = 1)")
+        h = self.reconstruct() + self.dark_count_rate_hz * self.frame_s
+        return np.sqrt(np.expm1(np.maximum(h, 0.0)) / self.frames)
+
+    def to_raw(self, *, colour: dict | None = None):
+        """The reconstruction as a linear RawImage (black 0, white 65535 at the largest estimate the
+        frames can give), with the CFA and the colour metadata of a CMOS capture of the same light."""
+        from ..raw import RawImage
+
+        cap = 2 ** self.bits - 1
+        h, table = _inverse_table(self.bits, self.frame_s, self.dead_time_s)
+        top = float(np.interp(cap * (1.0 - 0.5 / self.frames), table, h))
+        mosaic = np.clip(np.round(self.reconstruct() / top * 65535.0), 0, 65535).astype(np.uint16)
+        colour = colour or self.colour or {}
+        return RawImage(mosaic=mosaic, cfa=self.cfa, black_level=0.0, white_level=65535,
+                        color_matrix=colour.get("matrix"), as_shot_neutral=colour.get("neutral"),
+                        color_matrix_2=colour.get("matrix_a"), forward_matrix=colour.get("forward"),
+                        forward_matrix_2=colour.get("forward_a"), hue_sat_map=colour.get("hue_sat"),
+                        hue_sat_map_2=colour.get("hue_sat_a"),
+                        camera_model=self.meta.get("camera_model", ""),
+                        meta={**self.meta, "reconstruction": "maximum likelihood from the mean count",
+                              "detections_per_frame_at_white": top})
+
+    def save(self, path) -> Path:
+        """An NPZ: ``bits`` (packed along the frames' rows, NumPy's packbits) or ``counts`` (several
+        bits), and ``meta`` (JSON: kind, frames, shape, bits, frame time, DCR, dead time, afterpulsing,
+        CFA, the record)."""
+        from ..io import atomic_path
+
+        path = Path(path)
+        record = {"kind": self.kind, "frames": self.frames, "shape": list(self.counts.shape[1:]), "bits": self.bits,
+                  "frame_s": self.frame_s, "dark_count_rate_hz": self.dark_count_rate_hz,
+                  "dead_time_s": self.dead_time_s, "afterpulsing": self.afterpulsing, "cfa": self.cfa,
+                  "layout": "bits: numpy.packbits(counts.astype(bool), axis=-1); unpack with "
+                            "numpy.unpackbits(bits, axis=-1, count=shape[1])" if self.bits == 1 else "counts: uint8",
+                  "meta": self.meta}
+        arrays = {"bits": np.packbits(self.counts.astype(bool), axis=-1)} if self.bits == 1 else {"counts": self.counts}
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as handle:
+                np.savez_compressed(handle, meta=np.array(json.dumps(record, default=float)), **arrays)
+        return path
+
+
+def _draw_counts(h: np.ndarray, frames: int, *, bits: int, frame_s: float, dead_time_s: float, afterpulsing: float,
+                 rng: np.random.Generator) -> np.ndarray:
+    """(F, H, W) uint8 detections: Poisson(h) per frame, or the dead-time counter, capped at 2^b − 1."""
+    cap = 2 ** bits - 1
+    out = np.empty((frames, *h.shape), dtype=np.uint8)
+    if dead_time_s == 0 or bits == 1:
+        for f in range(frames):
+            out[f] = np.minimum(rng.poisson(h), cap)
+    else:
+        from scipy.special import gammainc
+
+        rate = h / frame_s
+        survival = np.stack([gammainc(n, rate * max(frame_s - (n - 1) * dead_time_s, 0.0))
+                             for n in range(1, cap + 1)])  # P(N >= n)
+        for f in range(frames):
+            u = rng.random(h.shape)
+            out[f] = np.sum(u[None] < survival, axis=0)
+    if afterpulsing > 0 and bits > 1:
+        for f in range(frames):
+            out[f] = np.minimum(out[f] + rng.binomial(out[f], afterpulsing), cap)
+    return out
+
+
+def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
+                           white_mask: np.ndarray | None = None) -> PhotonCountingCapture:
+    """Expose a single-photon sensor (``sensor.kind = "qis"`` or ``"spad"``) to a radiance image.
+
+    The exposure time (fixed, or ``"auto"`` metered as for the CMOS sensor) is split into
+    ``sensor.jot_frames`` frames; each jot's mean detections per frame come from the camera equation
+    through its CFA colour (the same rates as :func:`spectral_cam.expose`) plus the dark counts.
+
+    Returns
+    -------
+    PhotonCountingCapture
+
+    References
+    ----------
+    .. [1] Yang et al. (2012), IEEE TIP 21(4) (binary Poisson frames); Fossum (2005).
+    """
+    from . import _colour_metadata, _with_scene_light
+    from .metered_exposure import resolve_exposure
+    from .radiometry import electron_rates, signal_model, validate_radiance
+
+    config = _with_scene_light(config, radiance)
+    sensor = config.sensor
+    if sensor.kind not in ("qis", "spad"):
+        raise SensorError(f"sensor.kind = {sensor.kind!r}: photon counting needs 'qis' or 'spad'")
+    validate_radiance(radiance, sensor)
+    model = signal_model(radiance, config)
+    rate = electron_rates(radiance.data, model.weights, cfa=sensor.cfa, cos4=model.cos4, olpf_px=model.olpf_px,
+                          channel_gain=model.channel_gain)
+    exposure_s, reference_rate = resolve_exposure(radiance, config, model, white_mask=white_mask)
+    frames = int(sensor.jot_frames)
+    if config.exposure.time_s == "auto" and reference_rate:
+        # metered for the jots: the reference (the white, or the 99th percentile) at AUTO_DETECTIONS of the
+        # frame's range, as the CMOS meter puts it below the full well
+        exposure_s = frames * auto_detections(int(sensor.jot_bits)) / float(reference_rate)
+    frame_s = exposure_s / frames
+    h = (rate.astype(np.float64) + sensor.dark_current_e_per_s) * frame_s
+    seed = config.render.seed if frame_seed is None else frame_seed
+    rng = np.random.default_rng([int(sensor.seed), int(seed), 0x51])
+    dead = sensor.dead_time_s if sensor.kind == "spad" else 0.0
+    afterpulsing = sensor.afterpulsing if sensor.kind == "spad" else 0.0
+    counts = _draw_counts(h, frames, bits=int(sensor.jot_bits), frame_s=frame_s, dead_time_s=dead,
+                          afterpulsing=afterpulsing, rng=rng)
+    colour = _colour_metadata(radiance, config, model)
+    meta = {"exposure_s": exposure_s, "frame_s": frame_s, "frames": frames, "kind": sensor.kind,
+            "mean_detections_per_frame": float(h.mean()), "photon_detection_efficiency_peak": sensor.peak_qe,
+            "dark_count_rate_hz": sensor.dark_current_e_per_s, "camera_model": f"spectral_cam {sensor.model}",
+            "seeds": {"sensor": int(sensor.seed), "frame": int(seed)}, "model": sensor.model}
+    return PhotonCountingCapture(counts, sensor.cfa, sensor.kind, int(sensor.jot_bits), frame_s,
+                                 float(sensor.dark_current_e_per_s), dead, afterpulsing, meta, colour)
