@@ -6,8 +6,10 @@ The scene validation, the sensor, the DNG writer and reader, the ISP stages and 
 A CFA is named by its 2×2 tile read row by row from the top-left pixel ("RGGB" has red at
 (0, 0), green at (0, 1) and (1, 0), blue at (1, 1)), the DNG CFAPattern convention. Two larger
 repeating tiles are named by their kind: ``"XTRANS"`` (Fujifilm's 6×6: 20 green, 8 red, 8 blue, every
-row and column holding all three; the tile dcraw and LibRaw use) and ``"QUAD_RGGB"`` (Quad Bayer:
-each site of an RGGB tile a 2×2 cell of one colour, a 4×4 tile; Sony's IMX586 and phones since 2018).
+row and column holding all three; the tile dcraw and LibRaw use), ``"QUAD_RGGB"`` (Quad Bayer:
+each site of an RGGB tile a 2×2 cell of one colour, a 4×4 tile; Sony's IMX586 and phones since 2018)
+and ``"RGBW"`` (Kodak's CFA 2.0: a checkerboard of unfiltered white pixels, channel 3, around a
+Bayer tile at twice the scale).
 OpenCV names a Bayer pattern by the tile that starts at pixel (1, 1) instead, so RGGB is
 OpenCV's ``BayerBG``.
 
@@ -19,6 +21,8 @@ References
 .. [4] Fujifilm (2012). X-Trans CMOS sensor (the 6×6 aperiodic-looking array); Coffin, D., dcraw.c
    (its ``xtrans`` table, LibRaw's too).
 .. [5] Sony Semiconductor Solutions (2018). IMX586 "Quad Bayer coding" (2×2 same-colour cells).
+.. [6] Compton, J. T., & Hamilton, J. F. (2007). Image sensor with improved light sensitivity.
+   US Patent 8,139,130 (Kodak's panchromatic "CFA 2.0" patterns).
 """
 
 from __future__ import annotations
@@ -44,6 +48,9 @@ __all__ = [
     "cfa_pattern",
     "is_bayer",
     "cfa_period",
+    "channel_count",
+    "WHITE",
+    "DNG_WHITE_CODE",
 ]
 
 #: The 2×2 Bayer tiles, read row by row from the top-left pixel.
@@ -60,7 +67,15 @@ EXTENDED_PATTERNS = {
                   (0, 0, 1, 1),
                   (1, 1, 2, 2),
                   (1, 1, 2, 2)),
+    # Kodak's "CFA 2.0" (Compton & Hamilton 2007): half the pixels panchromatic (W, code 3) on a
+    # checkerboard, the other half a Bayer tile at twice the scale
+    "RGBW": ((3, 1, 3, 0),
+             (1, 3, 0, 3),
+             (3, 2, 3, 1),
+             (2, 3, 1, 3)),
 }
+#: The white (panchromatic, unfiltered) channel's index in an RGBW tile; DNG's CFA colour code for white.
+WHITE, DNG_WHITE_CODE = 3, 6
 #: A sensor without a colour filter array (one channel, flat QE).
 MONOCHROME = "none"
 #: Every CFA a sensor, RAW or analysis accepts.
@@ -133,6 +148,13 @@ def cfa_pattern(cfa: str) -> np.ndarray:
     if name in EXTENDED_PATTERNS:
         return np.array(EXTENDED_PATTERNS[name], dtype=np.uint8)
     return np.array([_CHANNEL[c] for c in name], dtype=np.uint8).reshape(2, 2)
+
+
+def channel_count(cfa: str) -> int:
+    """Colour channels a CFA samples: 1 (monochrome), 3 (R, G, B) or 4 (R, G, B, W)."""
+    if str(cfa).lower() == MONOCHROME:
+        return 1
+    return int(cfa_pattern(cfa).max()) + 1
 
 
 def cfa_period(cfa: str) -> tuple[int, int]:
@@ -247,13 +269,13 @@ def tile_gain_map(shape: tuple[int, int], cfa: str, values) -> np.ndarray:
     cfa
         Bayer tile name.
     values
-        Three numbers (R, G, B).
+        One number per channel (R, G, B; and W for RGBW).
 
     References
     ----------
     .. [1] Adobe (2023). DNG Specification 1.7.1.0, CFAPattern.
     """
-    lut = np.asarray(values, dtype=np.float32).reshape(3)
+    lut = np.asarray(values, dtype=np.float32).reshape(channel_count(cfa))
     return lut[channel_index(shape, cfa)]
 
 

@@ -356,7 +356,10 @@ def _dng(raw, gains, supplied):
     if raw.color_matrix is None:
         raise ConfigError("isp.colour_matrix = 'dng' needs the RAW's ColorMatrix1; this RAW has none "
                           "(use 'fitted' with a supplied matrix, or 'none')")
-    return dng_camera_to_xyz_d65(raw.color_matrix, 1.0 / gains, color_matrix_2=getattr(raw, "color_matrix_2", None))
+    second = getattr(raw, "color_matrix_2", None)
+    # an RGBW RAW's fourth plane (white) is developed as luminance: the colour rows are R, G, B
+    return dng_camera_to_xyz_d65(np.asarray(raw.color_matrix)[:3], 1.0 / np.asarray(gains)[:3],
+                                 color_matrix_2=None if second is None else np.asarray(second)[:3])
 
 
 def dng_profile_camera_to_xyz_d65(raw, neutral):
@@ -388,10 +391,11 @@ def dng_profile_camera_to_xyz_d65(raw, neutral):
     if forward is None:
         raise ConfigError("isp.colour_matrix = 'dng_profile' needs the RAW's ForwardMatrix; this RAW has none "
                           "(valid: 'dng', 'fitted', 'none')")
-    forward = np.asarray(forward, dtype=np.float64)
+    forward = np.asarray(forward, dtype=np.float64)[:, :3]  # R, G, B (an RGBW RAW's white is luminance)
+    neutral = np.asarray(neutral, dtype=np.float64)[:3]
     if raw.forward_matrix_2 is not None and raw.color_matrix is not None and raw.color_matrix_2 is not None:
-        weight = calibration_weight(raw.color_matrix, raw.color_matrix_2, neutral)
-        forward = weight * forward + (1 - weight) * np.asarray(raw.forward_matrix_2, dtype=np.float64)
+        weight = calibration_weight(np.asarray(raw.color_matrix)[:3], np.asarray(raw.color_matrix_2)[:3], neutral)
+        forward = weight * forward + (1 - weight) * np.asarray(raw.forward_matrix_2, dtype=np.float64)[:, :3]
         if hue_sat is not None and getattr(raw, "hue_sat_map_2", None) is not None:
             hue_sat = hue_sat.blend(raw.hue_sat_map_2, weight)
     d50 = PROPHOTO_TO_XYZ_D50 @ np.ones(3)

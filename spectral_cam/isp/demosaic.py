@@ -50,7 +50,7 @@ from ..errors import ConfigError
 from ..registry import Registry
 
 __all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "vng", "ea", "colour_difference",
-           "quad_binning", "quad_remosaic", "method_for", "CFA_METHODS", "bayer_methods"]
+           "quad_binning", "quad_remosaic", "rgbw_fusion", "method_for", "CFA_METHODS", "bayer_methods"]
 
 _F32 = np.float32
 
@@ -475,7 +475,7 @@ def _radii(cfa: str) -> tuple[int, int, int]:
 
 
 def colour_difference(mosaic: np.ndarray, cfa: str) -> np.ndarray:
-    """Any CFA (Bayer, X-Trans, Quad Bayer): green by normalised masked convolution, then R − G and
+    """Any CFA (Bayer, X-Trans, Quad Bayer; RGBW without its white): green by normalised masked convolution, then R − G and
     B − G at the red and blue sites interpolated the same way and added to green — colour varies
     more slowly than luminance, so the differences interpolate with fewer fringes than the colours
     themselves (Adams 1997). Measured samples are kept.
@@ -553,11 +553,38 @@ def quad_remosaic(mosaic: np.ndarray, cfa: str) -> np.ndarray:
 
 def bayer_methods() -> list[str]:
     """The registered methods that take a 2×2 Bayer mosaic (all but the Quad Bayer ones)."""
-    return [name for name in DEMOSAIC if name not in ("quad_binning", "quad_remosaic")]
+    return [name for name in DEMOSAIC if name not in ("quad_binning", "quad_remosaic", "rgbw_fusion")]
+
+
+def rgbw_fusion(mosaic: np.ndarray, cfa: str) -> np.ndarray:
+    """RGBW fused: the white (panchromatic) pixels, half the mosaic, give the luminance detail; each
+    colour is white plus its difference from white, interpolated over that colour's sparse sites
+    (normalised masked convolution). After white balance a neutral has R = G = B = W, so the
+    differences are the chroma, which varies slowly — the fusion of a panchromatic CFA's two halves.
+
+    References
+    ----------
+    .. [1] Compton & Hamilton (2007), US 8,139,130 (panchromatic and colour pixels combined).
+    .. [2] Adams (1997), Proc. SPIE 3028 (colour-difference interpolation).
+    """
+    from ..cfa import WHITE
+
+    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
+    if check_cfa(cfa, allow_extended=True) != "RGBW":
+        raise ConfigError(f"rgbw_fusion needs an RGBW mosaic; this one is {cfa}")
+    index = channel_index(mosaic.shape, cfa)
+    white_mask = (index == WHITE).astype(_F32)
+    white = np.where(white_mask > 0, mosaic, _masked_mean(mosaic, white_mask, 1))
+    out = np.empty((*mosaic.shape, 3), dtype=_F32)
+    for c, radius in ((0, 3), (1, 2), (2, 3)):
+        mask = (index == c).astype(_F32)
+        out[..., c] = np.where(mask > 0, mosaic, white + _masked_mean(mosaic - white, mask, radius))
+    return out
 
 
 #: The methods that take each larger tile, the first its default (:func:`method_for`).
-CFA_METHODS = {"XTRANS": ("colour_difference",), "QUAD_RGGB": ("quad_remosaic", "quad_binning", "colour_difference")}
+CFA_METHODS = {"XTRANS": ("colour_difference",), "QUAD_RGGB": ("quad_remosaic", "quad_binning", "colour_difference"),
+               "RGBW": ("rgbw_fusion",)}
 
 
 def method_for(cfa: str, asked: str) -> str:
@@ -565,8 +592,9 @@ def method_for(cfa: str, asked: str) -> str:
     Bayer mosaic becomes ``colour_difference`` or ``quad_remosaic`` (the develop records it)."""
     name = check_cfa(cfa, allow_extended=True)
     if is_bayer(name):
-        if asked in ("quad_binning", "quad_remosaic"):
-            raise ConfigError(f"demosaic {asked!r} needs a QUAD_RGGB mosaic; this one is {name}")
+        if asked in ("quad_binning", "quad_remosaic", "rgbw_fusion"):
+            raise ConfigError(f"demosaic {asked!r} needs a {'RGBW' if asked == 'rgbw_fusion' else 'QUAD_RGGB'} "
+                              f"mosaic; this one is {name}")
         return asked
     return asked if asked in CFA_METHODS[name] else CFA_METHODS[name][0]
 
@@ -582,6 +610,7 @@ DEMOSAIC.add("colour_difference", colour_difference,
              description="any CFA (X-Trans, Quad Bayer, Bayer): green, then colour differences, masked convolution")
 DEMOSAIC.add("quad_remosaic", quad_remosaic, description="Quad Bayer remosaiced to RGGB, then menon2007")
 DEMOSAIC.add("quad_binning", quad_binning, description="Quad Bayer 2×2 cells binned, menon2007, upsampled")
+DEMOSAIC.add("rgbw_fusion", rgbw_fusion, description="RGBW: white pixels for luminance, colour differences")
 
 
 def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", *, method: str = "malvar2004") -> np.ndarray:

@@ -257,7 +257,8 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None, shading
     timings["highlights"] = clock() - t
 
     t = clock()
-    transform, source = (None, "none") if monochrome else colour_transform(raw, config.colour_matrix, gains, camera_to_xyz)
+    transform, source = (None, "none") if monochrome else colour_transform(raw, config.colour_matrix, gains[:3],
+                                                                             camera_to_xyz)
     scene = rgb if transform is None else camera_to_linear_srgb(rgb, transform)
     timings["colour"] = clock() - t
 

@@ -105,11 +105,11 @@ def _terms(shape, degree: int, *, centre: bool = False, rows=None, cols=None) ->
 
 
 def _channels(cfa: str, shape) -> tuple[np.ndarray, int]:
-    from ..cfa import channel_index
+    from ..cfa import channel_count, channel_index
 
     if str(cfa).lower() == "none":
         return np.zeros(shape, dtype=np.intp), 1
-    return channel_index(shape, cfa).astype(np.intp), 3
+    return channel_index(shape, cfa).astype(np.intp), channel_count(cfa)
 
 
 def calibrate_flat_field(raw, *, degree: int = DEFAULT_DEGREE) -> ShadingTable:

@@ -26,10 +26,18 @@ __all__ = ["WHITE_BALANCE", "white_balance_gains", "apply_white_balance"]
 
 
 def _normalised(gains) -> np.ndarray:
-    gains = np.asarray(gains, dtype=np.float64).reshape(3)
-    if not np.all(np.isfinite(gains)) or np.any(gains <= 0):
-        raise ConfigError(f"white-balance gains must be three finite numbers > 0; got {gains.tolist()}")
+    """Gains (three, or four for RGBW) over their smallest."""
+    gains = np.asarray(gains, dtype=np.float64).ravel()
+    if gains.size not in (3, 4) or not np.all(np.isfinite(gains)) or np.any(gains <= 0):
+        raise ConfigError(f"white-balance gains must be three (R, G, B) or four (R, G, B, W) finite numbers > 0; "
+                          f"got {gains.tolist()}")
     return gains / gains.min()
+
+
+def _channels(cfa) -> int:
+    from ..cfa import channel_count
+
+    return 3 if str(cfa).lower() in ("none", "linear") else channel_count(cfa)
 
 
 def _usable(mosaic: np.ndarray, cfa: str, saturation: float):
@@ -51,7 +59,7 @@ def _as_shot(mosaic, cfa, *, as_shot_neutral=None, saturation=1.0, **_):
 def _grey_world(mosaic, cfa, *, saturation=1.0, **_):
     index, ok = _usable(mosaic, cfa, saturation)
     means = np.array([mosaic[(index == c) & ok].mean() if np.any((index == c) & ok) else np.nan
-                      for c in range(3)])
+                      for c in range(_channels(cfa))])
     if not np.all(means > 0):
         raise ConfigError("grey-world white balance needs unclipped signal in all three channels")
     return _normalised(means[1] / means)
@@ -60,7 +68,7 @@ def _grey_world(mosaic, cfa, *, saturation=1.0, **_):
 def _white_patch(mosaic, cfa, *, saturation=1.0, percentile=99.0, **_):
     index, ok = _usable(mosaic, cfa, saturation)
     tops = np.array([np.percentile(mosaic[(index == c) & ok], percentile) if np.any((index == c) & ok)
-                     else np.nan for c in range(3)])
+                     else np.nan for c in range(_channels(cfa))])
     if not np.all(tops > 0):
         raise ConfigError("white-patch white balance needs unclipped signal in all three channels")
     return _normalised(tops[1] / tops)
@@ -69,6 +77,9 @@ def _white_patch(mosaic, cfa, *, saturation=1.0, percentile=99.0, **_):
 def _manual(mosaic, cfa, *, gains=None, **_):
     if gains is None or len(gains) != 3:
         raise ConfigError("white_balance = 'manual' needs isp.wb_gains = [R, G, B]")
+    if _channels(cfa) == 4:  # RGBW: white as the three's sum would be balanced, over green's gain
+        raise ConfigError("white_balance = 'manual' takes R, G, B gains; an RGBW RAW needs 'as_shot', 'grey_world' "
+                          "or 'white_patch' (its white pixels need their own gain)")
     return _normalised(gains)
 
 

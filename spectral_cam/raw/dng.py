@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cfa import LINEAR, cfa_pattern
+from ..cfa import DNG_WHITE_CODE, LINEAR, WHITE, channel_count, cfa_pattern
 from ..errors import RawFormatError
 from ..io import atomic_path
 from .image import RawImage, check_raw
@@ -119,11 +119,14 @@ def _ascii(text: str) -> str:
     return text.encode("ascii", "replace").decode("ascii") or "unknown"
 
 
-def _matrix_tag(name: str, matrix) -> tuple:
+def _matrix_tag(name: str, matrix, planes: int = 3) -> tuple:
+    """ColorMatrix (planes × 3) or ForwardMatrix (3 × planes) as SRATIONALs (DNG ch. 6)."""
     matrix = np.asarray(matrix, dtype=float)
-    if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-        raise RawFormatError(f"{name} must be a finite 3×3 array; got shape {matrix.shape}")
-    return (DNG_TAGS[name], _TIFF_SRATIONAL, 9, _rationals(matrix, signed=True), True)
+    shape = (3, planes) if name.startswith("Forward") else (planes, 3)
+    if matrix.shape != shape or not np.all(np.isfinite(matrix)):
+        raise RawFormatError(f"{name} must be a finite {shape[0]}×{shape[1]} array for {planes} colour planes; "
+                             f"got shape {matrix.shape}")
+    return (DNG_TAGS[name], _TIFF_SRATIONAL, matrix.size, _rationals(matrix, signed=True), True)
 
 
 def _colour_tags(raw: RawImage) -> list[tuple]:
@@ -142,11 +145,12 @@ def _colour_tags(raw: RawImage) -> list[tuple]:
                                                    or len({hsm.dims for hsm in maps}) > 1):
         raise RawFormatError("hue/sat maps: give one per calibration (hue_sat_map, and hue_sat_map_2 with "
                              "color_matrix_2), all of the same divisions (DNG ProfileHueSatMapDims is shared)")
+    planes = channel_count(raw.cfa) if raw.cfa != LINEAR else 3
     for number, (illuminant, matrix, forward, hue_sat) in enumerate(calibrations, start=1):
-        tags += [_matrix_tag(f"ColorMatrix{number}", matrix),
+        tags += [_matrix_tag(f"ColorMatrix{number}", matrix, planes),
                  (DNG_TAGS[f"CalibrationIlluminant{number}"], _TIFF_SHORT, 1, (illuminant,), True)]
         if forward is not None:
-            tags.append(_matrix_tag(f"ForwardMatrix{number}", forward))
+            tags.append(_matrix_tag(f"ForwardMatrix{number}", forward, planes))
         if hue_sat is not None:
             data = hue_sat.dng_data()
             tags.append((DNG_TAGS[f"ProfileHueSatMapData{number}"], _TIFF_FLOAT, data.size,
@@ -371,19 +375,23 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     tags.append((DNG_TAGS["WhiteLevel"], _TIFF_LONG, samples, (int(raw.white_level),) * samples, True))
     if not monochrome:
         if not linear:
-            pattern = cfa_pattern(raw.cfa)  # 2×2 Bayer, 6×6 X-Trans, 4×4 Quad Bayer
+            pattern = cfa_pattern(raw.cfa)  # 2×2 Bayer, 6×6 X-Trans, 4×4 Quad Bayer or RGBW
+            codes = np.where(pattern == WHITE, DNG_WHITE_CODE, pattern)  # TIFF/EP colour codes: white is 6
+            plane_colours = (0, 1, 2, DNG_WHITE_CODE) if channel_count(raw.cfa) == 4 else (0, 1, 2)
             tags += [
                 (DNG_TAGS["CFARepeatPatternDim"], _TIFF_SHORT, 2, tuple(int(n) for n in pattern.shape), True),
-                (DNG_TAGS["CFAPattern"], _TIFF_BYTE, pattern.size, tuple(int(c) for c in pattern.ravel()), True),
-                (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, 3, (0, 1, 2), True),
+                (DNG_TAGS["CFAPattern"], _TIFF_BYTE, pattern.size, tuple(int(c) for c in codes.ravel()), True),
+                (DNG_TAGS["CFAPlaneColor"], _TIFF_BYTE, len(plane_colours), plane_colours, True),
                 (DNG_TAGS["CFALayout"], _TIFF_SHORT, 1, (1,), True),
             ]
         tags += _colour_tags(raw)
         if raw.as_shot_neutral is not None:
             neutral = np.asarray(raw.as_shot_neutral, dtype=float)
-            if neutral.shape != (3,) or not np.all(neutral > 0):
-                raise RawFormatError(f"as_shot_neutral must be three positive numbers; got {neutral}")
-            tags.append((DNG_TAGS["AsShotNeutral"], _TIFF_RATIONAL, 3, _rationals(neutral, signed=False), True))
+            planes = channel_count(raw.cfa) if raw.cfa != LINEAR else 3
+            if neutral.shape != (planes,) or not np.all(neutral > 0):
+                raise RawFormatError(f"as_shot_neutral must be {planes} positive numbers (one per colour plane); "
+                                     f"got {neutral}")
+            tags.append((DNG_TAGS["AsShotNeutral"], _TIFF_RATIONAL, planes, _rationals(neutral, signed=False), True))
     tags += _rendering_tags(raw)
     calibration = (raw.meta or {}).get("colour_calibration")
     if calibration and raw.color_matrix is not None:  # which reflectances the matrices were fitted on

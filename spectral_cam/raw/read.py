@@ -21,7 +21,7 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
-from ..cfa import EXTENDED_PATTERNS, LINEAR
+from ..cfa import DNG_WHITE_CODE, EXTENDED_PATTERNS, LINEAR, WHITE, channel_count
 from ..errors import ConfigError, RawFormatError
 from .dng import DNG_TAGS, ILLUMINANT_A
 from .image import RawImage
@@ -91,7 +91,7 @@ def _tiff_extras(path: Path) -> dict:
                              "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2", "WhiteLevel",
                              "DefaultCropOrigin", "DefaultCropSize", "BaselineExposure", "ProfileToneCurve",
                              "ForwardMatrix1", "ForwardMatrix2", "ProfileHueSatMapDims", "ProfileHueSatMapData1",
-                             "ProfileHueSatMapData2"):
+                             "ProfileHueSatMapData2", "AsShotNeutral"):
                     tag = tags.get(DNG_TAGS[name])
                     if tag is not None and name not in extras:
                         extras[name] = tag.value
@@ -276,7 +276,8 @@ def _declared_tile(ifds: list[_Ifd]) -> str | None:
     for ifd in ifds:
         if ifd.top_level and ifd.photometric == 32803 and len(ifd.cfa_dims) == 2 and ifd.cfa_dims != (2, 2):
             for name, tile in EXTENDED_PATTERNS.items():
-                if tuple(ifd.cfa_dims) == np.array(tile).shape and tuple(ifd.cfa_pattern) == tuple(np.ravel(tile)):
+                codes = np.where(np.array(tile) == WHITE, DNG_WHITE_CODE, np.array(tile))
+                if tuple(ifd.cfa_dims) == codes.shape and tuple(ifd.cfa_pattern) == tuple(codes.ravel()):
                     return name
     return None
 
@@ -359,18 +360,21 @@ def _size_hint(path: Path) -> str:
 _TUNGSTEN_CODES = (ILLUMINANT_A, 3)
 
 
-def _rational_matrix(value) -> np.ndarray | None:
-    """A 3×3 matrix from a TIFF (S)RATIONAL tag as tifffile returns it (values or num/den pairs)."""
+def _rational_matrix(value, shape: tuple[int, int] | None = None) -> np.ndarray | None:
+    """A matrix from a TIFF (S)RATIONAL tag as tifffile returns it (values or num/den pairs): 3×3, or
+    ``shape`` (a four-plane RGBW DNG's 4×3 ColorMatrix, 3×4 ForwardMatrix)."""
+    shape = (3, 3) if shape is None else shape
+    count = shape[0] * shape[1]
     try:
         flat = np.asarray(value, dtype=float).reshape(-1)
     except (TypeError, ValueError):  # a corrupt tag type
         return None
-    if flat.size == 18:
+    if flat.size == 2 * count:
         den = flat[1::2]
         if np.any(den == 0):
             return None
         flat = flat[0::2] / den
-    return flat.reshape(3, 3) if flat.size == 9 and np.all(np.isfinite(flat)) else None
+    return flat.reshape(shape) if flat.size == count and np.all(np.isfinite(flat)) else None
 
 
 def _tungsten_slot(extras: dict) -> int | None:
@@ -385,14 +389,22 @@ def _tungsten_slot(extras: dict) -> int | None:
     return None
 
 
-def _tungsten_matrix(extras: dict) -> np.ndarray | None:
+def _tungsten_matrix(extras: dict, planes: int = 3) -> np.ndarray | None:
     """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
     slot = _tungsten_slot(extras)
     value = extras.get(f"ColorMatrix{slot}") if slot else None
-    return None if value is None else _rational_matrix(value)
+    return None if value is None else _rational_matrix(value, (planes, 3))
 
 
-def _profile(extras: dict) -> dict:
+def _daylight_matrix(extras: dict, planes: int) -> np.ndarray | None:
+    """The colour matrix of the slot not calibrated under Standard A (a four-plane DNG's, which LibRaw's
+    three-colour conversion cannot give)."""
+    tungsten = _tungsten_slot(extras)
+    slot = next((n for n in (1, 2) if n != tungsten and f"ColorMatrix{n}" in extras), None)
+    return None if slot is None else _rational_matrix(extras[f"ColorMatrix{slot}"], (planes, 3))
+
+
+def _profile(extras: dict, planes: int = 3) -> dict:
     """ForwardMatrix and ProfileHueSatMap per calibration: ``forward_matrix``/``hue_sat_map`` of the
     daylight slot (the one that is not Standard A), ``..._2`` of the Standard A slot; None where a
     tag is absent or malformed (a corrupt profile is no profile, as Adobe's reader treats it)."""
@@ -405,7 +417,7 @@ def _profile(extras: dict) -> dict:
         if slot is None:
             continue
         value = extras.get(f"ForwardMatrix{slot}")
-        out[f"forward_matrix{suffix}"] = None if value is None else _rational_matrix(value)
+        out[f"forward_matrix{suffix}"] = None if value is None else _rational_matrix(value, (3, planes))
         dims, data = extras.get("ProfileHueSatMapDims"), extras.get(f"ProfileHueSatMapData{slot}")
         if dims is not None and data is not None:
             try:
@@ -539,6 +551,12 @@ def read_raw(path) -> RawImage:
         if matrix is None:
             matrix = _xyz_to_camera_from_table(cam_xyz)
     extras = _tiff_extras(path)
+    planes = channel_count(cfa) if cfa not in ("none", LINEAR) else 3
+    if planes == 4:  # RGBW: LibRaw's colours are four others (GMCY); the DNG's own tags say what they are
+        matrix = _daylight_matrix(extras, 4)
+        tag = extras.get("AsShotNeutral")
+        neutral = None if tag is None else _rational_matrix(tag, (1, 4))
+        neutral = None if neutral is None or np.any(neutral <= 0) else neutral[0] / neutral[0].max()
     _check_white_level(path, extras.get("WhiteLevel"), black_levels)
     noise = extras.get("NoiseProfile")
     noise = np.atleast_1d(np.asarray(noise, dtype=float)) if noise is not None else np.empty(0)
@@ -560,8 +578,8 @@ def read_raw(path) -> RawImage:
         profile_tone_curve=_tone_curve(extras.get("ProfileToneCurve")),
         crop=_default_crop(path, extras, sizes, mosaic.shape[:2]),
         color_matrix=matrix,
-        color_matrix_2=_tungsten_matrix(extras) if matrix is not None else None,
-        **(_profile(extras) if matrix is not None else {}),
+        color_matrix_2=_tungsten_matrix(extras, planes) if matrix is not None else None,
+        **(_profile(extras, planes) if matrix is not None else {}),
         as_shot_neutral=neutral,
         noise_profile=noise_profile,
         camera_model=str(extras.get("UniqueCameraModel", "")).strip(),

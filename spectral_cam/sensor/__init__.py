@@ -253,6 +253,13 @@ def _colour_metadata(radiance, config, model) -> dict:
         colour.update(matrix=_colour_matrix(sensor.model, specs), matrix_a=_colour_matrix(sensor.model, specs, "A"),
                       forward=_forward_matrix(sensor.model, specs), forward_a=_forward_matrix(sensor.model, specs, "A"),
                       hue_sat=_hue_sat_map(sensor.model, specs), hue_sat_a=_hue_sat_map(sensor.model, specs, "A"))
+    if sensor.cfa == "RGBW":  # four colour planes: W = R + G + B (radiometry.white_quantum_efficiency)
+        for key in ("matrix", "matrix_a"):  # XYZ → camera: W's row the sum of the others
+            if colour[key] is not None:
+                colour[key] = np.vstack([colour[key], colour[key].sum(axis=0)])
+        for key in ("forward", "forward_a"):  # white-balanced camera → XYZ(D50): from R, G, B alone
+            if colour[key] is not None:
+                colour[key] = np.hstack([colour[key], np.zeros((3, 1))])
     return colour
 
 

@@ -99,7 +99,7 @@ def _white_gains(radiance, config: "SceneConfig", model) -> np.ndarray:
     spd = config.illuminant.spd
     if spd == "auto":
         spd = (getattr(radiance, "meta", None) or {}).get("illuminant_spd")
-    if n != 3 or spd is None:
+    if n not in (3, 4) or spd is None:  # R, G, B (and an RGBW sensor's W)
         return np.ones(n)
     white = np.asarray(white_response(radiance, config, model, spd), dtype=np.float64)
     if not np.all(white > 0):
@@ -124,7 +124,12 @@ def metering_images(data: np.ndarray, model, gains: np.ndarray, *, step: int = 1
     """
     weights = np.asarray(model.weights, dtype=np.float32)
     n = weights.shape[1]
-    mix = np.full(n, 1.0 / n) if n != 3 else np.array([0.25, 0.5, 0.25]) * np.asarray(gains, float)
+    if n == 3:
+        mix = np.array([0.25, 0.5, 0.25]) * np.asarray(gains, float)
+    elif n == 4:  # RGBW: the colour pixels' balanced luminance, in units of the white pixels (gain 1), which clip first
+        mix = np.array([0.25, 0.5, 0.25, 0.0]) * np.asarray(gains, float)
+    else:
+        mix = np.full(n, 1.0 / n)
     rows = range(0, data.shape[0], step)
     lum = np.empty((len(rows), data.shape[1]), np.float32)
     peak = np.empty_like(lum)

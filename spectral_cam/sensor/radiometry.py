@@ -140,6 +140,30 @@ def quantum_efficiency(model: str, wavelengths_nm, *, peak_qe: float, monochrome
                      for c in range(eta.shape[1])], axis=-1)
 
 
+def white_quantum_efficiency(qe: np.ndarray) -> np.ndarray:
+    """The QE of an RGBW sensor's white (unfiltered) pixels from its colour channels': their sum, at most 1.
+
+    A colour pixel's QE is the bare photodiode's times its filter's transmission, and the three
+    filters between them pass each visible wavelength about once, so the bare photodiode's response is
+    taken as their sum (the camera data hold no unfiltered curve; a stated approximation).
+
+    Parameters
+    ----------
+    qe : numpy.ndarray
+        (B, 3) R, G, B quantum efficiencies.
+
+    Returns
+    -------
+    numpy.ndarray
+        (B,) electrons per photon.
+
+    References
+    ----------
+    .. [1] Compton & Hamilton (2007), US 8,139,130 (panchromatic pixels collect what the filters share).
+    """
+    return np.minimum(np.asarray(qe, dtype=float)[:, :3].sum(axis=1), 1.0)
+
+
 def band_weights(wavelengths_nm, qe, *, working_f_number: float, pixel_area_m2: float,
                  transmission=1.0) -> np.ndarray:
     """Electrons per second per unit band radiance, per band and channel, on axis.
@@ -580,6 +604,9 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
             raise SensorError(f"radiance channels {tuple(channels)} are not the camera film's {CAMERA_CHANNELS}")
         if sensor.cfa == "none":
             raise SensorError("camera-channel radiance needs a colour sensor (sensor.cfa != 'none')")
+        if sensor.cfa == "RGBW":
+            raise SensorError("an RGBW sensor's white pixels need spectral bands: render.bands = 'auto' or a grid, "
+                              "not 'camera' (the camera film holds R, G and B only)")
         geometry = float(camera_equation_irradiance(1.0, working_f_number=n_w)) * area
         weights = np.zeros((len(CAMERA_CHANNELS), 3))
         weights[:3, :3] = np.eye(3) * geometry * float(photons_per_joule(FILM_REFERENCE_NM))
@@ -590,6 +617,8 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
     wavelengths = np.asarray(radiance.wavelengths_nm, dtype=float)
     transmission = _transmission_at(trans_specs, tuple(wavelengths.tolist()))
     qe = quantum_efficiency(sensor.model, wavelengths, peak_qe=sensor.peak_qe, monochrome=sensor.cfa == "none")
+    if sensor.cfa == "RGBW":
+        qe = np.column_stack([qe, white_quantum_efficiency(qe)])
     weights = band_weights(wavelengths, qe, working_f_number=n_w, pixel_area_m2=area, transmission=transmission)
     return SignalModel(weights, cos4, qe, n_w, area, trans_specs, False, *_olpf(sensor),
                        _channel_gain(lens, config, weights.shape[1]))

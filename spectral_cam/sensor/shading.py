@@ -42,7 +42,10 @@ def parse_angular_response(value, channels: int = 3) -> tuple[float, ...] | None
                          for v in values) or len(values) not in (1, 3):
         raise ConfigError(f"sensor.angular_response_deg = {value!r}; valid: 'off', or the angle of half response "
                           "in degrees (0 < θ½ <= 90), one for every channel or three (R, G, B), e.g. [18, 20, 22]")
-    return tuple(float(v) for v in values) * (channels if len(values) == 1 else 1)
+    halves = tuple(float(v) for v in values) * (channels if len(values) == 1 else 1)
+    if channels == 4 and len(halves) == 3:  # RGBW: the white pixels take green's acceptance
+        halves += (halves[1],)
+    return halves
 
 
 def acceptance(theta_deg, half_deg: float) -> np.ndarray:

@@ -1,7 +1,8 @@
-"""Issue 29 #2: colour filter arrays beyond RGGB — X-Trans (6 × 6) and Quad Bayer (4 × 4). The DNG
-carries the tile (CFARepeatPatternDim, CFAPattern); LibRaw reads the X-Trans tile exactly and develops
-it; Adobe's DNG SDK reads both without a warning; our develop of a ColorChecker through either tile is
-within 0.5 mean ΔE2000 of the Bayer develop (colour-science's truth)."""
+"""Issue 29 #2: colour filter arrays beyond RGGB — X-Trans (6 × 6), Quad Bayer (4 × 4) and RGBW (Kodak's
+4 × 4 with white pixels). The DNG carries the tile (CFARepeatPatternDim, CFAPattern, CFAPlaneColor);
+LibRaw reads the X-Trans tile exactly and develops it; Adobe's DNG SDK reads all three without a
+warning; our develop of a ColorChecker through each tile is within 0.5 mean ΔE2000 of the Bayer develop
+(colour-science's truth)."""
 
 from __future__ import annotations
 
@@ -42,20 +43,25 @@ def _chart_capture(tmp_path, cfa: str, **sensor):
     return chart, raw, write_dng(raw, tmp_path / f"{cfa}.dng")
 
 
-@pytest.mark.parametrize("cfa", ["XTRANS", "QUAD_RGGB"])
+@pytest.mark.parametrize("cfa", ["XTRANS", "QUAD_RGGB", "RGBW"])
 def test_the_dng_carries_the_tile_and_reads_back_bit_for_bit(tmp_path, cfa):
-    """CFARepeatPatternDim is the tile's size and CFAPattern its codes (tifffile); read_raw returns the
-    same CFA and mosaic; the sensor sampled each pixel through the tile's colour (the green sites of a
-    red-free light read zero red)."""
+    """CFARepeatPatternDim is the tile's size, CFAPattern its TIFF/EP colour codes (white 6) and
+    CFAPlaneColor the planes (tifffile); read_raw returns the same CFA, mosaic and, for RGBW, its four
+    planes' AsShotNeutral and 4 × 3 ColorMatrix."""
     import tifffile
 
     _, raw, path = _chart_capture(tmp_path, cfa)
+    codes = np.where(cfa_pattern(cfa) == 3, 6, cfa_pattern(cfa))
     with tifffile.TiffFile(path) as tif:
         tags = tif.pages[0].tags
         assert tuple(tags[33421].value) == cfa_pattern(cfa).shape
-        assert tuple(tags[33422].value) == tuple(int(c) for c in cfa_pattern(cfa).ravel())
+        assert tuple(tags[33422].value) == tuple(int(c) for c in codes.ravel())
+        assert tuple(tags[50710].value) == ((0, 1, 2, 6) if cfa == "RGBW" else (0, 1, 2))
     back = read_raw(path)
     assert back.cfa == cfa and np.array_equal(back.mosaic, raw.mosaic)
+    if cfa == "RGBW":
+        np.testing.assert_allclose(back.as_shot_neutral, raw.as_shot_neutral, rtol=1e-6)
+        np.testing.assert_allclose(back.color_matrix, raw.color_matrix, atol=1e-6)
 
 
 def test_libraw_reads_the_x_trans_tile_exactly_and_develops_it(tmp_path):
@@ -82,11 +88,12 @@ def test_libraw_reads_the_x_trans_tile_exactly_and_develops_it(tmp_path):
     assert abs(scores["XTRANS"] - scores["RGGB"]) < 0.5, scores
 
 
-@pytest.mark.parametrize("cfa", ["XTRANS", "QUAD_RGGB"])
+@pytest.mark.parametrize("cfa", ["XTRANS", "QUAD_RGGB", "RGBW"])
 def test_adobe_dng_sdk_reads_the_tile_without_a_warning(tmp_path, cfa):
     """Adobe's DNG SDK (dngpy, built with qDNGValidate) parses both tiles silently and returns the
-    mosaic bit for bit. LibRaw, whose CFA is dcraw's 8-row × 2-column ``filters``, cannot hold a 4 × 4
-    tile: read_raw takes the Quad Bayer from the DNG's own tags."""
+    mosaic bit for bit (RGBW: four colour planes, a 4 × 3 ColorMatrix). LibRaw, whose CFA is dcraw's
+    8-row × 2-column ``filters``, cannot hold a 4 × 4 tile (it reads RGBW as GMCY): read_raw takes
+    them from the DNG's own tags."""
     pytest.importorskip("dngpy", reason="dngpy (Adobe's DNG SDK) is a test extra: pip install -e '.[test]'")
     _, raw, path = _chart_capture(tmp_path, cfa)
     script = ("import sys, numpy, dngpy\n"
@@ -103,10 +110,12 @@ def test_adobe_dng_sdk_reads_the_tile_without_a_warning(tmp_path, cfa):
 
 
 @pytest.mark.parametrize(("cfa", "methods"), [("XTRANS", ("colour_difference",)),
-                                              ("QUAD_RGGB", ("quad_remosaic", "quad_binning", "colour_difference"))])
+                                              ("QUAD_RGGB", ("quad_remosaic", "quad_binning", "colour_difference")),
+                                              ("RGBW", ("rgbw_fusion",))])
 def test_our_develop_through_each_tile_is_within_half_a_delta_e_of_bayer(tmp_path, cfa, methods):
     """Mean ΔE2000 of the 24 patches against colour-science's truth, through the tile and each of its
-    methods, within 0.5 of the RGGB develop by menon2007 (measured: all within 0.04 of 0.97); a Bayer
+    methods, within 0.5 of the RGGB develop by menon2007 (measured: X-Trans and Quad Bayer within 0.04
+    of 0.97, RGBW 1.02 — metered so its white pixels, which clip first, hold the white patch); a Bayer
     method asked of the tile falls back to the tile's own and the develop says so."""
     chart, _, bayer_path = _chart_capture(tmp_path, "RGGB")
     truth = patch_linear_srgb("D65")
@@ -125,7 +134,7 @@ def test_our_develop_through_each_tile_is_within_half_a_delta_e_of_bayer(tmp_pat
 def test_exiftool_validates_both_tiles(tmp_path):
     exiftool = shutil.which("exiftool")
     assert exiftool, "exiftool is needed: apt-get install libimage-exiftool-perl (as .ci/run does)"
-    for cfa in EXTENDED_PATTERNS:
+    for cfa in EXTENDED_PATTERNS:  # RGBW's DNG has four colour planes
         _, _, path = _chart_capture(tmp_path, cfa)
         out = subprocess.run([exiftool, "-validate", "-warning", "-a", str(path)], capture_output=True, text=True,
                              check=True).stdout
@@ -140,3 +149,33 @@ def test_a_bayer_only_method_refuses_a_larger_tile_with_what_would_do():
     with pytest.raises(ConfigError, match="QUAD_RGGB"):
         develop(RawImage(np.full((32, 32), 500, np.uint16), "RGGB", 64.0, 4095, as_shot_neutral=np.ones(3)),
                 ISPConfig(demosaic="quad_binning"))
+
+
+def test_rgbw_white_pixels_collect_what_the_three_filters_share():
+    """A flat grey under D65 through RGBW: each white pixel's signal equals the sum of its red, green and
+    blue neighbours' (its QE is their sum, radiometry.white_quantum_efficiency) within 1 %: 2.3× the green
+    pixels' light, the sensitivity a panchromatic CFA buys."""
+    from spectral_cam.cfa import channel_index
+    from spectral_cam.radiance_targets import lambertian_radiance, uniform_image
+
+    radiance = uniform_image(lambertian_radiance("D65", [0.5])[0], (32, 32))
+    scene = sc.scene_from_dict({"sensor": {"width_px": 32, "height_px": 32, "vignetting": False, "cfa": "RGBW",
+                                           "crop_margin_px": 0, "bit_depth": 16, **QUIET},
+                                "illuminant": {"spd": "D65"}, "exposure": {"time_s": 0.001}})
+    raw = sc.expose(radiance, scene)
+    index = channel_index(raw.mosaic.shape, "RGBW")
+    net = raw.mosaic.astype(float) - raw.black_level
+    r, g, b, w = (net[index == c].mean() for c in range(4))
+    assert w == pytest.approx(r + g + b, rel=0.01)
+    assert w / g > 2.0
+
+
+def test_an_rgbw_sensor_needs_spectral_bands(make_scene):
+    """The camera film holds R, G and B only: an RGBW sensor refuses it and says what to render."""
+    from spectral_cam import render
+    from spectral_cam.errors import SensorError
+
+    config = make_scene(scene={"preset": "flat_field"}, sensor={"width_px": 16, "height_px": 16, "cfa": "RGBW"},
+                        render={"spp": 4, "bands": "camera", "spectral_output": False, "diffraction": "off"})
+    with pytest.raises(SensorError, match="spectral bands"):
+        sc.expose(render(config, with_depth=False), config)

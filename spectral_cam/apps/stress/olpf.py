@@ -2,7 +2,7 @@
 demosaic.
 
 A neutral zone plate (grey D65 reflector, local frequency 0 … 0.5 cycle per pixel) is exposed
-noise-free through an RGGB, an X-Trans and a Quad Bayer sensor behind a four-spot filter of spot
+noise-free through an RGGB, an X-Trans, a Quad Bayer and an RGBW sensor behind a four-spot filter of spot
 separation d (0 = none … 1.5 pitch) and developed by each demosaic that takes the tile. Every colour in the result is false: the
 false colour per frequency ring is the mean chroma (max − min channel) over the mean level; the
 sharpness the filter costs is the zone plate's luminance modulation kept at 0.25 cycle per pixel,
@@ -94,7 +94,8 @@ def olpf_study(settings: StressSettings, *, methods=None) -> dict:
             # the filter moves the image d/2 right and down: the fit follows it
             entry["modulation_kept"].append(_modulation(luminance[near],
                                                         _plate_phase(plate.shape, shift_px=separation / 2)[near]))
-            if label in ("bilinear", "menon2007", "XTRANS colour_difference", "QUAD_RGGB quad_remosaic"):
+            if label in ("bilinear", "menon2007", "XTRANS colour_difference", "QUAD_RGGB quad_remosaic",
+                         "RGBW rgbw_fusion"):
                 crops[(label, separation)] = rgb
         data["methods"][label] = entry
         rows += [summary_row("olpf", label, f"false colour, d = {d:g} pitch", fc, "of mean level")
