@@ -179,3 +179,20 @@ def test_an_rgbw_sensor_needs_spectral_bands(make_scene):
                         render={"spp": 4, "bands": "camera", "spectral_output": False, "diffraction": "off"})
     with pytest.raises(SensorError, match="spectral bands"):
         sc.expose(render(config, with_depth=False), config)
+
+
+def test_libraw_cannot_hold_a_four_column_tile(tmp_path):
+    """Why read_raw takes Quad Bayer and RGBW from the DNG's tags: LibRaw describes a CFA by dcraw's
+    ``filters``, 8 rows × 2 columns at most, so the raw_pattern it gives for a 4 × 4 tile repeats every 2
+    columns — not the tile, whose columns 0–1 and 2–3 differ (it still reads the mosaic bit for bit). If a
+    LibRaw release learns 4 × 4 tiles, this test says so and read_raw can trust it."""
+    import rawpy
+
+    for cfa in ("QUAD_RGGB", "RGBW"):
+        _, raw, path = _chart_capture(tmp_path, cfa)
+        with rawpy.imread(str(path)) as handle:
+            pattern = np.asarray(handle.raw_pattern)
+            tile = cfa_pattern(cfa)
+            assert not np.array_equal(tile[:, :2], tile[:, 2:])
+            assert pattern.shape[1] <= 2 or np.array_equal(pattern[:, :2], pattern[:, 2:4]), (cfa, pattern)
+            assert np.array_equal(handle.raw_image_visible, raw.mosaic)
