@@ -1,6 +1,6 @@
 """``spectral-cam stress``: where each method of the chain stops being trustworthy.
 
-Eight studies, one module each; a study function returns its numbers (``rows`` for the
+Nine studies, one module each; a study function returns its numbers (``rows`` for the
 summary table, ``data`` for ``results.json``) and a plot function draws them (matplotlib
 Figure objects through :mod:`spectral_cam.viz`). :func:`run_studies` runs the studies of
 the :data:`STUDIES` registry into one output folder:
@@ -22,6 +22,8 @@ the :data:`STUDIES` registry into one output folder:
     filter's spot separation, on a neutral zone plate.
 (h) :mod:`.rolling` — flicker bands of a rolling shutter and a global shutter's frame-to-frame
     swing against exposure time (mains and LED PWM); rolling-shutter skew against pan speed.
+(i) :mod:`.shading` — lens and colour shading against the chief-ray angle, and the residual of a
+    flat-field table calibrated on another lens.
 
 :mod:`.settings` holds the sizes (:class:`StressSettings`), :mod:`.summary` the summary
 table and ``results.json``, :mod:`.run` the registry; the command line is
@@ -45,6 +47,7 @@ from .optics import (OPTICS_RENDERS, band_sum, bokeh_scene, chart_lens, diffract
                      plot_optics)
 from .rolling import FLICKER_CASES, STUDY_SPEEDS_MPS, plot_rolling, rolling_study
 from .run import STUDIES, Study, run_studies
+from .shading import STUDY_CORNER_DEG, STUDY_HALVES_DEG, plot_shading, shading_study
 from .settings import STUDY_CAMERA, StressSettings
 from .summary import SUMMARY_FIELDS, summary_row, write_results, write_summary
 
@@ -61,4 +64,5 @@ __all__ = [
     "LENS_F_NUMBERS", "LENS_FIELDS_DEG", "lens_study", "plot_lenses",
     "STUDY_SEPARATIONS", "olpf_study", "plot_olpf",
     "FLICKER_CASES", "STUDY_SPEEDS_MPS", "rolling_study", "plot_rolling",
+    "STUDY_CORNER_DEG", "STUDY_HALVES_DEG", "shading_study", "plot_shading",
 ]

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Callable
 
 from ...registry import Registry
-from . import bokeh, demosaic, exposure, illuminants, lenses, olpf, optics, rolling
+from . import bokeh, demosaic, exposure, illuminants, lenses, olpf, optics, rolling, shading
 from .settings import StressSettings
 from .summary import write_results, write_summary
 
@@ -75,6 +75,8 @@ STUDIES.add("olpf", Study(olpf.olpf_study, olpf.plot_olpf), options=("zone_plate
             description="false colour and sharpness vs optical low-pass filter strength, per demosaic")
 STUDIES.add("rolling", Study(rolling.rolling_study, rolling.plot_rolling), options=("flicker_exposures", "skew_px"),
             description="flicker bands vs exposure time, rolling-shutter skew vs speed")
+STUDIES.add("shading", Study(shading.shading_study, shading.plot_shading), options=(),
+            description="lens and colour shading vs chief-ray angle; a flat-field table on another lens")
 
 
 def run_studies(directory: Path, settings: StressSettings, *, only=None, log=None) -> dict:
