@@ -26,8 +26,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable
 
-from .errors import ConfigError
+import numpy as np
+
 from .budget import estimate_result_bytes
+from .errors import ConfigError
 from .io import atomic_path, check_free_disk, staged_directory
 from .records import package_versions, write_json
 from .scene import SceneConfig
@@ -62,6 +64,7 @@ class Simulation:
     developed: "DevelopedImage"  # noqa: F821
     timings_s: dict
     photon_counts: "PhotonCountingCapture | None" = None  # noqa: F821  (sensor.kind "qis" or "spad")
+    events: "EventStream | None" = None  # noqa: F821  (sensor.kind "event")
 
 
 def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, float], None] | None = None,
@@ -107,9 +110,14 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     captured = render(plan, progress=progress)
     timings.update({f"render_{k}": v for k, v in captured.meta["timings_s"].items()})
     t0 = time.perf_counter()
-    counts = None
-    if config.sensor.kind == "cmos":
-        raw = expose(captured, config)
+    counts = events = None
+    if config.sensor.kind == "event":
+        events = _event_capture(config, lens, progress)
+        timings["events"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+    if config.sensor.kind in ("cmos", "event"):  # an event camera's frame: its APS frame, as a DAVIS gives
+        config_aps = config if config.sensor.kind == "cmos" else config.replace(**{"sensor.kind": "cmos"})
+        raw = expose(captured, config_aps)
     else:  # a single-photon sensor: its frames, and their reconstruction as the RAW the ISP develops
         from .sensor.photon_counting import expose_photon_counting
 
@@ -121,7 +129,28 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     t0 = time.perf_counter()
     developed = develop(raw, config.isp)
     timings["isp"] = time.perf_counter() - t0
-    return Simulation(config, lens, radiance, raw, developed, timings, counts)
+    return Simulation(config, lens, radiance, raw, developed, timings, counts, events)
+
+
+def _event_capture(config: SceneConfig, lens, progress=None):
+    """An event sensor's capture: ``sensor.event_frames`` renders spread over ``exposure.time_s`` (each a
+    pose of the motion at its time, no blur), their log intensities, and the events between them."""
+    from .render import render
+    from .render.plan import make_plan
+    from .sensor.events import log_intensity, simulate_events
+
+    if config.exposure.time_s == "auto":
+        raise ConfigError("an event capture needs exposure.time_s: the span its frames cover, in seconds")
+    span, count = float(config.exposure.time_s), int(config.sensor.event_frames)
+    times = np.linspace(0.0, span, count)
+    logs = []
+    for t in times:
+        frame = config.replace(**{"exposure.start_s": float(config.exposure.start_s) + t - span / 2,
+                                  "exposure.time_s": span / (count - 1), "motion.subframes": 1,
+                                  "sensor.kind": "cmos"})
+        image = render(make_plan(frame, with_margin=False, with_depth=False, lens=lens), progress=progress)
+        logs.append(log_intensity(image, frame))
+    return simulate_events(logs, times, config)
 
 
 def _write_radiance(sim: Simulation, folder: Path, stem: str) -> list[Path]:
@@ -147,6 +176,15 @@ def _write_photon_counts(sim: Simulation, folder: Path, stem: str) -> list[Path]
     if sim.photon_counts is None:
         return []
     return [sim.photon_counts.save(folder / "photon_counts.npz")]
+
+
+def _write_events(sim: Simulation, folder: Path, stem: str) -> list[Path]:
+    if sim.events is None:
+        return []
+    from .isp.encode import write_png
+
+    return [sim.events.save(folder / "events.npz"),
+            write_png(sim.events.frame_rgb().astype(np.float32) / 255.0, folder / "events.png")]
 
 
 def _write_image(sim: Simulation, folder: Path, stem: str) -> list[Path]:
@@ -202,7 +240,7 @@ def _write_illuminant(sim: Simulation, folder: Path, stem: str) -> list[Path]:
 
 _WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
             "camera": _write_camera, "illuminant": _write_illuminant, "scene": _write_scene,
-            "photon_counts": _write_photon_counts}
+            "photon_counts": _write_photon_counts, "events": _write_events}
 #: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
 #: ``<stem>.<isp.outputs>``, camera.json, illuminant.json and scene.toml.
 RESULT_FILES = tuple(_WRITERS)
@@ -290,8 +328,10 @@ def render_job_files(config: SceneConfig, spectral_output: bool | None = None) -
     hold one, then depth, RAW, image, camera.json, illuminant.json and scene."""
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
     names = ["depth", "raw", "image", "camera", "illuminant", "scene"]
-    if config.sensor.kind != "cmos":
+    if config.sensor.kind in ("qis", "spad"):
         names.insert(2, "photon_counts")
+    if config.sensor.kind == "event":
+        names.insert(2, "events")
     if spectral_output and config.render.bands != "camera":
         names.insert(0, "radiance")
     return names

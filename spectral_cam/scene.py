@@ -320,9 +320,20 @@ def _check_photon_counting(sensor) -> None:
     def number(value, low, high):
         return isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high
 
-    if sensor.kind not in ("cmos", "qis", "spad"):
+    if sensor.kind not in ("cmos", "qis", "spad", "event"):
         _fail("sensor.kind", sensor.kind, "valid: 'cmos' (integrating, the EMVA 1288 model), 'qis' (a quanta image "
-              "sensor: binary or few-bit jots), 'spad' (single-photon avalanche diodes: dead time, afterpulsing)")
+              "sensor: binary or few-bit jots), 'spad' (single-photon avalanche diodes: dead time, afterpulsing), "
+              "'event' (brightness changes, from a sequence's frames)")
+    for key, low, high, what in (("event_threshold", 0.01, 5.0, "the contrast threshold in log units"),
+                                 ("event_threshold_sigma", 0.0, 1.0, "the threshold's per-pixel σ in log units"),
+                                 ("event_refractory_s", 0.0, 1.0, "the refractory period in seconds"),
+                                 ("event_leak_hz", 0.0, 1e4, "the leak event rate per pixel in Hz"),
+                                 ("event_shot_noise_hz", 0.0, 1e4, "the shot-noise event rate per pixel in Hz")):
+        if not number(getattr(sensor, key), low, high):
+            _fail(f"sensor.{key}", getattr(sensor, key), f"{what}, a number in {low:g}..{high:g}")
+    if not whole(sensor.event_frames, 2, 4096):
+        _fail("sensor.event_frames", sensor.event_frames, "the renders an event capture interpolates between, a whole "
+              "number in 2..4096")
     if not whole(sensor.jot_frames, 1, 65536):
         _fail("sensor.jot_frames", sensor.jot_frames, "the frames of a single-photon capture, a whole number in 1..65536")
     if not whole(sensor.jot_bits, 1, 8):
@@ -453,6 +464,12 @@ class SensorSection:
     jot_bits: int = 1
     dead_time_s: float = 0.0
     afterpulsing: float = 0.0
+    event_threshold: float = 0.2
+    event_threshold_sigma: float = 0.03
+    event_refractory_s: float = 1e-4
+    event_leak_hz: float = 0.1
+    event_shot_noise_hz: float = 0.0
+    event_frames: int = 16
 
     def __post_init__(self) -> None:
         for key in ("width_px", "height_px"):

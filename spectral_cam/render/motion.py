@@ -87,9 +87,11 @@ def exposure_span_s(config: SceneConfig, rows: int) -> float:
 
 
 def subframe_time_s(config: SceneConfig, index: int, count: int, span_s: float | None = None) -> float:
-    """The middle of sub-frame ``index`` of ``count`` (s from the span's middle)."""
+    """The middle of sub-frame ``index`` of ``count`` (s from the span's middle), delayed by
+    ``exposure.start_s`` (a frame of a longer capture: an event sensor's frames are renders at
+    successive start times)."""
     span = float(config.exposure.time_s) if span_s is None else span_s
-    return ((index + 0.5) / count - 0.5) * span
+    return float(getattr(config.exposure, "start_s", 0.0)) + ((index + 0.5) / count - 0.5) * span
 
 
 def rolling_row_weights(config: SceneConfig, rows: int, first: int, last: int, index: int, count: int) -> np.ndarray:

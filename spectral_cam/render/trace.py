@@ -336,9 +336,10 @@ class _TileRenderer:
         rolling = self.subframes > 1 and is_rolling(self.config)
         span = exposure_span_s(self.config, self.frame_rows) if rolling else None
         for subframe in range(self.subframes):
-            frame_camera = tile_camera if self.subframes == 1 else moved_sensor(
+            shifted = self.config.motion.moving and self.config.exposure.start_s != 0  # a later frame's pose
+            frame_camera = tile_camera if self.subframes == 1 and not shifted else moved_sensor(
                 mi, tile_camera, self.camera, subframe_transform(mi, self.config, subframe, self.subframes, span))
-            if self.mover is not None:
+            if self.mover is not None and (self.subframes > 1 or shifted):
                 self.mover.place(subframe, self.subframes, span)
             weights = rolling_row_weights(self.config, self.frame_rows, rows[0], rows[1], subframe,
                                           self.subframes)[:, None, None] if rolling else None
