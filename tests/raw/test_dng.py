@@ -128,7 +128,7 @@ def test_write_dng_rejects_bad_raw(tmp_path):
     with pytest.raises(RawFormatError, match="mosaic"):
         write_dng(RawImage(np.zeros((2, 2, 3), np.uint16), "RGGB", 0, 4095), tmp_path / "x.dng")
     with pytest.raises(ConfigError, match="CFA pattern"):
-        write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGBW", 0, 4095), tmp_path / "x.dng")
+        write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGBX", 0, 4095), tmp_path / "x.dng")
     with pytest.raises(RawFormatError, match="black"):
         write_dng(RawImage(np.zeros((4, 4), np.uint16), "RGGB", 5000, 4095), tmp_path / "x.dng")
     assert not list(tmp_path.iterdir())  # nothing half-written

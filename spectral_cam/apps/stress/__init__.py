@@ -1,6 +1,6 @@
 """``spectral-cam stress``: where each method of the chain stops being trustworthy.
 
-Nine studies, one module each; a study function returns its numbers (``rows`` for the
+Ten studies, one module each; a study function returns its numbers (``rows`` for the
 summary table, ``data`` for ``results.json``) and a plot function draws them (matplotlib
 Figure objects through :mod:`spectral_cam.viz`). :func:`run_studies` runs the studies of
 the :data:`STUDIES` registry into one output folder:
@@ -24,6 +24,8 @@ the :data:`STUDIES` registry into one output folder:
     swing against exposure time (mains and LED PWM); rolling-shutter skew against pan speed.
 (i) :mod:`.shading` — lens and colour shading against the chief-ray angle, and the residual of a
     flat-field table calibrated on another lens.
+(j) :mod:`.photon_events` — SNR of CMOS and a quanta image sensor against photons per pixel (where
+    counting wins); an event sensor's rate against edge speed and threshold.
 
 :mod:`.settings` holds the sizes (:class:`StressSettings`), :mod:`.summary` the summary
 table and ``results.json``, :mod:`.run` the registry; the command line is
@@ -43,6 +45,7 @@ from .illuminants import (NARROW_LED_FWHM_NM, NARROW_LED_PEAKS_NM, STUDY_COLOUR_
                           STUDY_WHITE_BALANCE, illuminant_study, plot_illuminants, write_narrow_band_led)
 from .lenses import LENS_F_NUMBERS, LENS_FIELDS_DEG, lens_study, plot_lenses
 from .olpf import STUDY_SEPARATIONS, olpf_study, plot_olpf
+from .photon_events import STUDY_PHOTONS, STUDY_THRESHOLDS, photon_events_study, plot_photon_events
 from .optics import (OPTICS_RENDERS, band_sum, bokeh_scene, chart_lens, diffraction_limit_f_number, optics_study,
                      plot_optics)
 from .rolling import FLICKER_CASES, STUDY_SPEEDS_MPS, plot_rolling, rolling_study
@@ -65,4 +68,5 @@ __all__ = [
     "STUDY_SEPARATIONS", "olpf_study", "plot_olpf",
     "FLICKER_CASES", "STUDY_SPEEDS_MPS", "rolling_study", "plot_rolling",
     "STUDY_CORNER_DEG", "STUDY_HALVES_DEG", "shading_study", "plot_shading",
+    "STUDY_PHOTONS", "STUDY_THRESHOLDS", "photon_events_study", "plot_photon_events",
 ]

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Callable
 
 from ...registry import Registry
-from . import bokeh, demosaic, exposure, illuminants, lenses, olpf, optics, rolling, shading
+from . import bokeh, demosaic, exposure, illuminants, lenses, olpf, optics, photon_events, rolling, shading
 from .settings import StressSettings
 from .summary import write_results, write_summary
 
@@ -77,6 +77,8 @@ STUDIES.add("rolling", Study(rolling.rolling_study, rolling.plot_rolling), optio
             description="flicker bands vs exposure time, rolling-shutter skew vs speed")
 STUDIES.add("shading", Study(shading.shading_study, shading.plot_shading), options=(),
             description="lens and colour shading vs chief-ray angle; a flat-field table on another lens")
+STUDIES.add("photon_events", Study(photon_events.photon_events_study, photon_events.plot_photon_events),
+            options=("seed",), description="CMOS vs QIS SNR as light fades; event rate vs speed and threshold")
 
 
 def run_studies(directory: Path, settings: StressSettings, *, only=None, log=None) -> dict:

@@ -15,7 +15,7 @@ from spectral_cam.errors import ConfigError
 
 def test_every_study_declares_the_settings_it_reads():
     fields = {field.name for field in dataclasses.fields(StressSettings)}
-    assert list(STUDIES) == ["demosaic", "exposure", "optics", "bokeh", "illuminants", "lenses", "olpf", "rolling", "shading"]
+    assert list(STUDIES) == ["demosaic", "exposure", "optics", "bokeh", "illuminants", "lenses", "olpf", "rolling", "shading", "photon_events"]
     declared = set()
     for name, entry in STUDIES.items():
         assert set(entry.options) <= fields, name
