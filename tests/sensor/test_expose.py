@@ -260,7 +260,7 @@ def test_bad_radiance_shape():
 
 @pytest.mark.parametrize("key, value", [
     ("full_well_e", 0.0), ("full_well_e", -5.0), ("bit_depth", 7), ("bit_depth", 17),
-    ("peak_qe", 0.0), ("peak_qe", 1.2), ("cfa", "RGBW"), ("cfa", "rggb"),
+    ("peak_qe", 0.0), ("peak_qe", 1.2), ("cfa", "RGBX"), ("cfa", "rggb"),
 ])
 def test_bad_sensor_config(key, value):
     with pytest.raises(ConfigError, match=f"sensor.{key}"):
