@@ -117,7 +117,11 @@ for _name, _description in (
         ("depth", "depth.exr: camera-space z, metres (channel Z; inf where no surface)"),
         ("camera", "camera.json: intrinsics K (pixels), OpenCV distortion, pose world → camera (OpenCV and "
                    "OpenGL axes), focus, aperture, exposure"),
-        ("illuminant", "illuminant.json: the light's camera RGB (max 1, green 1, unit length), CIE xy, CCT and Duv")):
+        ("illuminant", "illuminant.json: the light's camera RGB (max 1, green 1, unit length), CIE xy, CCT and Duv"),
+        ("photon_counts", "photon_counts.npz: a QIS or SPAD item's frames (packed bits) and record; nothing for "
+                          "the other sensor kinds"),
+        ("events", "events.npz and events.png: an event sensor item's (x, y, t µs, p) and its event frame; nothing "
+                   "for the other sensor kinds")):
     LABELS.add(_name, functools.partial(_result_file, name=_name), description=_description)
 
 
