@@ -142,14 +142,33 @@ def bayer_stats(raw) -> np.ndarray:
     return np.stack([np.mean(planes[c], axis=0) for c in range(3)], axis=-1)
 
 
+def _capture(image, config: SceneConfig, *, frame_seed: int):
+    """The frame's RAW: the CMOS model's, or a single-photon sensor's reconstruction (its frames are a
+    capture's, the RAW what the camera loop reads). An event sensor has no frame here: a sequence's
+    frames are hours apart (a time-lapse), and an event capture is a render job's span of poses."""
+    from ...sensor import expose
+
+    kind = config.sensor.kind
+    if kind == "event":
+        raise ConfigError("sensor.kind = 'event' in a sequence: its frames are hours apart (a time-lapse); render an "
+                          "event capture with `spectral-cam render` over exposure.time_s, or use 'cmos', 'qis' or "
+                          "'spad' here")
+    if kind in ("qis", "spad"):
+        from ...sensor.photon_counting import expose_photon_counting
+
+        capture = expose_photon_counting(image, config, frame_seed=frame_seed)
+        raw = capture.to_raw()
+        raw.crop = image.frame_window if hasattr(image, "frame_window") else None
+        return raw
+    return expose(image, config, frame_seed=frame_seed)
+
+
 def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureState:
     """A one-shot exposure for the first frame: the sensor's own auto exposure (the same camera
     meter) scaled to the controller's reading of the RAW cells, so the loop starts at its goal."""
-    from ...sensor import expose
-
-    probe = expose(image, config.replace(**{"exposure.time_s": "auto", "exposure.iso": ae.base_iso,
-                                            "exposure.metering": ae.metering,
-                                            "exposure.auto_fraction": ae.highlight_target}), frame_seed=0)
+    probe = _capture(image, config.replace(**{"exposure.time_s": "auto", "exposure.iso": ae.base_iso,
+                                              "exposure.metering": ae.metering,
+                                              "exposure.auto_fraction": ae.highlight_target}), frame_seed=0)
     time_s = float(probe.meta["exposure_s"])
     from ...control.exposure_loop import meter
 
@@ -161,10 +180,8 @@ def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureS
 
 def _expose(image, config: SceneConfig, state: ExposureState, index: int):
     """The frame's RAW at the controller's exposure (the same noise for the same frame)."""
-    from ...sensor import expose
-
-    return expose(image, config.replace(**{"exposure.time_s": state.time_s, "exposure.iso": state.iso}),
-                  frame_seed=index)
+    return _capture(image, config.replace(**{"exposure.time_s": state.time_s, "exposure.iso": state.iso}),
+                    frame_seed=index)
 
 
 def _develop(raw, config: SceneConfig, white):

@@ -186,3 +186,28 @@ def test_flow_between_frames_is_the_cameras_move_between_them(tmp_path):
     assert centre[0] == pytest.approx(focal * math.tan(math.radians(2.0)), rel=0.02)
     assert abs(centre[1]) < 0.02
     assert not (tmp_path / "out" / "auto" / "0002" / "flow_to_next.exr").exists()
+
+
+def test_a_qis_sequence_runs_the_camera_loop_on_its_reconstructions_and_events_are_refused(tmp_path):
+    """sensor.kind = "qis" in a sequence: each frame's RAW is the reconstruction of its single-photon
+    frames, which the auto loop meters: the illuminance quadrupling at frame 1 takes the exposure down
+    (by 1 EV, not 2: at 4× the light a one-bit jot's frames nearly all fire and the reconstruction
+    saturates near ln 2F, so the meter reads less than 4×); an event sensor is refused with what to do
+    instead."""
+    from spectral_cam.errors import ConfigError
+
+    spec = sequence_from_dict({
+        "scene": {"preset": "flat_field", "reflectance": 0.18},
+        "sensor": {"width_px": 32, "height_px": 24, "kind": "qis", "jot_frames": 64},
+        "render": {"spp": 4},
+        "sequence": {"frames": 3, "vary": {"illuminant.illuminance_lux": [500.0, 2000.0, 2000.0]}},
+        "camera": {"damping": 1.0, "dead_band_ev": 0.05}})
+    result = run_sequence(spec, tmp_path, modes=("auto",), scheduler="inline")
+    times = [row["exposure_s"] for row in result["cameras"]["auto"]]
+    assert times[2] < 0.7 * times[0]
+    assert (tmp_path / "auto" / "0002" / "raw.dng").exists()
+    events = sequence_from_dict({"scene": {"preset": "flat_field"}, "sensor": {"width_px": 16, "height_px": 16,
+                                                                               "kind": "event"},
+                                 "render": {"spp": 4}, "sequence": {"frames": 2, "vary": {}}})
+    with pytest.raises(ConfigError, match="time-lapse"):
+        run_sequence(events, tmp_path / "events", modes=("auto",), scheduler="inline")
