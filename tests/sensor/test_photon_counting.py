@@ -152,3 +152,13 @@ def test_a_render_job_with_a_qis_writes_its_frames_and_develops_their_reconstruc
     assert meta["kind"] == "qis" and meta["frames"] == 128
     assert 0.05 < sim.photon_counts.counts.mean() < 0.8
     assert sim.developed.image.shape == (64, 96, 3)
+
+
+@pytest.mark.parametrize(("kind", "names"), [("qis", "expose_photon_counting"), ("event", "simulate_events")])
+def test_expose_refuses_a_non_integrating_sensor_and_names_the_way(kind, names):
+    from spectral_cam.errors import SensorError
+    from spectral_cam.radiance_targets import narrow_band_flat
+
+    scene = sc.scene_from_dict({"sensor": {"width_px": 8, "height_px": 8, "kind": kind, "crop_margin_px": 0}})
+    with pytest.raises(SensorError, match=names):
+        sc.expose(narrow_band_flat((8, 8), 0.05), scene)
