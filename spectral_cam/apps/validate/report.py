@@ -287,20 +287,28 @@ def _short(text: str) -> str:
     return Path(text).name if "/" in text else text
 
 
+def _number_cell(value) -> str:
+    return f'<td class="num">{_cell_text(value)}</td>'
+
+
+def _table_html(corner: str, columns, rows, cell=_number_cell) -> list[str]:
+    """An HTML table: ``corner`` over the row names, the (escaped) ``columns``, and each row's
+    ``(name, values)`` with every value rendered by ``cell`` as a whole ``<td>``."""
+    esc = html.escape
+    out = [f"<table><tr><th>{esc(corner)}</th>" + "".join(f"<th>{column}</th>" for column in columns) + "</tr>"]
+    out += [f"<tr><td>{esc(name)}</td>" + "".join(cell(v) for v in values) + "</tr>" for name, values in rows]
+    return out + ["</table>"]
+
+
 def _pivot_html(result) -> list[str]:
     """Mean ΔE2000, pipeline × illuminant (over sets, cameras and exposures)."""
     from .statistics import pivot
 
     names, illuminants, table = pivot(result)
-    esc = html.escape
-    rows = ["<h2>Pivot: mean ΔE2000 by pipeline × illuminant</h2>",
+    return ["<h2>Pivot: mean ΔE2000 by pipeline × illuminant</h2>",
             '<p class="small">Averaged over the reflectance sets, cameras and exposures; '
             '<a href="pivot.csv">pivot.csv</a>.</p>',
-            "<table><tr><th>pipeline</th>" + "".join(f"<th>{esc(_short(i))}</th>" for i in illuminants) + "</tr>"]
-    for name, values in zip(names, table):
-        rows.append(f"<tr><td>{esc(name)}</td>" + "".join(f'<td class="num">{_cell_text(v)}</td>' for v in values)
-                    + "</tr>")
-    return rows + ["</table>"]
+            *_table_html("pipeline", [html.escape(_short(i)) for i in illuminants], zip(names, table))]
 
 
 def _comparisons_html(result) -> list[str]:
@@ -361,17 +369,17 @@ def _metamerism_html(result) -> list[str]:
     rows = ["<h2>Sensitivity metamerism index (ISO 17321-1)</h2>",
             '<p class="small">100 − 5.5 × mean ΔE*ab of the 18 chromatic ColorChecker patches after each camera\'s '
             "best 3 × 3 for them under each illuminant: how far the camera's curves are from the CIE observer's, a "
-            "bound no pipeline's matrix beats; its drop between illuminants is the camera's metamerism.</p>",
-            "<table><tr><th>camera</th>" + "".join(f"<th>{esc(_short(i))}</th>" for i in plan.illuminants) + "</tr>"]
-    for camera in plan.cameras:
-        cells = []
-        for illuminant in plan.illuminants:
-            try:
-                cells.append(f'<td class="num">{sensitivity_metamerism_index(camera, illuminant):.1f}</td>')
-            except ConfigError:  # an "ideal" camera has no three distinct channels
-                cells.append("<td>—</td>")
-        rows.append(f"<tr><td>{esc(camera)}</td>{''.join(cells)}</tr>")
-    return rows + ["</table>"]
+            "bound no pipeline's matrix beats; its drop between illuminants is the camera's metamerism.</p>"]
+
+    def index(camera, illuminant):
+        try:
+            return sensitivity_metamerism_index(camera, illuminant)
+        except ConfigError:  # an "ideal" camera has no three distinct channels
+            return None
+
+    table = ((camera, [index(camera, i) for i in plan.illuminants]) for camera in plan.cameras)
+    return rows + _table_html("camera", [esc(_short(i)) for i in plan.illuminants], table,
+                              lambda v: "<td>—</td>" if v is None else f'<td class="num">{v:.1f}</td>')
 
 
 def _change_of_light_html(result) -> list[str]:
@@ -389,14 +397,10 @@ def _change_of_light_html(result) -> list[str]:
            f"{esc(_short(rows[0]['reference']))}: ΔE*ab of the pair under each other illuminant less its mismatch "
            "under the reference (the additive correction), mean over the patches, sets, cameras and exposures. "
            "What goes wrong only when the light changes (the camera's metamerism and a matrix made for another "
-           'light); <a href="metamerism.csv">metamerism.csv</a>.</p>',
-           "<table><tr><th>pipeline</th>" + "".join(f"<th>→ {esc(_short(t))}</th>" for t in tests) + "</tr>"]
-    for name in pipelines:
-        values = [np.mean([r["index_mean"] for r in rows if r["pipeline"] == name and r["test"] == t] or [np.nan])
-                  for t in tests]
-        out.append(f"<tr><td>{esc(name)}</td>" + "".join(f'<td class="num">{_cell_text(v)}</td>' for v in values)
-                   + "</tr>")
-    return out + ["</table>"]
+           'light); <a href="metamerism.csv">metamerism.csv</a>.</p>']
+    means = ((name, [np.mean([r["index_mean"] for r in rows if r["pipeline"] == name and r["test"] == t] or [np.nan])
+                     for t in tests]) for name in pipelines)
+    return out + _table_html("pipeline", [f"→ {esc(_short(t))}" for t in tests], means)
 
 
 def _cct_html(result) -> list[str]:
