@@ -123,7 +123,6 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
 
         counts = expose_photon_counting(captured, config)
         raw = counts.to_raw()
-        raw.crop = captured.frame_window if hasattr(captured, "frame_window") else None
     radiance = captured.framed()
     timings["sensor"] = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -160,7 +160,6 @@ def simulate_events(log_frames, times_s, config, *, seed: int | None = None) -> 
         dt = t1 - t0
         slope = (l1 - l0) / dt
         t = np.full(shape, t0)
-        active = np.ones(shape, bool)
         while True:  # each pass emits at most one event per pixel: the next crossing in time
             level = l0 + slope * (t - t0)
             drift = leak * c_on * (t - t0)  # the held level leaks down: the pixel drifts towards ON
@@ -175,7 +174,7 @@ def simulate_events(log_frames, times_s, config, *, seed: int | None = None) -> 
             t_down = np.where(level <= down, t, t_down)
             t_next = np.minimum(t_up, t_down)
             t_fire = np.maximum(t_next, last_event + refractory)  # refractory: the earliest it may fire
-            fire = active & (t_fire <= t1) & np.isfinite(t_next)
+            fire = (t_fire <= t1) & np.isfinite(t_next)
             if not fire.any():
                 break
             ys, xs = np.nonzero(fire)

@@ -29,6 +29,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -71,10 +72,15 @@ def auto_detections(bits: int) -> float:
     return -np.log(1.0 - AUTO_SHARE) if bits == 1 else AUTO_SHARE * (2 ** bits - 1)
 
 
+@functools.lru_cache(maxsize=8)
 def _inverse_table(bits: int, frame_s: float, dead_time_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """(h, E[count]) on a log grid of h, for inverting the mean count."""
+    """(h, E[count]) on a log grid of h, for inverting the mean count (cached: reconstruct, to_raw and
+    standard_error of a capture all invert through it)."""
     h = np.concatenate([[0.0], np.geomspace(1e-6, 60.0 * 2 ** bits, 4000)])
-    return h, expected_count(h, bits=bits, frame_s=frame_s, dead_time_s=dead_time_s)
+    table = expected_count(h, bits=bits, frame_s=frame_s, dead_time_s=dead_time_s)
+    h.setflags(write=False)
+    table.setflags(write=False)
+    return h, table
 
 
 @dataclass
@@ -93,6 +99,9 @@ class PhotonCountingCapture:
         The record (the CMOS RAW's fields that apply, and the mean detections per frame).
     colour : dict
         The colour metadata a CMOS RAW of the same light carries (for :meth:`to_raw`; not saved).
+    crop : tuple or None
+        (top, left, height, width) of the frame in the jots when the radiance held the sensor's crop
+        margin (as a CMOS RAW's default crop); :meth:`to_raw` carries it.
     """
 
     counts: np.ndarray
@@ -105,6 +114,7 @@ class PhotonCountingCapture:
     afterpulsing: float = 0.0
     meta: dict = field(default_factory=dict)
     colour: dict = field(default_factory=dict, repr=False)
+    crop: tuple | None = None
 
     @property
     def frames(self) -> int:
@@ -147,7 +157,7 @@ class PhotonCountingCapture:
                         color_matrix_2=colour.get("matrix_a"), forward_matrix=colour.get("forward"),
                         forward_matrix_2=colour.get("forward_a"), hue_sat_map=colour.get("hue_sat"),
                         hue_sat_map_2=colour.get("hue_sat_a"),
-                        camera_model=self.meta.get("camera_model", ""),
+                        camera_model=self.meta.get("camera_model", ""), crop=self.crop,
                         meta={**self.meta, "reconstruction": "maximum likelihood from the mean count",
                               "detections_per_frame_at_white": top})
 
@@ -242,4 +252,5 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
             "dark_count_rate_hz": sensor.dark_current_e_per_s, "camera_model": f"spectral_cam {sensor.model}",
             "seeds": {"sensor": int(sensor.seed), "frame": int(seed)}, "model": sensor.model}
     return PhotonCountingCapture(counts, sensor.cfa, sensor.kind, int(sensor.jot_bits), frame_s,
-                                 float(sensor.dark_current_e_per_s), dead, afterpulsing, meta, colour)
+                                 float(sensor.dark_current_e_per_s), dead, afterpulsing, meta, colour,
+                                 radiance.frame_window if hasattr(radiance, "frame_window") else None)

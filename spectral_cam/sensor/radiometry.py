@@ -625,15 +625,10 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
 
 
 @functools.lru_cache(maxsize=4)
-def _channel_gain_cached(lens: "ThinLens", model: str, prescription: str, focus_m: float, halves: tuple,
-                         channels: int) -> np.ndarray:
-    from types import SimpleNamespace
-
+def _channel_gain_cached(lens: "ThinLens", prescription: str | None, halves: tuple) -> np.ndarray:
     from .shading import channel_gains
 
-    config = SimpleNamespace(lens=SimpleNamespace(model=model, prescription=prescription, focus_distance_m=focus_m),
-                             sensor=SimpleNamespace(angular_response_deg=list(halves)))
-    gains = channel_gains(lens, config, channels)
+    gains = channel_gains(lens, halves, prescription=prescription)
     gains.setflags(write=False)
     return gains
 
@@ -645,8 +640,8 @@ def _channel_gain(lens: "ThinLens", config: "SceneConfig", channels: int) -> np.
     halves = parse_angular_response(config.sensor.angular_response_deg, channels)
     if halves is None:
         return None
-    return _channel_gain_cached(lens, config.lens.model, config.lens.prescription, float(lens.focus_distance_m),
-                                halves, channels)
+    prescription = config.lens.prescription if config.lens.model == "prescription" else None
+    return _channel_gain_cached(lens, prescription, halves)
 
 
 def _olpf(sensor: "SensorSection") -> tuple[float, str]:

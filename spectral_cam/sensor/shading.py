@@ -59,13 +59,13 @@ def _radius_m(lens) -> np.ndarray:
     return np.hypot(x[None, :], y[:, None])
 
 
-def chief_ray_angles_deg(lens, config) -> np.ndarray:
+def chief_ray_angles_deg(lens, *, prescription: str | None = None) -> np.ndarray:
     """(H, W) chief-ray angle of every pixel centre (degrees) for the render's lens: the thin lens
-    through its centre, or the prescription through its exit pupil."""
+    through its centre, or, given a ``prescription`` (a bundled lens or a CSV), its real chief rays
+    with the sensor where ``lens`` focuses."""
     radius = _radius_m(lens)
-    if config.lens.model == "prescription":
-        heights, angles = _traced_chief_rays(config.lens.prescription, float(config.lens.focus_distance_m),
-                                             float(radius.max()))
+    if prescription is not None:
+        heights, angles = _traced_chief_rays(prescription, float(lens.focus_distance_m), float(radius.max()))
         return np.interp(radius, heights, angles)
     return np.degrees(np.arctan(radius / lens.image_distance_m))
 
@@ -94,10 +94,8 @@ def _traced_chief_rays(name: str, focus_distance_m: float, max_height_m: float, 
     return heights[keep][order], angles[keep][order]
 
 
-def channel_gains(lens, config, channels: int) -> np.ndarray | None:
-    """(H, W, C) float32 acceptance of every pixel for every channel, or None when off."""
-    halves = parse_angular_response(config.sensor.angular_response_deg, channels)
-    if halves is None:
-        return None
-    theta = chief_ray_angles_deg(lens, config)
-    return np.stack([acceptance(theta, halves[c]) for c in range(channels)], axis=-1).astype(np.float32)
+def channel_gains(lens, halves, *, prescription: str | None = None) -> np.ndarray:
+    """(H, W, C) float32 acceptance of every pixel for each channel's half-response angle in ``halves``
+    (:func:`parse_angular_response`), at the chief-ray angle of :func:`chief_ray_angles_deg`."""
+    theta = chief_ray_angles_deg(lens, prescription=prescription)
+    return np.stack([acceptance(theta, half) for half in halves], axis=-1).astype(np.float32)

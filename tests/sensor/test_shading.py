@@ -129,8 +129,7 @@ def test_a_prescriptions_chief_ray_angle_is_the_traced_chief_rays(field_deg):
     assert passed[0]
     height = lens.image_height_m(field_deg, back)
     traced = np.degrees(np.arctan(abs(d[0, 1]) / d[0, 2]))
-    frame = SimpleNamespace(width_px=2, height_px=1, pixel_pitch_m=2 * height)  # column 1's centre at the height
-    config = SimpleNamespace(lens=SimpleNamespace(model="prescription", prescription="dgauss_50mm",
-                                                  focus_distance_m=1e6))
-    ours = chief_ray_angles_deg(frame, config)[0, 1]
+    # column 1's centre at the height, focused where the trace's sensor stands
+    frame = SimpleNamespace(width_px=2, height_px=1, pixel_pitch_m=2 * height, focus_distance_m=1e6)
+    ours = chief_ray_angles_deg(frame, prescription="dgauss_50mm")[0, 1]
     assert ours == pytest.approx(traced, abs=0.05), (ours, traced)

@@ -156,10 +156,7 @@ def _capture(image, config: SceneConfig, *, frame_seed: int):
     if kind in ("qis", "spad"):
         from ...sensor.photon_counting import expose_photon_counting
 
-        capture = expose_photon_counting(image, config, frame_seed=frame_seed)
-        raw = capture.to_raw()
-        raw.crop = image.frame_window if hasattr(image, "frame_window") else None
-        return raw
+        return expose_photon_counting(image, config, frame_seed=frame_seed).to_raw()
     return expose(image, config, frame_seed=frame_seed)
 
 
