@@ -24,11 +24,10 @@ from pathlib import Path
 import colour
 import numpy as np
 
-from spectral_cam.cie import bradford_adaptation
+from spectral_cam.cie import D50_WHITE_XYZ, bradford_adaptation
 from spectral_cam.isp.hue_sat_map import PROPHOTO_TO_XYZ_D50, XYZ_D50_TO_PROPHOTO, apply_hue_sat_map
 from spectral_cam.reflectance_sets import reflectance_set
-from spectral_cam.sensor.colour_calibration import camera_to_xyz_d65, fit_hue_sat_map
-from spectral_cam.sensor.dng_colour import D50_WHITE_XYZ
+from spectral_cam.sensor.colour_calibration import camera_to_xyz_d65, fit_hue_sat_map, forward_matrix_d50
 from spectral_cam.spectra import camera_sensitivities
 from spectral_cam.viz import figure, save_png
 
@@ -80,9 +79,7 @@ def _correction(camera, illuminant, method, training, smoothness=None):
         fitted = camera_to_xyz_d65(camera, illuminant, method=method, reflectances=training)
         return (lambda rgb: rgb @ np.asarray(fitted).T) if method == "linear" else fitted
     d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
-    forward = bradford_adaptation(d65, D50_WHITE_XYZ) @ np.asarray(camera_to_xyz_d65(camera, illuminant,
-                                                                                      reflectances=training))
-    forward = forward * (D50_WHITE_XYZ / (forward @ np.ones(3)))[:, None]  # the white onto D50, as the DNG's
+    forward = forward_matrix_d50(camera, illuminant, reflectances=training)  # the DNG's ForwardMatrix
     kwargs = {} if smoothness is None else {"smoothness": smoothness}
     hue_sat = fit_hue_sat_map(camera, illuminant, forward_matrix=forward, reflectances=training, **kwargs)
     back = bradford_adaptation(D50_WHITE_XYZ, d65) @ PROPHOTO_TO_XYZ_D50

@@ -56,6 +56,7 @@ __all__ = [
     "RootPolynomialCorrection",
     "CORRECTION_METHODS",
     "fit_hue_sat_map",
+    "forward_matrix_d50",
     "HUE_SAT_MAP_DIVISIONS",
 ]
 
@@ -383,6 +384,23 @@ HUE_SAT_MAP_DIVISIONS = (27, 6)
 HUE_SAT_MAP_SMOOTHNESS = 0.1
 
 
+def forward_matrix_d50(camera, illuminant_spd, *, reflectances=None, transmission=None) -> np.ndarray:
+    """White-balanced camera RGB → XYZ(D50) under ``illuminant_spd`` (a DNG ForwardMatrix): the
+    white-preserving fit of :func:`camera_to_xyz_d65`, Bradford-adapted from D65 to D50, each row
+    scaled so camera white (1, 1, 1) maps exactly onto the D50 white, as the DNG specification asks.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (ForwardMatrix).
+    """
+    from ..cie import D50_WHITE_XYZ, bradford_adaptation, illuminant_xy, xy_to_xyz
+
+    to_d65 = np.asarray(camera_to_xyz_d65(camera, illuminant_spd, reflectances=reflectances,
+                                          transmission=transmission), float)
+    forward = bradford_adaptation(xy_to_xyz(illuminant_xy("D65")), D50_WHITE_XYZ) @ to_d65
+    return forward * (D50_WHITE_XYZ / (forward @ np.ones(3)))[:, None]
+
+
 def _hsm_roughness(hues: int, sats: int) -> np.ndarray:
     """Second differences of a (hues, sats) table: around the hue circle and along saturation."""
     rows = []
@@ -458,11 +476,7 @@ def fit_hue_sat_map(
     white_cam = camera_responses(camera, illuminant_spd, [1.0], transmission=transmission)[0]
     rgb = camera_responses(camera, illuminant_spd, reflectances, transmission=transmission) / white_cam
     if forward_matrix is None:
-        from ..cie import illuminant_xy, xy_to_xyz
-
-        to_d65 = np.asarray(camera_to_xyz_d65(camera, illuminant_spd, transmission=transmission), float)
-        forward_matrix = bradford_adaptation(xy_to_xyz(illuminant_xy("D65")), D50_WHITE_XYZ) @ to_d65
-        forward_matrix = forward_matrix * (D50_WHITE_XYZ / (forward_matrix @ np.ones(3)))[:, None]
+        forward_matrix = forward_matrix_d50(camera, illuminant_spd, transmission=transmission)
     source = rgb @ (XYZ_D50_TO_PROPHOTO @ np.asarray(forward_matrix, dtype=float)).T
     xyz = reflectance_xyz(illuminant_spd, reflectances)
     target = xyz @ (XYZ_D50_TO_PROPHOTO @ bradford_adaptation(illuminant_white_xyz(illuminant_spd),

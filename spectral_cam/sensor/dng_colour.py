@@ -13,7 +13,6 @@ import functools
 
 import numpy as np
 
-from ..cie import D50_WHITE_XYZ  # the PCS white of DNG forward matrices (re-exported here)
 from ..errors import ConfigError
 
 
@@ -55,15 +54,12 @@ def _forward_matrix(model: str, specs: tuple, illuminant: str = "D65") -> np.nda
     """White-balanced camera RGB → XYZ(D50) under ``illuminant`` (DNG ForwardMatrix): the
     white-preserving fit of :func:`spectral_cam.sensor.colour_calibration.camera_to_xyz_d65`, Bradford-adapted from
     D65 to D50, so camera white (1, 1, 1) maps onto the D50 white as the DNG spec requires."""
-    from ..cie import bradford_adaptation, illuminant_xy, xy_to_xyz
     from . import colour_calibration
 
     try:
-        to_d65 = np.asarray(colour_calibration.camera_to_xyz_d65(model, illuminant, transmission=list(specs)), float)
+        return colour_calibration.forward_matrix_d50(model, illuminant, transmission=list(specs))
     except ConfigError:
         return None
-    forward = bradford_adaptation(xy_to_xyz(illuminant_xy("D65")), D50_WHITE_XYZ) @ to_d65
-    return forward * (D50_WHITE_XYZ / (forward @ np.ones(3)))[:, None]  # exact D50 white, row by row
 
 
 @functools.lru_cache(maxsize=32)
