@@ -326,11 +326,7 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
 
     def work(span):
         r0, r1 = span
-        block = data[r0:r1]
-        if block.dtype != np.float32:
-            block = block.astype(np.float32)
-        if not block.min() >= 0:  # also catches NaN
-            raise SensorError(_bad_value_message(block, r0))
+        block = _checked_block(data, r0, r1)
         with np.errstate(over="ignore", invalid="ignore"):  # overflow becomes inf: refused just below
             if layout is None:
                 np.matmul(block, vectors[0], out=rate[r0:r1])
@@ -338,8 +334,7 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
                 for a in (0, 1):
                     for b in (0, 1):
                         np.matmul(block[a::2, b::2], vectors[layout[a][b]], out=rate[r0 + a:r1:2, b::2])
-        if not np.isfinite(rate[r0:r1]).all():  # an infinity (Inf·w = Inf, Inf·0 = NaN, float32 overflow)
-            raise SensorError(_bad_value_message(block, r0))
+        _check_finite(rate[r0:r1], block, r0)
         if cos4 is not None:
             rate[r0:r1] *= cos4[r0:r1]
 
@@ -347,6 +342,20 @@ def electron_rates(data: np.ndarray, weights: np.ndarray, *, cfa: str, cos4: np.
     if channel_gain is not None:
         rate *= _sampled(channel_gain, cfa)
     return rate
+
+
+def _checked_block(data: np.ndarray, r0: int, r1: int) -> np.ndarray:
+    """Rows r0..r1 of the radiance as float32, refused if they hold a negative value or NaN."""
+    block = data[r0:r1].astype(np.float32, copy=False)
+    if not block.min() >= 0:  # also catches NaN
+        raise SensorError(_bad_value_message(block, r0))
+    return block
+
+
+def _check_finite(rates: np.ndarray, block: np.ndarray, r0: int) -> None:
+    """Refuse rates made infinite by the radiance (Inf·w = Inf, Inf·0 = NaN, float32 overflow)."""
+    if not np.isfinite(rates).all():
+        raise SensorError(_bad_value_message(block, r0))
 
 
 def _sampled(planes: np.ndarray, cfa: str) -> np.ndarray:
@@ -370,13 +379,10 @@ def _filtered_rates(data, weights, cfa: str, cos4, olpf_px: float, workers, chan
 
     def work(span):
         r0, r1 = span
-        block = data[r0:r1].astype(np.float32, copy=False)
-        if not block.min() >= 0:  # also catches NaN
-            raise SensorError(_bad_value_message(block, r0))
-        with np.errstate(over="ignore", invalid="ignore"):
+        block = _checked_block(data, r0, r1)
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow becomes inf: refused just below
             np.matmul(block, weights, out=planes[r0:r1])
-        if not np.isfinite(planes[r0:r1]).all():
-            raise SensorError(_bad_value_message(block, r0))
+        _check_finite(planes[r0:r1], block, r0)
         if cos4 is not None:
             planes[r0:r1] *= cos4[r0:r1, :, None]
 
