@@ -423,7 +423,7 @@ def _profile(extras: dict, planes: int = 3) -> dict:
             try:
                 out[f"hue_sat_map{suffix}"] = HueSatMap.from_dng(np.ravel(dims), data)
             except (ConfigError, TypeError, ValueError):
-                pass
+                pass  # a malformed map (wrong count, non-finite, negative scale) is no map, as for Adobe's reader
     if out["hue_sat_map"] is None or (tungsten and out["hue_sat_map_2"] is None):
         out["hue_sat_map"] = out["hue_sat_map_2"] = None  # half a dual-illuminant profile is none
     return out
