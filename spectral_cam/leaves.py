@@ -39,13 +39,23 @@ import numpy as np
 
 from .errors import ConfigError
 
-__all__ = ["LeafTraits", "prospect_d", "HEALTH_STATES", "draw_traits", "PROSPECT_RANGE_NM", "LEAF_PLUGIN"]
+__all__ = ["LeafTraits", "prospect_d", "prospect_layers", "HEALTH_STATES", "draw_traits", "vein_traits",
+           "aged_traits", "PROSPECT_RANGE_NM", "LEAF_PLUGIN", "CUTICLE_INDEX", "CUTICLE_ROUGHNESS"]
 
 #: Wavelengths PROSPECT-D covers (nm).
 PROSPECT_RANGE_NM = (400.0, 2500.0)
 #: The Mitsuba plugin of a reflecting and transmitting leaf (``render/leaf_bsdf.py`` registers
 #: it; presets name it in their scene dicts).
 LEAF_PLUGIN = "spectral_cam_leaf"
+#: Refractive index of the cuticle's specular lobe: PROSPECT-D's tabulated n(λ) (prosail's ``nr``,
+#: 1.51 at 400 nm to 1.44 at 720 nm) averaged over 400–720 nm; leaf wax measures 1.45–1.5 (Grant
+#: 1987; Vanderbilt & Grant 1985).
+CUTICLE_INDEX = 1.47
+#: Range of the cuticle's GGX roughness α over species (Bousquet et al. 2005, σ ≈ 0.1–0.5 for laurel,
+#: beech and hazel; Comar et al. 2014, wheat 0.18–0.46): each species draws its own within it.
+CUTICLE_ROUGHNESS = (0.1, 0.5)
+#: PROSPECT's cone of incidence for its first interface (degrees; its ``alpha``).
+PROSPECT_ALPHA_DEG = 40.0
 
 
 @dataclass(frozen=True)
@@ -129,6 +139,48 @@ def prospect_d(traits: LeafTraits, wavelengths_nm) -> tuple[np.ndarray, np.ndarr
         raise ConfigError(f"PROSPECT-D covers {PROSPECT_RANGE_NM[0]:g}–{PROSPECT_RANGE_NM[1]:g} nm; "
                           f"asked for {at.max():g} nm")
     return np.interp(at, wl, r), np.interp(at, wl, t)
+
+
+def prospect_layers(traits: LeafTraits, wavelengths_nm) -> tuple[np.ndarray, np.ndarray]:
+    """The leaf body's reflectance ρ(λ) and transmittance τ(λ) per unit of light that crossed its
+    surface: PROSPECT-D's R = r_α + t_α·(…) and T = t_α·(…) (r_α = 1 − t_α the first interface's
+    reflectance averaged over incidences within 40°, with PROSPECT's own n(λ)), so
+    ρ = (R − r_α)/t_α and τ = T/t_α; ρ + τ ≤ 1. The cuticle's lobe takes the place of r_α
+    (``render/leaf_bsdf.py``).
+
+    Examples
+    --------
+    >>> rho, tau = prospect_layers(LeafTraits(), [550.0, 800.0])
+    >>> bool(rho[0] < prospect_d(LeafTraits(), [550.0])[0][0] and (rho + tau).max() <= 1.0)
+    True
+    """
+    import prosail
+    from prosail.prospect_d import calctav
+
+    at = np.asarray(wavelengths_nm, dtype=float)
+    r, t = prospect_d(traits, at)
+    wl = np.arange(400, 2501, dtype=float)
+    nr = np.interp(at, wl, prosail.spectral_lib.prospectd.nr)
+    t_alpha = calctav(PROSPECT_ALPHA_DEG, nr)
+    rho = np.clip((r - (1.0 - t_alpha)) / t_alpha, 0.0, 1.0)
+    return rho, np.clip(np.minimum(t / t_alpha, 1.0 - rho), 0.0, 1.0)
+
+
+def vein_traits(traits: LeafTraits) -> LeafTraits:
+    """A leaf's veins, midrib and base: paler and thicker than its lamina (a third of its
+    chlorophyll, half its carotenoids, more structure, dry matter and water: vascular and
+    supporting tissue, little mesophyll; Esau 1977, Plant Anatomy, ch. 19)."""
+    return dataclasses.replace(traits, n=min(traits.n + 0.8, 3.5), cab=traits.cab * 0.35, car=traits.car * 0.5,
+                               ant=traits.ant * 0.5, cm=min(traits.cm * 1.5, 0.05), cw=min(traits.cw * 1.3, 0.1))
+
+
+def aged_traits(traits: LeafTraits) -> LeafTraits:
+    """The oldest (lowest) leaf of a plant whose young leaves have ``traits``: senescence
+    breaks chlorophyll down first (60 %), keeps carotenoids longer, browns and dries the
+    leaf (Merzlyak et al. 1999, Physiologia Plantarum 106, 135–141; Féret et al. 2017's
+    senescent ANGERS leaves)."""
+    return dataclasses.replace(traits, n=min(traits.n + 0.2, 3.5), cab=traits.cab * 0.4, car=traits.car * 0.8,
+                               brown=min(traits.brown + 0.3, 2.0), cw=traits.cw * 0.8)
 
 
 #: Trait distributions per health state: (low, high) of a uniform draw, or a fixed value;
