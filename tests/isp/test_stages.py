@@ -199,7 +199,9 @@ def test_all_cfa_phases_match_the_rggb_result_on_a_crop(method, cfa):
     dy, dx = RED_SITE[cfa]
     crop = base[dy:, dx:]
     reference = demosaic(sample_cfa(crop, "RGGB"), "RGGB", method=method)
-    np.testing.assert_allclose(inner(out[dy:, dx:], 8), inner(reference, 8), atol=1e-5)
+    # rcd reads up to 13 px away (the mirrored borders differ by 9e-5 at 8 px in, 0 from 12 px)
+    margin = 12 if method == "rcd" else 8
+    np.testing.assert_allclose(inner(out[dy:, dx:], margin), inner(reference, margin), atol=1e-5)
 
 
 def correlated_scene(h=128, w=160, supersample=4):
