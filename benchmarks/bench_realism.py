@@ -1,26 +1,46 @@
-"""Realism, measured (issue 23 #4): natural-image statistics of the bundled scenes developed at
-their defaults, beside real photographs and a real camera raw measured the same way.
+"""Realism, measured (issue 23 #4, widened in issue 37 #8): natural-image statistics of the bundled
+scenes developed at their defaults, beside real photographs and a real camera raw measured the
+same way, and whether each scene lies inside the photographs' range.
 
-Statistics (:mod:`spectral_cam.metrics.realism`) on the 8-bit display image: median L*, clipped
-share, power-spectrum slope, share of texture-free 8 × 8 blocks, Hasler–Süsstrunk colourfulness,
-firefly share; and on the RAW: median and 99th percentile as fractions of full scale.
+Statistics (:mod:`spectral_cam.metrics.realism`) on the 8-bit display image, every image first
+resampled to a short side of 320 px (the bundled scenes' frames; ``INTER_AREA`` when shrinking):
+median L*, clipped share, power-spectrum slope, share of texture-free 8 × 8 blocks,
+Hasler–Süsstrunk colourfulness, detail (95th percentile of the L* gradient after a σ = 1 px
+Gaussian, L* per pixel), He–Sun–Tang dark channel's 25th percentile (0–255), firefly share; and on
+the RAW: median and 99th percentile as fractions of full scale. Fireflies of our scenes are
+counted on the render's radiance, before the sensor.
 
-References: scikit-image's sample photographs (``astronaut``: NASA, public domain; ``coffee``,
-``chelsea``: Stéfan van der Walt, CC0; ``rocket``: SpaceX, public domain) and the Canon EOS 30D
-raw the tests fetch from Debian's archive (tests/support/samples.py), developed by LibRaw through
-rawpy (camera white balance, its default sRGB rendering) and by our ISP.
+References: the photographs of the world that the installed packages ship offline
+(``spectral_cam.metrics.realism.PHOTOGRAPHS``, sources and licences in that module's notes):
+scikit-image's ``astronaut`` (NASA, public domain), ``coffee`` and ``chelsea`` (CC0), ``rocket``
+(SpaceX, public domain) and the left view of ``stereo_motorcycle`` (Middlebury 2014);
+Matplotlib's ``grace_hopper.jpg`` (U.S. Navy, public domain); scikit-learn's ``china.jpg`` and
+``flower.jpg`` (CC BY 2.0; left out with a warning where scikit-learn is not installed). And the
+Canon EOS 30D raw the tests fetch from Debian's archive (tests/support/samples.py), developed by
+LibRaw through rawpy (camera white balance, its default sRGB rendering) and by our ISP; it is not
+one of the photographs whose range is scored.
 
-Writes ``OUT/realism.csv``; ``--readme README.md`` rewrites its table there.
+The range: for each scored measure (detail, dark channel p25, colourfulness, median L*, clipped)
+a photograph is checked leave-one-out, against the min–max of the *other* photographs (how tight
+the range is: a photograph outside the others' range shows the range does not hold every real
+photograph); every other image against the min–max of all the photographs. Columns ``in_<measure>``
+hold the verdicts, ``inside`` whether all hold, ``outside`` the measures that do not.
+
+Writes ``OUT/realism.csv`` and ``OUT/realism.png`` (the measures, photographs against ours);
+``--readme README.md`` rewrites its table there from the CSV; ``--from-csv`` redraws the chart and
+the table from an existing CSV without rendering. A scene that fails to render is reported and
+left out (the script then exits with status 1, after writing what it measured).
 
 Usage::
 
-    python benchmarks/bench_realism.py docs/bench [--readme README.md]
+    python benchmarks/bench_realism.py docs/bench [--readme README.md] [--from-csv]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import traceback
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +48,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ("colorchecker", "dof", "dead_leaves", "slanted_edge", "cornell_box", "tabletop", "vegetation", "meadow", "field",
           "glass_sphere")
-PHOTOGRAPHS = ("astronaut", "coffee", "chelsea", "rocket")
+SHORT_SIDE = 320  # the bundled scenes' 480 × 320 frames
+#: The measures scored against the photographs' range: CSV column, README heading, format.
+MEASURES = (("detail", "detail (L* per px)", ".2f"), ("dark_p25", "dark channel p25", ".0f"),
+            ("colourfulness", "colourfulness", ".1f"), ("median_L", "median L*", ".1f"),
+            ("clipped", "clipped", "%"))
+SHORT = {"detail": "detail", "dark_p25": "dark channel", "colourfulness": "colourfulness", "median_L": "median L*",
+         "clipped": "clipped"}
+PHOTOGRAPH = "photograph"
 BEGIN, END = "<!-- realism:begin -->", "<!-- realism:end -->"
 
 
@@ -40,27 +67,36 @@ def scene_row(name: str) -> dict:
     config = load_scene(ROOT / "scenes" / f"{name}.toml")
     sim = simulate(config)
     display = np.round(np.clip(sim.developed.image, 0, 1) * 255).astype(np.uint8)
-    stats = image_statistics(display)
+    stats = image_statistics(display, short_side=SHORT_SIDE)
     framed = sim.radiance.framed() if hasattr(sim.radiance, "framed") else sim.radiance
     stats["fireflies"] = firefly_share(np.asarray(framed.data).sum(axis=-1))  # the render's, before the sensor
     raw = sim.raw
     top, left, height, width = raw.crop or (0, 0, *raw.mosaic.shape)
     median, p99 = raw_levels(raw.mosaic[top:top + height, left:left + width], raw.black_level, raw.white_level)
-    return {"image": f"scenes/{name}.toml", "kind": "ours (defaults)", **stats, "raw_median": median, "raw_p99": p99,
+    return {"image": f"scenes/{name}.toml", "kind": "ours (defaults)",
+            "source": f"{display.shape[1]} × {display.shape[0]}", "licence": "", **stats, "raw_median": median,
+            "raw_p99": p99,
             "estimator": sim.radiance.meta["model_decisions"].get("estimator", {}).get("choice", "mean")}
 
 
 def photograph_rows() -> list[dict]:
-    import skimage.data
+    from spectral_cam.metrics.realism import PHOTOGRAPHS, image_statistics, reference_photographs
 
-    from spectral_cam.metrics.realism import image_statistics
-
-    return [{"image": f"skimage.data.{name}", "kind": "photograph", **image_statistics(getattr(skimage.data, name)()),
-             "raw_median": None, "raw_p99": None, "estimator": None} for name in PHOTOGRAPHS]
+    rows = []
+    for name, image in reference_photographs().items():
+        _load, source, licence = PHOTOGRAPHS[name]
+        rows.append({"image": name, "kind": PHOTOGRAPH, "source": f"{source} ({image.shape[1]} × {image.shape[0]})",
+                     "licence": licence, **image_statistics(image, short_side=SHORT_SIDE), "raw_median": None,
+                     "raw_p99": None, "estimator": None})
+    return rows
 
 
 def camera_raw_rows() -> list[dict]:
-    import rawpy
+    try:
+        import rawpy
+    except ImportError:
+        print("rawpy is not installed; the Canon 30D rows are left out", file=sys.stderr)
+        return []
 
     sys.path.insert(0, str(ROOT))
     from spectral_cam import develop, read_raw
@@ -76,57 +112,149 @@ def camera_raw_rows() -> list[dict]:
     median, p99 = raw_levels(raw.mosaic, raw.black_level, raw.white_level)
     with rawpy.imread(str(path)) as handle:
         libraw = handle.postprocess(use_camera_wb=True, output_bps=8)
-    ours = np.round(develop(raw).image * 255).astype(np.uint8)
-    return [{"image": "Canon EOS 30D raw, LibRaw (rawpy)", "kind": "camera raw", **image_statistics(libraw),
-             "raw_median": median, "raw_p99": p99, "estimator": None},
-            {"image": "Canon EOS 30D raw, our develop", "kind": "camera raw", **image_statistics(ours),
-             "raw_median": median, "raw_p99": p99, "estimator": None}]
+    ours = np.round(np.clip(develop(raw).image, 0, 1) * 255).astype(np.uint8)
+    common = {"kind": "camera raw", "source": CANON_30D_CR2.provenance.split(":")[0], "licence": "GPL-3+",
+              "raw_median": median, "raw_p99": p99, "estimator": None}
+    return [{"image": "Canon EOS 30D raw, LibRaw (rawpy)", **common, **image_statistics(libraw, short_side=SHORT_SIDE)},
+            {"image": "Canon EOS 30D raw, our develop", **common, **image_statistics(ours, short_side=SHORT_SIDE)}]
 
 
-def _number(value, spec: str) -> str:
-    return "–" if value in (None, "") else format(float(value), spec)
+def score_ranges(rows: list[dict]) -> None:
+    """Set ``in_<measure>``, ``inside`` and ``outside`` on every row: a photograph against the
+    min–max of the other photographs (leave one out), any other image against all of them."""
+    photographs = [r for r in rows if r["kind"] == PHOTOGRAPH]
+    for row in rows:
+        others = [p for p in photographs if p is not row]
+        outside = []
+        for key, _heading, _spec in MEASURES:
+            values = [float(p[key]) for p in others]
+            inside = bool(values) and min(values) <= float(row[key]) <= max(values)
+            row[f"in_{key}"] = inside
+            if not inside:
+                outside.append(key)
+        row["inside"] = not outside
+        row["outside"] = " ".join(outside)
+
+
+def _format(value, spec: str) -> str:
+    if value in (None, ""):
+        return "–"
+    return f"{100 * float(value):.2f} %" if spec == "%" else format(float(value), spec)
+
+
+def _truth(value) -> bool:
+    return value is True or value == "True"
 
 
 def readme_block(rows: list[dict]) -> str:
-    """The README's realism table, from the CSV rows."""
+    """The README's realism table, from the CSV rows: per image the scored measures, fireflies and
+    the verdict against the photographs' range, then the range itself."""
+    photographs = [r for r in rows if r["kind"] == PHOTOGRAPH]
+    names = {"skimage": "scikit-image", "matplotlib": "Matplotlib", "sklearn": "scikit-learn"}
+    packages = list(dict.fromkeys(names.get(p["image"].split(".")[0].split()[0], p["image"]) for p in photographs))
+    shipped = ", ".join(packages[:-1]) + " and " + packages[-1] if len(packages) > 1 else "".join(packages)
     lines = [BEGIN,
-             "| image | median L* | clipped | spectrum slope | flat 8×8 | colourfulness | fireflies | RAW median | "
-             "RAW p99 |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             f"Every image resampled to a short side of {SHORT_SIDE} px. Photographs: the colour photographs of",
+             f"the world that {shipped} ship ({len(photographs)}; sources and licences in",
+             "`spectral_cam/metrics/realism.py`), each checked leave-one-out against the others' range; every",
+             "other image against all of them. Detail: 95th percentile of the L* gradient after a σ = 1 px",
+             "Gaussian; dark channel: He, Sun & Tang's, 15 × 15 px, in 8-bit levels. Fireflies of our scenes",
+             "are counted on the render's radiance; spectrum slope, flat share and RAW levels are in the CSV.",
+             "",
+             "| image | " + " | ".join(heading for _key, heading, _spec in MEASURES)
+             + " | fireflies | inside the photographs' range (a photograph: the others') |",
+             "|---|" + "---|" * (len(MEASURES) + 2)]
     for r in rows:
-        lines.append(f"| {r['image']} ({r['kind']}) | {_number(r['median_L'], '.1f')} | "
-                     f"{_number(100 * float(r['clipped']), '.2f')} % | {_number(r['spectrum_slope'], '.2f')} | "
-                     f"{_number(100 * float(r['flat']), '.1f')} % | {_number(r['colourfulness'], '.1f')} | "
-                     f"{_number(100 * float(r['fireflies']), '.3f')} % | "
-                     f"{'–' if r['raw_median'] in (None, '') else format(100 * float(r['raw_median']), '.1f') + ' %'} | "
-                     f"{'–' if r['raw_p99'] in (None, '') else format(100 * float(r['raw_p99']), '.1f') + ' %'} |")
+        verdict = "yes" if _truth(r["inside"]) else "no: " + ", ".join(SHORT[k] for k in str(r["outside"]).split())
+        lines.append(f"| {r['image']} ({r['kind']}) | "
+                     + " | ".join(_format(r[key], spec) for key, _heading, spec in MEASURES)
+                     + f" | {100 * float(r['fireflies']):.3f} % | {verdict} |")
+    if photographs:
+        spans = []
+        for key, _heading, spec in MEASURES:
+            values = [float(p[key]) for p in photographs]
+            spans.append(f"{_format(min(values), spec)} – {_format(max(values), spec)}")
+        held = sum(_truth(p["inside"]) for p in photographs)
+        lines.append(f"| **photographs' range** ({len(photographs)}) | " + " | ".join(spans)
+                     + f" | | {held} of {len(photographs)} photographs inside the others' range on every measure |")
     lines.append(END)
     return "\n".join(lines)
+
+
+def chart(rows: list[dict], path: Path) -> Path:
+    """One strip per scored measure: the photographs (grey, their range shaded) against our scenes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    photographs = [r for r in rows if r["kind"] == PHOTOGRAPH]
+    ours = [r for r in rows if r["kind"].startswith("ours")]
+    fig, axes = plt.subplots(len(MEASURES), 1, figsize=(9, 1.5 * len(MEASURES) + 0.6))
+    colours = plt.get_cmap("tab10")
+    for ax, (key, heading, spec) in zip(axes, MEASURES):
+        scale = 100.0 if spec == "%" else 1.0
+        values = [scale * float(p[key]) for p in photographs]
+        if values:
+            ax.axvspan(min(values), max(values), color="0.9", zorder=0)
+        ax.scatter(values, np.zeros(len(values)), marker="|", s=300, color="0.35", label="photographs", zorder=2)
+        for index, r in enumerate(ours):
+            ax.scatter([scale * float(r[key])], [0.3 + 0.06 * (index % 5)], color=colours(index % 10), s=25, zorder=3,
+                       marker="o" if _truth(r[f"in_{key}"]) else "x")
+        ax.set_yticks([])
+        ax.set_ylim(-0.4, 0.8)
+        ax.set_xlabel(heading + (" (%)" if spec == "%" else ""))
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color="0.35", marker="|", linestyle="", markersize=12, label="photographs")]
+    handles += [Line2D([], [], color=colours(i % 10), marker="o", linestyle="", label=Path(r["image"]).stem)
+                for i, r in enumerate(ours)]
+    axes[0].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.05), fontsize=7, frameon=False)
+    fig.suptitle(f"Our scenes (o inside, x outside) against {len(photographs)} photographs (grey, range shaded)",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("output")
     parser.add_argument("--readme", help="rewrite the realism table in this README")
+    parser.add_argument("--from-csv", action="store_true",
+                        help="redraw the chart and the README table from OUTPUT/realism.csv, without measuring")
     args = parser.parse_args()
 
-    from spectral_cam.apps.bench.common import write_rows
+    from spectral_cam.apps.bench.common import read_rows, write_rows
 
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for name in SCENES:
-        rows.append(scene_row(name))
-        print(rows[-1], file=sys.stderr)
-    rows += photograph_rows() + camera_raw_rows()
-    write_rows(rows, out / "realism.csv")
+    failed = []
+    if args.from_csv:
+        rows = read_rows(out / "realism.csv")
+    else:
+        rows = []
+        for name in SCENES:
+            try:
+                rows.append(scene_row(name))
+            except Exception:  # report, go on with the others: one broken scene should not lose the rest
+                traceback.print_exc()
+                failed.append(name)
+                continue
+            print(rows[-1], file=sys.stderr)
+        rows += photograph_rows() + camera_raw_rows()
+        score_ranges(rows)
+        write_rows(rows, out / "realism.csv")
+        rows = read_rows(out / "realism.csv")  # the table and chart from the CSV, as --from-csv draws them
+    chart(rows, out / "realism.png")
     if args.readme:
-        import csv
-
         from spectral_cam.records import replace_block
 
-        with open(out / "realism.csv", newline="") as handle:
-            replace_block(args.readme, BEGIN, END, readme_block(list(csv.DictReader(handle))))
+        replace_block(args.readme, BEGIN, END, readme_block(rows))
+    if failed:
+        print(f"these scenes failed and are left out: {', '.join(failed)}", file=sys.stderr)
+        sys.exit(1)
 
 
 if __name__ == "__main__":
