@@ -25,6 +25,8 @@ from typing import Any, Mapping
 from . import spectra
 from .cfa import CFA_PATTERNS
 from .presets import PRESETS
+from .presets.assets import AssetSpec, asset_from_table
+from .presets.scatter import ScatterSpec, scatter_from_table
 from .errors import ConfigError
 from .isp.config import ISPConfig as ISPSection
 
@@ -134,6 +136,9 @@ class SceneSection:
     biochemistry drawn by health: ``dry_fraction`` dry, ``stressed_fraction`` stressed, the rest
     healthy) or a reflectance set (its ``dry_*`` samples for ``dry_fraction`` of the plants), on a
     soil of ``soil_reflectances``.
+    ``assets`` (``[[scene.assets]]``) places users' PLY/OBJ/glTF meshes and ``scatter``
+    (``[[scene.scatter]]``) instanced stones, clods, straw and grass blades on the ground of
+    an outdoor preset (:mod:`spectral_cam.presets.assets`, :mod:`spectral_cam.presets.scatter`).
     """
 
     preset: str = "colorchecker"
@@ -167,6 +172,8 @@ class SceneSection:
     soil_reflectances: str = "usgs_soils"
     dry_fraction: float = 0.1
     stressed_fraction: float = 0.2
+    assets: tuple[AssetSpec, ...] = ()
+    scatter: tuple[ScatterSpec, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.mitsuba_xml and self.preset not in PRESETS:
@@ -226,8 +233,21 @@ class SceneSection:
                   "mixed in fractal patches with relief; checker: the tabletop's 10 %/40 % checkerboard; flat: one "
                   "soil sample; table: a wooden table top before a stone wall)")
         self._check_outdoor_keys()
+        self._check_assets()
         spectra.validate_reflectance(self.reflectance)
         spectra.validate_reflectance(self.surround)
+
+    def _check_assets(self) -> None:
+        if not (self.assets or self.scatter):
+            return
+        outdoor = [name for name in PRESETS if "view_pitch_deg" in PRESETS[name].options]
+        if self.mitsuba_xml or self.preset not in outdoor:
+            _fail("scene.assets/scatter", self.mitsuba_xml or self.preset,
+                  f"assets and scatter stand on the ground of an outdoor preset ({', '.join(outdoor)})")
+        names = [a.name for a in self.assets] + [s.name for s in self.scatter]
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            _fail("scene.assets/scatter name", repeated, "each entry needs a name of its own (the segmentation's)")
 
     def _check_outdoor_keys(self) -> None:
         if self.light not in SCENE_LIGHTS:
@@ -707,6 +727,8 @@ class SceneConfig:
         for name in _SECTIONS:
             section = dataclasses.asdict(getattr(self, name))
             out[name] = {k: list(v) if isinstance(v, tuple) else v for k, v in section.items()}
+        out["scene"]["assets"] = [spec.to_table() for spec in self.scene.assets]
+        out["scene"]["scatter"] = [spec.to_table() for spec in self.scene.scatter]
         return out
 
     def to_toml(self) -> str:
@@ -734,6 +756,8 @@ def _toml_value(value: Any) -> str:
         return json.dumps(value, ensure_ascii=False)  # a JSON string is a valid TOML basic string
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml_value(item) for item in value) + "]"
+    if isinstance(value, Mapping):  # an inline table ([[scene.assets]] entries, distributions)
+        return "{" + ", ".join(f"{key} = {_toml_value(item)}" for key, item in value.items()) + "}"
     raise ConfigError(f"cannot write {value!r} ({type(value).__name__}) to TOML")
 
 
@@ -831,6 +855,11 @@ def scene_from_dict(
     lens_table = _lens_for_xml_camera(_lens_for_prescription(dict(merged.get("lens", {}))), sections["scene"],
                                       sections["sensor"])
     sections["lens"] = section_from_table("lens", lens_table, base_dir)
+    if sections["scene"].scatter or any(a.count > 1 for a in sections["scene"].assets):
+        from .optics import ThinLens
+        from .presets.scatter import check_instance_budget
+
+        check_instance_budget(SceneConfig(**sections), ThinLens.from_config(sections["lens"], sections["sensor"]))
     if sections["motion"].moving:
         if sections["exposure"].time_s == "auto":
             _fail("exposure.time_s", "auto", "motion blur needs a fixed exposure time (the blur is velocity × time); "
@@ -911,13 +940,29 @@ def section_from_table(name: str, table: Mapping[str, Any], base_dir: str | Path
             f"[{name}]: {', '.join(known)}"
         )
     kwargs = {key: _coerce(f"{name}.{key}", _resolve_path(value, Path(base_dir)), known[key].default,
-                           str(known[key].type)) for key, value in table.items()}
+                           str(known[key].type)) for key, value in table.items() if key not in _ENTRY_LISTS.get(name, {})}
+    for key, parse in _ENTRY_LISTS.get(name, {}).items():
+        if key in table:
+            kwargs[key] = _entry_list(f"{name}.{key}", table[key], parse, Path(base_dir))
     try:
         return cls(**kwargs)
     except ConfigError:
         raise
     except (TypeError, ValueError) as exc:  # e.g. a comparison with a wrong type
         raise ConfigError(f"[{name}]: {exc}") from None
+
+
+#: Keys whose value is an array of tables ([[scene.assets]]), each validated by its own parser.
+_ENTRY_LISTS = {"scene": {"assets": lambda table, k, base: asset_from_table(table, k, base),
+                          "scatter": lambda table, k, base: scatter_from_table(table, k)}}
+
+
+def _entry_list(key: str, value: Any, parse, base_dir: Path) -> tuple:
+    if isinstance(value, Mapping):  # a single table given with --set
+        value = [value]
+    if not isinstance(value, (list, tuple)):
+        _fail(key, value, f"give an array of tables ([[{key}]] in the scene file)")
+    return tuple(parse(table, k, base_dir) for k, table in enumerate(value))
 
 
 def read_toml(path: str | Path, what: str) -> dict:

@@ -8,7 +8,9 @@ registry. ``common`` holds what presets share, ``charts`` the chart targets,
 ``depth_targets`` the depth-of-field and bokeh targets, ``dead_leaves`` the occluding-disc
 texture target, ``cornell_box`` the Cornell box; ``outdoor`` the ground view and sun/sky
 or lamp the outdoor presets share, ``tabletop`` objects on the ground, ``vegetation`` plants
-on soil, ``meshes`` the procedural meshes.
+on soil, ``meshes`` the procedural meshes; ``assets`` users' mesh files and ``scatter``
+instanced ground clutter, added to an outdoor preset by ``[[scene.assets]]`` and
+``[[scene.scatter]]``.
 
 References
 ----------
@@ -39,4 +41,12 @@ def build_objects(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     ----------
     .. [1] Jakob, W., et al. (2022). Mitsuba 3, ``mi.load_dict`` scene dictionaries.
     """
-    return PRESETS[config.scene.preset](config, lens, mi)
+    objects = PRESETS[config.scene.preset](config, lens, mi)
+    if config.scene.assets or config.scene.scatter:  # users' meshes and ground clutter (outdoor presets)
+        from .assets import asset_objects
+        from .scatter import check_instance_budget, scatter_objects
+
+        check_instance_budget(config, lens)
+        objects.update(asset_objects(config, lens, mi))
+        objects.update(scatter_objects(config, lens, mi))
+    return objects
