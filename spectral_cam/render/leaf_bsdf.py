@@ -47,8 +47,8 @@ hazel; Comar et al. 2014: wheat 0.18 along the veins and 0.46 across); each spec
 in that range (:mod:`spectral_cam.presets.plants`).
 
 Within a leaf and between leaves: ``vein`` (a float texture, 0–1) blends the lamina's spectra
-towards the veins' (pale, thick: :func:`spectral_cam.leaves.vein_traits`), ``age`` (0–1,
-usually a per-vertex ``mesh_attribute``) towards an old leaf's (and an old leaf's veins), and
+towards the veins' (pale, thick: :func:`spectral_cam.leaves.vein_traits`), then ``age`` (0–1,
+usually a per-vertex ``mesh_attribute``) towards an old leaf's lamina (veins fade into it), and
 ``wood`` (0–1) towards an opaque Lambertian bark ``reflectance_wood`` without a cuticle: the
 spectra are mixed linearly, as a pixel mixes the surfaces it sees (linear spectral mixing).
 
@@ -122,7 +122,7 @@ def _bsdf_class(mi):
             self.age = texture(props, "age")
             self.wood = texture(props, "wood")
             names = ["reflectance_vein", "transmittance_vein", "reflectance_old", "transmittance_old",
-                     "reflectance_old_vein", "transmittance_old_vein", "reflectance_wood"]
+                     "reflectance_wood"]
             self.spectra = {name: texture(props, name) for name in names}
             if self.vein is not None and self.spectra["reflectance_vein"] is None:
                 raise ValueError(f"{PLUGIN}: 'vein' needs reflectance_vein and transmittance_vein")
@@ -134,6 +134,10 @@ def _bsdf_class(mi):
             self.eta = float(props.get("eta", 1.0))
             self.alpha = float(props.get("alpha", 0.3))
             self.t_diffuse = hemispherical_transmissivity(self.eta) if self.cuticle else 1.0
+            # opaque (not literals): plants of other roughness compile to the same kernels
+            self.eta_v = dr.opaque(mi.Float, self.eta)
+            self.alpha_v = dr.opaque(mi.Float, self.alpha)
+            self.inv_t_diffuse_v = dr.opaque(mi.Float, 1.0 / self.t_diffuse)
             both = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
             reflection = mi.BSDFFlags.DiffuseReflection | both
             transmission = mi.BSDFFlags.DiffuseTransmission | both
@@ -142,31 +146,25 @@ def _bsdf_class(mi):
             self.m_flags = reflection | transmission | (glossy if self.cuticle else mi.BSDFFlags(0))
 
         # ------------------------------------------------------------- spectra at a point
-        def _mix(self, si, active, young, vein_name, old_name, old_vein_name):
+        def _mix(self, si, active, young, vein_name, old_name):
             value = young.eval(si, active)
             if self.vein is not None:
-                v = self.vein.eval_1(si, active)
-                value = dr.lerp(value, self.spectra[vein_name].eval(si, active), v)
+                value = dr.lerp(value, self.spectra[vein_name].eval(si, active), self.vein.eval_1(si, active))
             if self.age is not None:
-                old = self.spectra[old_name].eval(si, active)
-                if self.vein is not None and self.spectra[old_vein_name] is not None:
-                    old = dr.lerp(old, self.spectra[old_vein_name].eval(si, active), v)
-                value = dr.lerp(value, old, self.age.eval_1(si, active))
+                value = dr.lerp(value, self.spectra[old_name].eval(si, active), self.age.eval_1(si, active))
             return value
 
         def _spectra(self, si, active):
             """(ρ, τ, bark, w): the body's reflectance and transmittance here, the bark's
             reflectance and the bark's weight."""
-            rho = self._mix(si, active, self.reflectance, "reflectance_vein", "reflectance_old",
-                            "reflectance_old_vein")
-            tau = self._mix(si, active, self.transmittance, "transmittance_vein", "transmittance_old",
-                            "transmittance_old_vein")
+            rho = self._mix(si, active, self.reflectance, "reflectance_vein", "reflectance_old")
+            tau = self._mix(si, active, self.transmittance, "transmittance_vein", "transmittance_old")
             if self.wood is None:
                 return rho, tau, None, mi.Float(0.0)
             return rho, tau, self.spectra["reflectance_wood"].eval(si, active), self.wood.eval_1(si, active)
 
         def _fresnel(self, cos_theta):
-            return mi.fresnel(dr.abs(cos_theta), self.eta)[0] if self.cuticle else mi.Float(0.0)
+            return mi.fresnel(dr.abs(cos_theta), self.eta_v)[0] if self.cuticle else mi.Float(0.0)
 
         def _lobe_weights(self, si, rho, tau, bark, w):
             """Unnormalised probabilities of the specular, reflected and transmitted lobes."""
@@ -188,7 +186,7 @@ def _bsdf_class(mi):
             return p_spec, p_refl, 1.0 - p_spec - p_refl
 
         def _distribution(self):
-            return mi.MicrofacetDistribution(mi.MicrofacetType.GGX, self.alpha, True)
+            return mi.MicrofacetDistribution(mi.MicrofacetType.GGX, self.alpha_v, self.alpha_v, True)
 
         def _local(self, si, wo):
             """ωi and ωo mirrored so that ωi lies above the surface (both faces alike)."""
@@ -196,7 +194,7 @@ def _bsdf_class(mi):
             wi = mi.Vector3f(si.wi.x, si.wi.y, si.wi.z * flip)
             return wi, mi.Vector3f(wo.x, wo.y, wo.z * flip)
 
-        def _spec_eval_pdf(self, si, wo):
+        def _spec_eval_pdf(self, si, wo, want_pdf=True):
             """The specular lobe's f·|cos θo| and its pdf (per solid angle) at ωo."""
             wi, wo = self._local(si, wo)
             cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
@@ -206,8 +204,10 @@ def _bsdf_class(mi):
             d = distr.eval(h)
             g = distr.G(wi, wo, h)
             dot_ih = dr.dot(wi, h)
-            f = mi.fresnel(dr.maximum(dot_ih, 0.0), self.eta)[0]
+            f = mi.fresnel(dr.maximum(dot_ih, 0.0), self.eta_v)[0]
             value = f * d * g / (4.0 * dr.maximum(cos_i, 1e-12))
+            if not want_pdf:
+                return dr.select(valid, value, 0.0), None
             pdf = distr.pdf(wi, h) / (4.0 * dr.maximum(dr.abs(dr.dot(wo, h)), 1e-12))
             return dr.select(valid, value, 0.0), dr.select(valid, pdf, 0.0)
 
@@ -216,9 +216,9 @@ def _bsdf_class(mi):
                 return mi.Float(1.0)
             f_i = self._fresnel(mi.Frame3f.cos_theta(si.wi))
             f_o = self._fresnel(mi.Frame3f.cos_theta(wo))
-            return (1.0 - f_i) * (1.0 - f_o) / self.t_diffuse
+            return (1.0 - f_i) * (1.0 - f_o) * self.inv_t_diffuse_v
 
-        def _eval_pdf(self, si, wo, active):
+        def _eval_pdf(self, si, wo, active, want_pdf=True):
             rho, tau, bark, w = self._spectra(si, active)
             cos_o = mi.Frame3f.cos_theta(wo)
             same = mi.Frame3f.cos_theta(si.wi) * cos_o > 0
@@ -227,11 +227,14 @@ def _bsdf_class(mi):
             value = dr.select(same, rho, tau) * body * lambert
             if bark is not None:
                 value += dr.select(same, bark, 0.0) * w * lambert
+            if self.cuticle:
+                spec, spec_pdf = self._spec_eval_pdf(si, wo, want_pdf)
+                value += spec * (1.0 - w)
+            if not want_pdf:  # eval alone: no lobe probabilities, no pdfs (fewer operations to compile)
+                return value & active, None
             p_spec, p_refl, p_trans = self._probabilities(si, rho, tau, bark, w)
             pdf = dr.select(same, p_refl, p_trans) * lambert
             if self.cuticle:
-                spec, spec_pdf = self._spec_eval_pdf(si, wo)
-                value += spec * (1.0 - w)
                 pdf += p_spec * spec_pdf
             return value & active, dr.select(active, pdf, 0.0)
 
@@ -266,7 +269,7 @@ def _bsdf_class(mi):
             return bs, weight & (active & (pdf > 0))
 
         def eval(self, ctx, si, wo, active=True):
-            return self._eval_pdf(si, wo, active)[0]
+            return self._eval_pdf(si, wo, active, want_pdf=False)[0]
 
         def pdf(self, ctx, si, wo, active=True):
             return self._eval_pdf(si, wo, active)[1]
