@@ -7,7 +7,7 @@ normals come from Mitsuba (averaged face normals), so curved objects shade smoot
 References
 ----------
 .. [1] Jakob, W., et al. (2022). Mitsuba 3, ``mi.Mesh`` built from Python (vertex_positions,
-   faces).
+   faces, vertex_texcoords, ``add_attribute`` read by the ``mesh_attribute`` texture).
 """
 
 from __future__ import annotations
@@ -53,18 +53,27 @@ def vase(height_m: float, segments: int = 48, points: int = 24):
     return lathe(radius, height, segments)
 
 
-def mitsuba_mesh(mi, name: str, vertices: np.ndarray, faces: np.ndarray, bsdf: dict, to_world=None):
+def mitsuba_mesh(mi, name: str, vertices: np.ndarray, faces: np.ndarray, bsdf: dict, to_world=None, *,
+                 texcoords: np.ndarray | None = None, attributes: dict | None = None):
     """A Mitsuba mesh of these triangles with ``bsdf`` (a scene-dict entry), placed by
-    ``to_world``."""
+    ``to_world``; with ``texcoords`` (n, 2) per-vertex (u, v) and ``attributes`` (name →
+    (n,) or (n, k) per-vertex values, names starting ``vertex_``) that a ``mesh_attribute``
+    texture reads."""
     if to_world is not None:
         matrix = np.asarray(to_world.matrix, dtype=float).reshape(4, 4, -1)[..., 0]
         vertices = vertices @ matrix[:3, :3].T + matrix[:3, 3]
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(bsdf)
-    mesh = mi.Mesh(name, len(vertices), len(faces), props=props, has_vertex_normals=True)
+    mesh = mi.Mesh(name, len(vertices), len(faces), props=props, has_vertex_normals=True,
+                   has_vertex_texcoords=texcoords is not None)
     params = mi.traverse(mesh)
     params["vertex_positions"] = mi.Float(np.ascontiguousarray(vertices, dtype=np.float32).ravel())
     params["faces"] = mi.UInt32(np.ascontiguousarray(faces, dtype=np.uint32).ravel())
+    if texcoords is not None:
+        params["vertex_texcoords"] = mi.Float(np.ascontiguousarray(texcoords, dtype=np.float32).ravel())
     params.update()
+    for key, values in (attributes or {}).items():
+        values = np.asarray(values, dtype=np.float32).reshape(len(vertices), -1)
+        mesh.add_attribute(key, values.shape[1], mi.Float(np.ascontiguousarray(values).ravel()))
     mesh.recompute_vertex_normals()
     return mesh

@@ -36,61 +36,34 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import outdoor
-from .common import PRESETS, diffuse, leaf_bsdf
+from .common import LEAF_SPECTRUM_STEP_NM, PRESETS, bitmap_texture, diffuse, reflectance_spectrum, spectrum_dict
 from .meshes import mitsuba_mesh
+from .plants import GOLDEN_ANGLE_DEG, MORPHOLOGIES, HealthShape, draw_shape, draw_species, vein_pattern
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
     from ..scene import SceneConfig
 
-__all__ = ["plant_mesh", "vegetation_layout", "plant_health", "GOLDEN_ANGLE_DEG"]
+__all__ = ["plant_mesh", "vegetation_layout", "plant_health", "plant_species", "GOLDEN_ANGLE_DEG",
+           "CROP_MORPHOLOGIES", "WEED_MORPHOLOGIES", "BARK_SAMPLE"]
 
-GOLDEN_ANGLE_DEG = 137.50776
-#: Samples along and across each leaf blade.
-LEAF_STEPS, LEAF_SIDES = 10, 2
-
-
-def _leaf(base, azimuth: float, length: float, rise: float, droop: float, fold: float, curl: float = 0.0):
-    """Vertices of one blade, (LEAF_STEPS + 1) × (2·LEAF_SIDES + 1), rows along its length; ``curl``
-    cups the blade across (its edges rise by curl × half-width, more towards the tip)."""
-    s = np.linspace(0.0, 1.0, LEAF_STEPS + 1)[:, None]
-    t = np.linspace(-1.0, 1.0, 2 * LEAF_SIDES + 1)[None, :]
-    width = 0.18 * length * np.sin(np.pi * s) ** 0.7
-    along = np.array([math.cos(azimuth), math.sin(azimuth), 0.0])
-    across = np.array([-math.sin(azimuth), math.cos(azimuth), 0.0])
-    reach = s * length * math.cos(rise)
-    height = (s * length * math.sin(rise) - droop * length * s ** 2 + fold * width * np.abs(t)
-              + curl * width * t ** 2 * (0.5 + s))
-    points = (base + reach[..., None] * along + (width * t)[..., None] * across
-              + height[..., None] * np.array([0.0, 0.0, 1.0]))
-    return points.reshape(-1, 3)
+#: Morphologies a crop row may be (lettuce, beet: rosette; bean, soybean, potato: upright; maize,
+#: wheat: grass) and those the weeds between the rows are drawn from (never the crop's).
+CROP_MORPHOLOGIES = ("rosette", "upright", "grass")
+WEED_MORPHOLOGIES = ("grass", "upright")
+#: The bark of woody stems: no bark spectrum is bundled (data/usgs_splib07/README.md), so the
+#: USGS dried oak leaf, a dead, brown plant tissue, stands in.
+BARK_SAMPLE = "dry_oak_leaf2_dried_ASD"
 
 
-def _grid_faces(rows: int, columns: int, offset: int) -> np.ndarray:
-    faces = []
-    for i in range(rows - 1):
-        for j in range(columns - 1):
-            a = offset + i * columns + j
-            faces += [(a, a + columns, a + columns + 1), (a, a + columns + 1, a + 1)]
-    return np.asarray(faces, dtype=np.uint32)
-
-
-def plant_mesh(rng, height_m: float) -> tuple[np.ndarray, np.ndarray]:
+def plant_mesh(rng, height_m: float, morphology: str = "rosette", shape: HealthShape | None = None,
+               species: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and triangles of one plant about +z, standing on z = 0, about ``height_m``
-    tall (its leaves reach about 0.6·height out from the stem)."""
-    count = int(rng.integers(6, 12))
-    start = rng.uniform(0, 360)
-    vertices, faces = [], []
-    for k in range(count):
-        level = k / count
-        base = np.array([0.0, 0.0, height_m * (0.05 + 0.45 * level)])
-        azimuth = math.radians(start + k * GOLDEN_ANGLE_DEG + rng.normal(0, 8))
-        length = height_m * rng.uniform(0.45, 0.7) * (1.0 - 0.3 * level)
-        blade = _leaf(base, azimuth, length, math.radians(rng.uniform(25, 65)), rng.uniform(0.3, 0.7),
-                      rng.uniform(0.05, 0.2), curl=rng.uniform(-0.2, 0.5))
-        faces.append(_grid_faces(LEAF_STEPS + 1, 2 * LEAF_SIDES + 1, sum(len(v) for v in vertices)))
-        vertices.append(blade)
-    return np.concatenate(vertices), np.concatenate(faces)
+    tall (:mod:`spectral_cam.presets.plants`; a healthy plant of a species drawn from ``rng``
+    unless given)."""
+    species = species or draw_species(rng, morphology)
+    geometry = MORPHOLOGIES[morphology](rng, height_m, species, shape or HealthShape()).arrays()
+    return geometry["vertices"], geometry["faces"]
 
 
 #: A crop-row field: the rows' spacing and the plants' along a row (m), the most rows and plants,
@@ -187,17 +160,77 @@ def plant_health(config: "SceneConfig", count: int) -> list[dict]:
     return plants
 
 
+def plant_species(config: "SceneConfig", plants: int, weeds: int = 0) -> tuple[list[dict], list[dict]]:
+    """Each plant's and each weed's species (:func:`spectral_cam.presets.plants.draw_species`),
+    drawn by ``layout_seed``: a scattered scene has 2–4 species of different morphologies, each
+    plant one of them; a crop field (``layout = "rows"``) one crop species of
+    :data:`CROP_MORPHOLOGIES`, its weeds 1–2 species of :data:`WEED_MORPHOLOGIES` other than the
+    crop's morphology."""
+    rng = np.random.default_rng(np.random.SeedSequence([config.scene.layout_seed, 0x5BEC1E5]))
+    if config.scene.layout == "rows":
+        crop = draw_species(rng, str(rng.choice(CROP_MORPHOLOGIES)))
+        choices = [m for m in WEED_MORPHOLOGIES if m != crop["morphology"]]
+        pool = [draw_species(rng, str(m)) for m in rng.permutation(choices)[:int(rng.integers(1, len(choices) + 1))]]
+        return [crop] * plants, [pool[int(rng.integers(len(pool)))] for _ in range(weeds)]
+    names = list(MORPHOLOGIES)
+    pool = [draw_species(rng, str(m)) for m in rng.permutation(names)[:int(rng.integers(2, len(names) + 1))]]
+    return [pool[int(rng.integers(len(pool)))] for _ in range(plants)], []
+
+
 def _split_dry(samples) -> tuple[list, list]:
     dry = [sd for name, sd in zip(samples.names, samples.sds) if name.startswith("dry")]
     green = [sd for name, sd in zip(samples.names, samples.sds) if not name.startswith("dry")]
     return green or dry, dry or green
 
 
+def _bark():
+    from ..reflectance_sets import reflectance_set
+
+    samples = reflectance_set("usgs_vegetation")
+    return samples.sds[samples.names.index(BARK_SAMPLE)]
+
+
+def leaf_material(traits, species: dict, veins, *, wood: bool = False) -> dict:
+    """The leaf BSDF of a plant (``render/leaf_bsdf.py``): a cuticle of index
+    :data:`~spectral_cam.leaves.CUTICLE_INDEX` and the species' roughness over PROSPECT-D's body
+    (:func:`~spectral_cam.leaves.prospect_layers`) of the lamina, the veins
+    (:func:`~spectral_cam.leaves.vein_traits`, weighted by the texture ``veins``) and the oldest
+    leaf (:func:`~spectral_cam.leaves.aged_traits`, weighted by the mesh's per-vertex
+    ``vertex_age``) and, with ``wood``, bark where ``vertex_wood`` is 1."""
+    from .. import spectra
+    from ..leaves import CUTICLE_INDEX, LEAF_PLUGIN, aged_traits, prospect_layers, vein_traits
+
+    lo, hi = spectra.MITSUBA_RANGE_NM
+    wavelengths = np.arange(lo, hi + LEAF_SPECTRUM_STEP_NM / 2, LEAF_SPECTRUM_STEP_NM)
+    bsdf = {"type": LEAF_PLUGIN, "eta": CUTICLE_INDEX, "alpha": float(species["alpha"]), "vein": veins,
+            "age": {"type": "mesh_attribute", "name": "vertex_age"}}
+    old = aged_traits(traits)
+    for suffix, leaf in (("", traits), ("_vein", vein_traits(traits)), ("_old", old)):
+        rho, tau = prospect_layers(leaf, wavelengths)
+        bsdf["reflectance" + suffix] = spectrum_dict((wavelengths, rho))
+        bsdf["transmittance" + suffix] = spectrum_dict((wavelengths, tau))
+    if wood:
+        bsdf["reflectance_wood"] = reflectance_spectrum(_bark())
+        bsdf["wood"] = {"type": "mesh_attribute", "name": "vertex_wood"}
+    return bsdf
+
+
+def _plant(mi, name, rng, size, species, shape, bsdf_of, place, view):
+    """One plant's mesh: grown by its species' morphology, its BSDF from ``bsdf_of(has_wood)``."""
+    geometry = MORPHOLOGIES[species["morphology"]](rng, size, species, shape).arrays()
+    wood = bool(geometry["wood"].max() > 0)
+    attributes = {"vertex_age": geometry["age"]}
+    if wood:
+        attributes["vertex_wood"] = geometry["wood"]
+    return mitsuba_mesh(mi, name, geometry["vertices"], geometry["faces"], bsdf_of(wood),
+                        view.transform(mi, place), texcoords=geometry["uv"], attributes=attributes)
+
+
 @PRESETS.register("vegetation", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
                                          "plant_reflectances", "soil_reflectances", "dry_fraction",
                                          "stressed_fraction", "layout_seed", "ground", "layout"),
-                  description="plants of PROSPECT-D leaves (or measured leaf spectra) on measured soil under the sun "
-                              "and sky")
+                  description="plants of several species and shapes (grass, rosette, upright, shrub) with PROSPECT-D "
+                              "leaves under a cuticle (or measured leaf spectra) on measured soil under the sun and sky")
 def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     """The soil, the plants of :func:`vegetation_layout` and the light."""
     from ..leaves import LeafTraits, draw_traits
@@ -205,6 +238,7 @@ def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
 
     s = config.scene
     rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x5011]))
+    shape_rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x5A9E]))
     prospect = s.plant_reflectances == "prospect"
     green, dry = ([], []) if prospect else _split_dry(reflectance_set(s.plant_reflectances))
     soils = reflectance_set(s.soil_reflectances)
@@ -221,23 +255,48 @@ def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     far = diffuse(0.25) if s.ground == "checker" else diffuse(soil)
     objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far)}
     layout = vegetation_layout(config, lens)
+    field = field_layout(config, lens) if s.layout == "rows" else []
+    weeds = [item for item in field if item[0].startswith("weed_")]
+    species, weed_species = plant_species(config, len(layout), len(weeds))
+    veins = {}
+
+    def vein_texture(venation):  # one texture per venation, shared by every plant
+        if venation not in veins:
+            veins[venation] = mi.load_dict(bitmap_texture(mi, vein_pattern(venation)))
+        return veins[venation]
+
+    def measured(sd):  # a measured reflectance only: two-sided Lambertian, no transmission; bark on wood
+        def bsdf_of(wood):
+            leaf = diffuse(sd)
+            if wood:
+                leaf = {"type": "blendbsdf", "weight": {"type": "mesh_attribute", "name": "vertex_wood"},
+                        "bsdf_0": leaf, "bsdf_1": diffuse(_bark())}
+            return {"type": "twosided", "bsdf": leaf}
+        return bsdf_of
+
     health = plant_health(config, len(layout)) if prospect else None
-    if s.layout == "rows":  # the weeds between the rows: healthy leaves of their own
+    if weeds:  # the weeds between the rows: healthy leaves of their own
         weed_rng = np.random.default_rng(np.random.SeedSequence([s.layout_seed, 0x3EED]))
-        for name, east, north, size in field_layout(config, lens):
-            if name.startswith("weed_"):
-                vertices, faces = plant_mesh(weed_rng, size)
-                leaf = leaf_bsdf(draw_traits(weed_rng, "healthy")) if prospect else diffuse(green[0])
-                place = mi.ScalarTransform4f().translate([east, north, 0.0])
-                objects[name] = mitsuba_mesh(mi, name, vertices, faces, leaf, view.transform(mi, place))
+        for (name, east, north, size), kind in zip(weeds, weed_species):
+            traits = draw_traits(weed_rng, "healthy")
+            bsdf_of = ((lambda wood, t=traits, k=kind: leaf_material(t, k, vein_texture(k["venation"]), wood=wood))
+                       if prospect else measured(green[0]))
+            place = mi.ScalarTransform4f().translate([east, north, 0.0])
+            objects[name] = _plant(mi, name, weed_rng, size, kind, draw_shape(shape_rng, "healthy"), bsdf_of, place,
+                                   view)
     for n, (east, north, size) in enumerate(layout):
-        if prospect:  # reflects and transmits (PROSPECT-D), the plant's own biochemistry
-            leaf = leaf_bsdf(LeafTraits(**health[n]["traits"]))
-        else:  # a measured reflectance only: two-sided Lambertian, no transmission
-            pool = dry if rng.random() < s.dry_fraction else green
-            leaf = {"type": "twosided", "bsdf": diffuse(pool[rng.integers(len(pool))])}
-        vertices, faces = plant_mesh(rng, size)
+        kind = species[n]
+        if prospect:  # reflects and transmits (PROSPECT-D) under a cuticle, the plant's own biochemistry
+            state = health[n]["state"]
+            traits = LeafTraits(**health[n]["traits"])
+            bsdf_of = (lambda wood, t=traits, k=kind: leaf_material(t, k, vein_texture(k["venation"]), wood=wood))
+        else:
+            is_dry = rng.random() < s.dry_fraction
+            pool = dry if is_dry else green
+            state = "dry" if is_dry else "healthy"
+            bsdf_of = measured(pool[rng.integers(len(pool))])
         place = mi.ScalarTransform4f().translate([east, north, 0.0])
-        objects[f"plant_{n}"] = mitsuba_mesh(mi, f"plant_{n}", vertices, faces, leaf, view.transform(mi, place))
+        objects[f"plant_{n}"] = _plant(mi, f"plant_{n}", rng, size, kind, draw_shape(shape_rng, state), bsdf_of,
+                                       place, view)
     objects.update(outdoor.light(config, view, mi))
     return objects
