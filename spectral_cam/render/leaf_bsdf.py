@@ -277,6 +277,15 @@ def _bsdf_class(mi):
         def eval_pdf(self, ctx, si, wo, active=True):
             return self._eval_pdf(si, wo, active)
 
+        def eval_diffuse_reflectance(self, si, active=True):
+            """The body's reflectance at normal incidence ((1 − F(0))·ρ under a cuticle; the
+            bark's where ``wood``): what an albedo label reads."""
+            rho, tau, bark, w = self._spectra(si, active)
+            value = rho * (1.0 - self._fresnel(mi.Float(1.0))) * (1.0 - w)
+            if bark is not None:
+                value += bark * w
+            return value & active
+
         def traverse(self, callback):  # nothing to optimise: the leaf's spectra come from its traits
             pass
 

@@ -159,3 +159,14 @@ def test_veins_age_and_bark_mix_the_spectra_linearly(mi):
     assert albedo == pytest.approx(0.25, rel=2e-3)
     with pytest.raises(Exception, match="vein"):
         _leaf(mi, 0.2, 0.4, vein=0.5)
+
+
+def test_the_diffuse_reflectance_is_the_bodys_at_normal_incidence(mi):
+    """What an albedo label reads: (1 − F(0))·ρ under a cuticle, ρ without one, the bark's on wood."""
+    si = _interaction(mi, 0)
+    f0 = fresnel(1.0, CUTICLE_INDEX)
+    value = _leaf(mi, 0.4, 0.3, eta=CUTICLE_INDEX, alpha=0.3).eval_diffuse_reflectance(si)
+    assert np.asarray(value[0])[0] == pytest.approx(0.4 * (1 - f0), rel=1e-5)
+    assert np.asarray(_leaf(mi, 0.4, 0.3).eval_diffuse_reflectance(si)[0])[0] == pytest.approx(0.4, rel=1e-6)
+    wood = _leaf(mi, 0.4, 0.3, reflectance_wood=0.2, wood=1.0).eval_diffuse_reflectance(si)
+    assert np.asarray(wood[0])[0] == pytest.approx(0.2, rel=1e-6)
