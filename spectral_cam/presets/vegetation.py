@@ -1,16 +1,20 @@
 """``vegetation``: plants of measured leaf spectra on measured soil, under the sun and sky —
 the scene of outdoor and agricultural imaging (crop monitoring, plant health).
 
-Each plant is one triangle mesh of 6–11 leaves set round its stem by the golden angle
-(137.5°, the phyllotaxis of most broad-leaved plants), each leaf a lanceolate blade whose width
-follows sin(πs)^0.7 along its length, rising at 25–65° and drooping under its own weight, with
-a slight V-fold along the midrib, cupped or rolled across (curl), each of its own length. With ``scene.plant_reflectances = "prospect"`` (the
+Each plant is one triangle mesh (``plant_<n>``; weeds ``weed_<n>``) grown by its species'
+morphology (:mod:`spectral_cam.presets.plants`: ``grass``, ``rosette``, ``upright``, ``shrub``),
+drawn by ``scene.layout_seed`` (:func:`plant_species`: 2–4 species a scattered scene, one crop
+species a field, its weeds of another morphology), its shape bent by its health (wilting,
+curl, leaf loss, stunting). With ``scene.plant_reflectances = "prospect"`` (the
 default) a plant's leaves reflect *and transmit* as PROSPECT-D gives for its own biochemistry
 (:mod:`spectral_cam.leaves`), drawn per plant by health state — ``dry`` for ``scene.dry_fraction``
 of the plants, ``stressed`` for ``scene.stressed_fraction``, else ``healthy`` (:func:`plant_health`,
 the datasets' health label) — through the two-sided translucent leaf BSDF
-(``render/leaf_bsdf.py``): in the near infrared a leaf transmits about as much as it reflects,
-which makes plants glow against the sun. With a reflectance set (e.g. ``usgs_vegetation``), the
+(``render/leaf_bsdf.py``) under a rough dielectric cuticle (n = 1.47, the species' GGX roughness):
+in the near infrared a leaf transmits about as much as it reflects, which makes plants glow
+against the sun, and the cuticle adds the sheen; veins, midrib and base are paler (a vein
+texture over the leaf's UVs), older lower leaves yellower and browner (per-vertex age), shrub
+stems bark. With a reflectance set (e.g. ``usgs_vegetation``), the
 leaves share one measured reflectance (its ``dry_*`` samples for ``dry_fraction``) and are
 two-sided Lambertian reflectors that transmit nothing. The soil is one sample of
 ``scene.soil_reflectances`` drawn by ``scene.layout_seed``.
