@@ -94,49 +94,106 @@ def _emitter_prefixes(mi, scene) -> list[tuple[object, str, str]]:
     return found
 
 
-def _look_point(mi, scene, sensor):
-    """Where the camera's central ray meets the scene, and the surface's normal there (else
-    the scene's centre and None)."""
-    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(0.5, 0.5), mi.Point2f(0.5, 0.5))
+#: How the light is read, as meta.json records it.
+LIGHT_METHOD = ("the emitter's spectral irradiance on the surfaces the camera sees, averaged over a 24 x 16 grid of "
+                "rays through the frame")
+#: The grid of camera rays (columns × rows) whose hits are the visible surfaces the light is
+#: averaged over, and the emitter directions sampled at each hit.
+FRAME_GRID, DIRECTIONS_PER_POINT = (24, 16), 64
+
+
+@dataclass(frozen=True)
+class VisibleSurfaces:
+    """Points of the surfaces the camera sees (a grid of rays over the frame) and their normals,
+    turned to the camera's side. ``normals`` is None where no ray hits anything (one point at
+    the scene's centre then stands for the scene)."""
+
+    points: np.ndarray
+    normals: np.ndarray | None
+
+
+def visible_surfaces(mi, scene, sensor, grid: tuple[int, int] = FRAME_GRID) -> VisibleSurfaces:
+    """Where a :data:`FRAME_GRID` of rays through the frame's pixel grid (cell centres) meets the
+    scene, each point lifted 10⁻⁴ along its normal to the side the camera sees. Rays that miss
+    (the sky) are dropped: they see no surface to light."""
+    import drjit as dr
+
+    columns, rows = grid
+    u, v = np.meshgrid((np.arange(columns) + 0.5) / columns, (np.arange(rows) + 0.5) / rows)
+    count = u.size
+    ray, _ = sensor.sample_ray(dr.zeros(mi.Float, count), dr.full(mi.Float, 0.5, count),
+                               mi.Point2f(u.ravel().astype(np.float32), v.ravel().astype(np.float32)),
+                               mi.Point2f(dr.full(mi.Float, 0.5, count), dr.full(mi.Float, 0.5, count)))
     hit = scene.ray_intersect(ray)
-    if bool(np.asarray(hit.is_valid())[0]):
-        normal = np.array([np.asarray(c)[0] for c in hit.n], dtype=float)
-        if normal @ np.array([np.asarray(c)[0] for c in ray.d]) > 0:
-            normal = -normal  # the side the camera sees
-        point = np.array([np.asarray(c)[0] for c in hit.p]) + 1e-4 * normal
-        return point, normal
-    box = scene.bbox()
-    return np.array([(box.min[i] + box.max[i]) / 2 for i in range(3)]), None
+    dr.eval(hit.p, hit.n, ray.d)
+    valid = np.asarray(hit.is_valid(), dtype=bool)
+    if not valid.any():
+        box = scene.bbox()
+        return VisibleSurfaces(np.array([[(box.min[i] + box.max[i]) / 2 for i in range(3)]]), None)
+    normal = np.stack([np.asarray(c, dtype=np.float64) for c in hit.n], axis=1)[valid]
+    direction = np.stack([np.asarray(c, dtype=np.float64) for c in ray.d], axis=1)[valid]
+    normal *= np.where(np.einsum("ij,ij->i", normal, direction) > 0, -1.0, 1.0)[:, None]  # the side seen
+    point = np.stack([np.asarray(c, dtype=np.float64) for c in hit.p], axis=1)[valid] + 1e-4 * normal
+    return VisibleSurfaces(point, normal)
 
 
-def _irradiance_spectrum(mi, dr, scene, emitter, point, normal) -> np.ndarray:
-    """Mean of L(λ)/pdf·cos θ over sampled directions from ``point`` that reach the emitter
-    unoccluded, on :data:`LIGHT_GRID_NM`. Without a normal (the camera sees no surface), or
-    where no sampled direction reaches the emitter, the cosine and the occlusion are dropped:
-    the spectrum the emitter sends towards the point."""
+def _as_array(spectrum, lanes: int = 4) -> np.ndarray:
+    """A drjit spectrum of ``lanes`` wavelengths as an (n, lanes) NumPy array."""
+    return np.stack([np.asarray(spectrum[i], dtype=np.float64) for i in range(lanes)], axis=1)
+
+
+def _point3(mi, values: np.ndarray):
+    return mi.Point3f(*[np.ascontiguousarray(values[:, i], dtype=np.float32) for i in range(3)])
+
+
+def _direct(mi, dr, scene, emitter, points: np.ndarray, normals: np.ndarray | None, wavelengths, samples):
+    """One emitter sample per point (``samples``: (2, n) uniform numbers): L(λ)/pdf·cos θ (n, 4),
+    zero where the scene blocks it (no cosine, no occlusion without normals), and L(λ)/pdf alone."""
+    n = len(points)
+    it = dr.zeros(mi.Interaction3f, n)
+    it.p = _point3(mi, points)
+    it.wavelengths = wavelengths
+    u = mi.Point2f(*samples.astype(np.float32))
+    # test_visibility=True: emitters cannot test it (they hold no scene) and ignore it, except
+    # sunsky, which returns zero weights when it is False (Mitsuba 3.9.1); occlusion is ours
+    ds, weight = emitter.sample_direction(it, u, True)
+    blocked = scene.ray_test(mi.Ray3f(it.p, ds.d, ds.dist * (1 - 1e-4), 0.0, it.wavelengths))
+    dr.eval(weight, ds.d, blocked)  # one kernel; converting each lane alone re-traces it
+    values = _as_array(weight)
+    if normals is None:
+        return values, values
+    direction = np.stack([np.asarray(c, dtype=np.float64) for c in ds.d], axis=1)
+    factor = np.clip(np.einsum("ij,ij->i", direction, normals), 0.0, None) * ~np.asarray(blocked)
+    return values * factor[:, None], values
+
+
+def _irradiance_spectrum(mi, dr, scene, emitter, surfaces: VisibleSurfaces) -> np.ndarray:
+    """The spectral irradiance the emitter sends to the surfaces the camera sees, averaged over
+    them (each ray of the frame's grid one equal share), on :data:`LIGHT_GRID_NM`: the mean of
+    L(λ)/pdf·cos θ over directions sampled at each point, a direction the scene blocks counting
+    zero. What grey cards on every visible surface would gather from the emitter: sunlit
+    surfaces, which gather most, weigh most, as in a camera's white balance over the frame, and
+    no one point (a shadow, a leaf's back) decides it. Light the scene reflects (a soil's warm
+    bounce) is not the emitter's and stays out: the illuminant is what the ground truth's colours
+    are seen under. Without normals (the camera sees no surface), or where no sampled direction
+    reaches the emitter, the cosine and the occlusion are dropped: the spectrum the emitter sends
+    towards the points."""
     rng = np.random.default_rng(0)
-    n = DIRECTION_SAMPLES
-    u = mi.Point2f(rng.random(n).astype(np.float32), rng.random(n).astype(np.float32))
-    weighted, plain = np.zeros(len(LIGHT_GRID_NM)), np.zeros(len(LIGHT_GRID_NM))
+    repeat = DIRECTION_SAMPLES if len(surfaces.points) == 1 else DIRECTIONS_PER_POINT
+    points = np.repeat(surfaces.points, repeat, axis=0)
+    normals = None if surfaces.normals is None else np.repeat(surfaces.normals, repeat, axis=0)
+    # the same directions at every wavelength (common random numbers): sampling noise scales the
+    # whole spectrum instead of moving one group of 4 wavelengths against the next
+    samples = rng.random((2, len(points)))
+    received, plain = np.zeros(len(LIGHT_GRID_NM)), np.zeros(len(LIGHT_GRID_NM))
     for start in range(0, len(LIGHT_GRID_NM), 4):
         chunk = np.resize(LIGHT_GRID_NM[start:start + 4], 4)
-        it = dr.zeros(mi.Interaction3f, n)
-        it.p = mi.Point3f(*[float(c) for c in point])
-        it.wavelengths = mi.Spectrum(*[mi.Float(float(w)) for w in chunk])
-        # test_visibility=True: emitters cannot test it (they hold no scene) and ignore it, except
-        # sunsky, which returns zero weights when it is False (Mitsuba 3.9.1); occlusion is ours
-        ds, weight = emitter.sample_direction(it, u, True)
-        blocked = scene.ray_test(mi.Ray3f(it.p, ds.d, ds.dist * (1 - 1e-4), 0.0, it.wavelengths))
-        dr.eval(weight, ds.d, blocked)  # one kernel; converting each lane alone re-traces it
-        values = np.stack([np.asarray(weight[i], dtype=np.float64) for i in range(4)], axis=1)
-        factor = np.ones(n)
-        if normal is not None:
-            direction = np.stack([np.asarray(c, dtype=np.float64) for c in ds.d], axis=1)
-            factor = np.clip(direction @ normal, 0.0, None) * ~np.asarray(blocked)
-        count = min(4, len(LIGHT_GRID_NM) - start)
-        weighted[start:start + count] = (values * factor[:, None]).mean(axis=0)[:count]
-        plain[start:start + count] = values.mean(axis=0)[:count]
-    return weighted if np.any(weighted > 0) else plain
+        wavelengths = mi.Spectrum(*[dr.full(mi.Float, float(w), len(points)) for w in chunk])
+        direct, unweighted = _direct(mi, dr, scene, emitter, points, normals, wavelengths, samples)
+        end = min(4, len(LIGHT_GRID_NM) - start)
+        received[start:start + end] = direct.mean(axis=0)[:end]
+        plain[start:start + end] = unweighted.mean(axis=0)[:end]
+    return received if np.any(received > 0) else plain
 
 
 def _temperature(params, prefix: str | None) -> float | None:
@@ -262,8 +319,7 @@ def light_part_spectrum(mi, scene, sensor, part: LightPart) -> np.ndarray:
     inside :func:`lit_alone` for a split ``sunsky``."""
     import drjit as dr
 
-    point, normal = _look_point(mi, scene, sensor)
-    spectrum = _irradiance_spectrum(mi, dr, scene, part.emitter, point, normal)
+    spectrum = _irradiance_spectrum(mi, dr, scene, part.emitter, visible_surfaces(mi, scene, sensor))
     if not np.all(np.isfinite(spectrum)):
         raise _not_finite(part.name)
     peak = spectrum.max()
@@ -308,10 +364,10 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True, lens=Non
     if not found:
         return []
     params = mi.traverse(scene)
-    point, normal = _look_point(mi, scene, sensor)
+    surfaces = visible_surfaces(mi, scene, sensor)
     emitters = []
     for emitter, name, prefix in found:
-        spectrum = _irradiance_spectrum(mi, dr, scene, emitter, point, normal)
+        spectrum = _irradiance_spectrum(mi, dr, scene, emitter, surfaces)
         peak = spectrum.max()
         if not np.all(np.isfinite(spectrum)):  # NaN or infinite strength: named, not divided (issue 25 #14)
             raise _not_finite(name)
@@ -402,6 +458,7 @@ def resolve_light(config: SceneConfig, *, lens=None, variant: str | None = None)
     else:
         resolved = _spectrum_csv(chosen)
     record = {"choice": resolved, "emitter": chosen.name, "plugin": chosen.plugin, "reason": reason,
+              "method": LIGHT_METHOD,
               "emitters": {e.name: {"plugin": e.plugin, "share": e.share, "temperature_k": e.temperature_k}
                            for e in emitters}}
     if not np.any(chosen.spectrum > 0):
