@@ -1,7 +1,10 @@
 """Ground clutter at scale (``[[scene.scatter]]``): stones, clods, straw and grass blades, each
 a small procedural mesh made once per variant and placed as Mitsuba ``instance``s of a
 ``shapegroup``, so a scene holds tens of thousands of them for the memory of a few meshes and
-one transform each (measured: tests/presets/test_scatter.py).
+one transform each (10 000 instances: 1.4× the peak memory of one, tests/presets/test_scatter.py).
+In the JIT variants of Mitsuba up to 3.9.1 an instance costs a kernel trace of its own (68 s
+and 0.6 GB for 1000), so there each variant's copies are merged into one low-polygon mesh
+instead (:func:`spectral_cam.presets.assets.use_instances`; ~170 B per triangle).
 
 A scatter entry draws its things over the ground the frame sees (within ``max_distance_m`` of
 the camera's foot) as a Poisson process of ``density_per_m2`` (a number, or drawn once per
@@ -15,10 +18,11 @@ Materials are measured spectra (USGS splib07 via :mod:`spectral_cam.reflectance_
 stones the ``usgs_stone`` samples, clods the ``usgs_soils``, straw the dry grass, grass blades
 the green lawn grass (two-sided Lambertian: thin blades are seen from both sides).
 
-The segmentation: every instance is a top-level shape ``<name>_<n>`` (``name`` defaults to
-the kind), but Mitsuba's ``shape_index`` AOV reports the shapegroup's *inner* mesh for a ray
-that meets any instance (measured on 3.9.1), so the label sees one id per variant mesh, named
-``<name>`` (:func:`instanced_meshes` lists them).
+The segmentation: merged, each variant is a shape ``<name>_<v>`` (class ``name``, which
+defaults to the kind). Instanced, every instance is a top-level shape ``<name>_<n>``, but
+Mitsuba's ``shape_index`` AOV reports the shapegroup's *inner* mesh for a ray that meets any
+instance (measured on 3.9.1), one id per variant mesh named ``<name>`` (:func:`instanced_meshes`
+lists them: the shape map must add them to its lookup).
 
 References
 ----------
@@ -39,6 +43,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..registry import Registry
+from .assets import ground_in_view
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
@@ -46,15 +51,16 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["SCATTER_KINDS", "ScatterSpec", "scatter_from_table", "Distribution", "parse_distribution",
            "scatter_objects", "scatter_layout", "expected_instances", "instanced_meshes", "icosphere",
-           "MAX_INSTANCES", "ground_in_view"]
+           "MAX_INSTANCES", "check_instance_budget", "placement"]
 
-#: Most instances (scatter and asset copies together) a scene may hold: Mitsuba keeps about
-#: 1 kB per instance (transform, bounding box, Embree's instance), measured at 10 000 — this
-#: bound keeps a scene under ~0.3 GB of instances and the 16-bit segmentation's ids.
+#: Most copies (scatter and asset copies together) a scene may hold: an instance costs ~5 kB
+#: (measured at 10 000 in scalar_spectral, the scene dict included), a merged copy its
+#: triangles (~170 B each, :data:`KIND_TRIANGLES`); the bound also keeps instance ids within
+#: the 16-bit segmentation's.
 MAX_INSTANCES = 60000
-#: Fraction of the frame (each way) a thing's foot may lie beyond and still be drawn (its body
-#: reaches into view).
-VIEW_MARGIN = 1.1
+#: Triangles of one thing of each kind (stones and clods: an icosphere of one subdivision, 80
+#: faces, smooth-shaded: a few pixels across in any view that holds thousands).
+KIND_TRIANGLES = {"stones": 80, "clods": 80, "straw": 96, "grass_blades": 70}
 DISTRIBUTIONS = ("uniform", "log_uniform", "lognormal", "normal")
 
 
@@ -187,7 +193,7 @@ def _smooth_noise(rng, directions: np.ndarray, octaves: int = 3) -> np.ndarray:
     return out / 3.0
 
 
-def _lump(rng, roughness: float, flatten: float, sink: float, subdivisions: int = 2):
+def _lump(rng, roughness: float, flatten: float, sink: float, subdivisions: int = 1):
     """A rounded lump: an icosphere displaced by smooth noise, flattened, scaled to unit
     horizontal extent, its bottom ``sink`` of its height below the ground."""
     directions, faces = icosphere(subdivisions)
@@ -348,44 +354,6 @@ def _reach(config: "SceneConfig", max_distance_m: float) -> float:
     return max_distance_m if max_distance_m > 0 else 3.0 * config.scene.distance_m
 
 
-def ground_in_view(config: "SceneConfig", lens: "ThinLens", reach_m: float):
-    """``(box, inside)``: a ground-frame box ``(east0, north0, east1, north1)`` around the ground
-    the frame (grown by :data:`VIEW_MARGIN`) sees within ``reach_m`` of the camera's foot, and a
-    function telling which (n, 2) ground points lie in that region."""
-    from .outdoor import GroundView
-
-    view = GroundView.from_config(config)
-    half_x = VIEW_MARGIN * lens.sensor_width_m / (2 * lens.image_distance_m)
-    half_y = VIEW_MARGIN * lens.sensor_height_m / (2 * lens.image_distance_m)
-    foot = view.camera_m[:2]
-
-    def inside(points: np.ndarray) -> np.ndarray:
-        ground = np.concatenate([points, np.zeros((len(points), 1))], axis=1)
-        camera = view.to_camera(ground)
-        z = camera[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            in_frame = (z > 0) & (np.abs(camera[:, 0]) <= half_x * z) & (np.abs(camera[:, 1]) <= half_y * z)
-        return in_frame & (np.hypot(*(points - foot).T) <= reach_m)
-
-    # the frame's outline cast onto the ground, each ray held to reach_m: the region's bounding box
-    t = np.linspace(-1.0, 1.0, 17)
-    edge = np.concatenate([np.stack([t, np.full_like(t, s)], 1) for s in (-1, 1)]
-                          + [np.stack([np.full_like(t, s), t], 1) for s in (-1, 1)])
-    points = [foot]
-    for u, v in edge:
-        direction = view.rotation.T @ np.array([u * half_x, v * half_y, 1.0])
-        horizontal = np.hypot(*direction[:2])
-        if direction[2] < 0:
-            hit = view.camera_m + (-view.camera_m[2] / direction[2]) * direction
-            if np.hypot(*(hit[:2] - foot)) <= reach_m:
-                points.append(hit[:2])
-                continue
-        if horizontal > 1e-12:
-            points.append(foot + reach_m * direction[:2] / horizontal)
-    points = np.asarray(points)
-    return (*points.min(axis=0), *points.max(axis=0)), inside
-
-
 def _area(box, inside, samples: int = 96) -> float:
     """The region's area (m²) from a regular grid over its box."""
     e0, n0, e1, n1 = box
@@ -420,9 +388,9 @@ def check_instance_budget(config: "SceneConfig", lens: "ThinLens | None" = None)
     total = sum(c for _, c in counts)
     if total > MAX_INSTANCES:
         listed = "; ".join(f"{name}: {count:,.0f}" for name, count in counts)
-        raise ConfigError(f"the scatter and asset copies would place about {total:,.0f} instances ({listed}), more "
-                          f"than {MAX_INSTANCES:,} (about 1 kB of memory each, and the 16-bit segmentation's ids); "
-                          "lower density_per_m2, max_distance_m or count")
+        raise ConfigError(f"the scatter and asset copies would place about {total:,.0f} things ({listed}), more "
+                          f"than {MAX_INSTANCES:,} (each an instance of ~5 kB, or its triangles merged at ~170 B "
+                          "each, and an id of the 16-bit segmentation); lower density_per_m2, max_distance_m or count")
 
 
 @dataclass(frozen=True)
@@ -471,30 +439,26 @@ def scatter_layout(config: "SceneConfig", lens: "ThinLens", index: int) -> list[
                    float(tilts[k]), float(tilt_azimuths[k])) for k in range(n) if sizes[k] > 0]
 
 
-def placement(mi, item: Placed):
-    """The ground-frame transform of one placed thing (size, tilt, turn, foot)."""
-    return (mi.ScalarTransform4f().translate([item.east_m, item.north_m, 0.0])
-            .rotate([0, 0, 1], item.tilt_azimuth_deg).rotate([1, 0, 0], item.tilt_deg)
-            .rotate([0, 0, 1], item.turn_deg - item.tilt_azimuth_deg).scale(item.size_m))
+def placement(item: Placed) -> np.ndarray:
+    """The ground-frame 4 × 4 of one placed thing: scaled to its size, turned, tilted, on its foot."""
+    from .assets import _rotation
 
-
-def instanced(mi, view, group_key: str, mesh, transforms, name: str, first: int = 0) -> dict:
-    """Scene-dict entries: a ``shapegroup`` ``group_key`` holding ``mesh`` and one ``instance``
-    of it per ground-frame transform, keyed ``<name>_<n>`` from ``first``."""
-    entries = {group_key: {"type": "shapegroup", name: mesh}}
-    ref = {"type": "ref", "id": group_key}
-    for n, local in enumerate(transforms):
-        entries[f"{name}_{first + n}"] = {"type": "instance", "shapegroup": ref, "to_world": view.transform(mi, local)}
-    return entries
+    m = np.eye(4)
+    m[:3, :3] = (_rotation(2, item.tilt_azimuth_deg) @ _rotation(0, item.tilt_deg)
+                 @ _rotation(2, item.turn_deg - item.tilt_azimuth_deg)) * item.size_m
+    m[:3, 3] = (item.east_m, item.north_m, 0.0)
+    return m
 
 
 def scatter_objects(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
-    """Scene-dict entries of every ``[[scene.scatter]]`` entry: per entry, ``variants`` meshes
-    (each a shapegroup ``scatter_<k>_v<v>``) and an instance per thing."""
-    from .meshes import mitsuba_mesh
+    """Scene-dict entries of every ``[[scene.scatter]]`` entry: per entry and variant, a
+    shapegroup ``scatter_<k>_v<v>`` with an instance ``<name>_<n>`` per thing, or (in the JIT
+    variants of Mitsuba up to 3.9.1, :func:`~spectral_cam.presets.assets.use_instances`) one
+    mesh ``<name>_<v>`` holding the variant's things."""
+    from .assets import MeshData, camera_matrix, place_copies
     from .outdoor import GroundView
 
-    view = GroundView.from_config(config)
+    camera = camera_matrix(GroundView.from_config(config))
     objects: dict = {}
     for index, spec in enumerate(config.scene.scatter):
         layout = scatter_layout(config, lens, index)
@@ -505,9 +469,9 @@ def scatter_objects(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
             mine = [item for item in layout if item.variant == v]
             if not mine:
                 continue
-            mesh = mitsuba_mesh(mi, spec.name, vertices, faces, bsdf)
-            objects.update(instanced(mi, view, f"scatter_{index}_v{v}", mesh, [placement(mi, item) for item in mine],
-                                     spec.name, counter))
+            objects.update(place_copies(mi, camera, MeshData(vertices, faces), bsdf, [placement(item) for item in mine],
+                                        name=spec.name, group_key=f"scatter_{index}_v{v}",
+                                        merged_key=f"{spec.name}_{v}", first=counter))
             counter += len(mine)
     return objects
 
