@@ -281,8 +281,10 @@ class SkySection:
     (north/east positive) with the clock ``utc_offset_h`` hours from UTC (NOAA's solar
     position, :mod:`spectral_cam.solar`); ``turbidity`` (1–10: 2 arctic-clear, 3 clear, 6 warm
     and moist, 10 hazy) sets the haze; ``heading_deg`` is the compass direction the camera
-    looks in (clockwise from north). Its light is in absolute units (about 100 klx of sun
-    at a high elevation), so ``exposure.time_s = "auto"`` is the natural choice."""
+    looks in (clockwise from north); ``cloud_cover`` (0–1) is the share of the sky a layer of
+    cumulus hides (:mod:`spectral_cam.presets.clouds`; 0: the clear sky). Its light is in
+    absolute units (about 100 klx of sun at a high elevation), so ``exposure.time_s = "auto"``
+    is the natural choice."""
 
     date: str = "2026-06-21"
     hour: float = 14.0
@@ -291,6 +293,7 @@ class SkySection:
     longitude_deg: float = 8.5417
     turbidity: float = 3.0
     heading_deg: float = 0.0
+    cloud_cover: float = 0.0
 
     def __post_init__(self) -> None:
         from .solar import parse_date
@@ -300,7 +303,8 @@ class SkySection:
                                      ("utc_offset_h", -14.0, 14.0, "the clock's offset from UTC in hours"),
                                      ("latitude_deg", -90.0, 90.0, "degrees north"),
                                      ("longitude_deg", -180.0, 180.0, "degrees east"),
-                                     ("turbidity", 1.0, 10.0, "Mitsuba's sunsky turbidity")):
+                                     ("turbidity", 1.0, 10.0, "Mitsuba's sunsky turbidity"),
+                                     ("cloud_cover", 0.0, 1.0, "the share of the sky under cloud (0: clear)")):
             value = getattr(self, key)
             if not (isinstance(value, float) and low <= value <= high):
                 _fail(f"sky.{key}", value, f"must be a number in [{low:g}, {high:g}]: {what}")

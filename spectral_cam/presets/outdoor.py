@@ -222,7 +222,9 @@ def overcast_sky(config: "SceneConfig", view: GroundView, mi) -> dict:
 def light(config: "SceneConfig", view: GroundView, mi) -> dict:
     """The preset's light as scene-dict entries."""
     if light_kind(config) == "sunsky":
-        return {"sky": sunsky(config, view, mi)}
+        from .clouds import cloud_layer
+
+        return {"sky": sunsky(config, view, mi), **cloud_layer(config, view, mi)}
     if light_kind(config) == "overcast":
         return {"sky": overcast_sky(config, view, mi)}
     black = {"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}}

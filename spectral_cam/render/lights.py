@@ -359,7 +359,10 @@ def scene_emitters(config: SceneConfig, *, measure_shares: bool = True, lens=Non
     film = {"type": "specfilm", "width": width, "height": height, "rfilter": {"type": "box"},
             "visible": {"type": "spectrum", "value": [(400.0, 1.0), (700.0, 1.0)]}}
     camera = camera_dict(mi, probe, "pinhole", film, PROBE_SPP)
-    scene, sensor, integrator = build_scene(mi, config, probe, camera, {"type": "path", "max_depth": config.render.max_depth})
+    # clouds pass the sun's light on in its own spectrum: probed as occluders they would balance a
+    # frame in a cloud's shadow for the blue sky alone (presets/clouds.py)
+    clear = config.replace(**{"sky.cloud_cover": 0.0})
+    scene, sensor, integrator = build_scene(mi, clear, probe, camera, {"type": "path", "max_depth": config.render.max_depth})
     found = _emitter_prefixes(mi, scene)
     if not found:
         return []

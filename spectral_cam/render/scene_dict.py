@@ -123,6 +123,11 @@ def moved_sensor(mi, sensor, camera: dict, move):
     return load_dict(mi, dict(camera, film=film, to_world=mi.ScalarTransform4f(matrix) @ move))
 
 
+#: How far our Mitsuba cameras see (m). Mitsuba's default, 10 km, clipped the far ground (to 20 km)
+#: and the clouds near the horizon, which then showed the sky instead.
+FAR_CLIP_M = 1e5
+
+
 def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent",
                 glass: str = "N-BK7", prescription: str = "dgauss_50mm", blades: int = 0,
                 blade_rotation_deg: float = 0.0, blade_rounding: float = 0.0,
@@ -155,6 +160,7 @@ def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: s
         "film": film,
         "sampler": {"type": sampler, "sample_count": spp},
         "near_clip": min(1e-3, lens.focus_distance_m / 10),
+        "far_clip": FAR_CLIP_M,
     }
     if model == "thin":
         camera["aperture_radius"] = lens.aperture_radius_m
