@@ -24,7 +24,7 @@ import functools
 
 import numpy as np
 
-__all__ = ["fbm", "abundance_maps", "grain_maps", "height_field"]
+__all__ = ["fbm", "abundance_maps", "grain_maps", "height_field", "ground_maps", "MOISTURE_SHARE"]
 
 
 @functools.lru_cache(maxsize=32)
@@ -124,3 +124,89 @@ def height_field(size: int, *, period_px: float, seed: int = 0) -> np.ndarray:
     field = fbm(size, period_px=period_px, octaves=5, seed=seed + 104729, persistence=0.6)
     low, high = field.min(), field.max()
     return ((field - low) / max(high - low, 1e-12)).astype(np.float32)
+
+
+#: The moisture share of a ground (the fraction of its area wet) is drawn per layout in this range.
+MOISTURE_SHARE = (0.0, 0.35)
+
+
+@functools.lru_cache(maxsize=4)
+def _ground_cached(size: int, covers: tuple, period_px: float, seed: int, litter: tuple, moisture: float,
+                   relief_size: int, clod_period_px: float, slope: float, contrast: float):
+    abundances = abundance_maps(size, covers, period_px=period_px, seed=seed, contrast=contrast)
+    # the hollows: the same scale as the patches, low where the ground holds water
+    hollows = fbm(size, period_px=period_px, octaves=4, seed=seed + 15485863, persistence=0.5)
+    if moisture > 0:
+        level = np.quantile(hollows, moisture)
+        t = np.clip((level - hollows) / 0.8 + 0.5, 0.0, 1.0)
+        wetness = t * t * (3 - 2 * t)  # smoothstep: wet in the hollows, drying up their sides
+        wetness *= moisture / max(float(wetness.mean()), 1e-12)
+        wetness = np.clip(wetness, 0.0, 1.0)
+    else:
+        wetness = np.zeros((size, size))
+    litter_share = abundances[list(litter)].sum(axis=0) if litter else np.zeros((size, size))
+
+    def up(field):
+        import cv2
+
+        if relief_size == size:
+            return np.asarray(field, dtype=np.float64)
+        return cv2.resize(np.asarray(field, dtype=np.float32), (relief_size, relief_size),
+                          interpolation=cv2.INTER_LINEAR).astype(np.float64)
+
+    # clods: |fBm| (billow noise): rounded aggregates parted by sharp cracks, down to 2 texels
+    octaves = max(1, int(np.floor(np.log2(clod_period_px / 2.0))) + 1)
+    clods = np.abs(fbm(relief_size, period_px=clod_period_px, octaves=octaves, seed=seed + 32452843,
+                       persistence=0.6))
+    roughness = (1.0 - up(litter_share)) * (1.0 - 0.7 * up(wetness))  # litter lies flat, wet soil slumps
+    clods = roughness * clods
+    gy, gx = np.gradient(clods)
+    clods *= slope / max(float(np.sqrt(np.mean(gx ** 2 + gy ** 2))), 1e-12)  # rms slope of the clods
+    scale = relief_size / size  # texels of the height map per texel of the abundances
+    height = clods + scale * (0.02 * period_px * up(hollows) + 0.01 * period_px * up(1.0 - litter_share))
+    height -= height.min()
+    out = (abundances, wetness.astype(np.float32), height.astype(np.float32))
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+def ground_maps(size: int, covers, *, period_px: float, seed: int = 0, litter=(), moisture: float = 0.0,
+                relief_size: int | None = None, clod_period_px: float = 12.0, slope: float = 0.6,
+                contrast: float = 2.5):
+    """The maps of a natural ground, from one set of fractal fields: the abundances of its
+    endmembers (:func:`abundance_maps`), where it is wet, and its relief.
+
+    - ``wetness`` (0–1): smooth patches (a smoothstep) over the lowest ``moisture`` share of a
+      *hollows* field (fBm of the patches' period), scaled so its mean is ``moisture``;
+    - ``height`` (in texels of the height map): clods — |fBm| of period ``clod_period_px``
+      texels and octaves down to 2 texels, rounded aggregates parted by sharp cracks, with an rms
+      slope ``slope`` on bare dry soil, flattened under litter (the endmembers ``litter``) and
+      by wetness (wet soil slumps) — on the hollows (2 % of the patches' period deep) and soil
+      patches raised above litter (1 %).
+
+    Parameters
+    ----------
+    size : int
+        Texels on a side of the abundances and the wetness.
+    covers, period_px, seed, contrast
+        As :func:`abundance_maps`.
+    litter : sequence of int
+        Indices of the endmembers that lie flat (leaf litter, dry grass).
+    moisture : float
+        Mean wetness, 0–1.
+    relief_size : int, optional
+        Texels on a side of the height map (default ``size``; finer for relief at a finer scale
+        than the colours).
+    clod_period_px, slope
+        Size of the clods (texels of the height map) and their rms slope (rise per run).
+
+    Returns
+    -------
+    (abundances, wetness, height)
+        float32 (K, size, size), (size, size) and (relief_size, relief_size); read-only, cached.
+    """
+    relief_size = int(relief_size or size)
+    return _ground_cached(int(size), tuple(float(c) for c in np.ravel(covers)), float(period_px), int(seed),
+                          tuple(int(k) for k in litter), float(moisture), relief_size, float(clod_period_px),
+                          float(slope), float(contrast))

@@ -231,38 +231,66 @@ def light(config: "SceneConfig", view: GroundView, mi) -> dict:
     return {"lamp": overhead_lamp(config, view, mi, black)}
 
 
-#: Texels on a side of a textured ground, the share of it covered by leaf litter (dry grass and
-#: leaves), and its relief (bump-map scale).
-GROUND_TEXELS, GROUND_LITTER_COVER, GROUND_RELIEF, GROUND_RELIEF_PERIODS = 1024, 0.15, 0.02, 16
+#: Texels on a side of a textured ground's colours and of its height map, the share of it covered
+#: by leaf litter (dry grass and leaves), and its relief: the clods' size (texels of the height
+#: map) and rms slope (rise per run, on bare dry soil; :func:`spectral_cam.textures.ground_maps`).
+GROUND_TEXELS, GROUND_RELIEF_TEXELS, GROUND_LITTER_COVER = 1024, 2048, 0.15
+GROUND_CLOD_TEXELS, GROUND_RELIEF = 16.0, 0.6
 #: A textured ground spans this many view widths around the look point (mirrored beyond).
 GROUND_TEXTURE_VIEWS = 3.0
+
+
+def ground_moisture(config: "SceneConfig") -> float:
+    """The share of a textured ground that is wet, drawn by ``layout_seed`` uniformly over
+    :data:`spectral_cam.textures.MOISTURE_SHARE`."""
+    from ..textures import MOISTURE_SHARE
+
+    rng = np.random.default_rng(np.random.SeedSequence([int(config.scene.layout_seed), 0x3E7]))
+    return float(rng.uniform(*MOISTURE_SHARE))
 
 
 def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     """The ground as a mixture of measured spectra: the samples of ``scene.soil_reflectances``
     and leaf litter (the USGS dry grass and dry oak leaf) in patches and grains of fractal
-    noise (:func:`spectral_cam.textures.abundance_maps`), with relief; drawn by ``layout_seed``.
-    The texture spans :data:`GROUND_TEXTURE_VIEWS` view widths around the look point, 1024
-    texels on a side (about a pixel each at the look point), mirrored beyond.
+    noise, wet in the hollows (each endmember's wet spectrum by
+    :func:`spectral_cam.soil_moisture.wet_reflectance`, over :func:`ground_moisture` of the
+    ground; a sample measured wet is left as it is), with clods, cracks and hollows as a bump map
+    of the same fields (:func:`spectral_cam.textures.ground_maps`); drawn by ``layout_seed``.
+    The texture spans :data:`GROUND_TEXTURE_VIEWS` view widths around the look point,
+    :data:`GROUND_TEXELS` texels on a side (about a pixel each at the look point) and its height
+    map :data:`GROUND_RELIEF_TEXELS`, mirrored beyond; the bump map's scale is a height-map texel
+    in metres (its heights are in texels), so the relief's slopes are the same in every view.
 
     References
     ----------
     .. [1] Keshava, N., & Mustard, J. F. (2002). IEEE Signal Processing Magazine 19(1), 44–57.
+    .. [2] Lekner, J., & Dorf, M. C. (1988). Applied Optics 27(7), 1278–1280.
     """
     from ..reflectance_sets import reflectance_set
-    from ..textures import abundance_maps, height_field
+    from ..soil_moisture import wet_spectrum
+    from ..textures import ground_maps
     from .common import mixed_bsdf
 
-    soils = list(reflectance_set(config.scene.soil_reflectances).sds)
+    soil_set = reflectance_set(config.scene.soil_reflectances)
     plants = reflectance_set("usgs_vegetation")
+    names = list(soil_set.names)
     litter = [sd for name, sd in zip(plants.names, plants.sds) if name.startswith("dry")]
-    endmembers = soils + litter
-    covers = [(1 - GROUND_LITTER_COVER) / len(soils)] * len(soils) + [GROUND_LITTER_COVER / len(litter)] * len(litter)
+    endmembers = list(soil_set.sds) + litter
+    names += [n for n in plants.names if n.startswith("dry")]
+    covers = ([(1 - GROUND_LITTER_COVER) / len(soil_set.sds)] * len(soil_set.sds)
+              + [GROUND_LITTER_COVER / len(litter)] * len(litter))
     seed = int(config.scene.layout_seed)
-    abundances = abundance_maps(GROUND_TEXELS, covers, period_px=GROUND_TEXELS / 4, seed=seed)
-    height = height_field(GROUND_TEXELS, period_px=GROUND_TEXELS / GROUND_RELIEF_PERIODS, seed=seed)
-    return mixed_bsdf(mi, endmembers, abundances, to_uv=_texture_uv(config, lens, mi), height=height,
-                      bump_scale=GROUND_RELIEF)
+    abundances, wetness, height = ground_maps(
+        GROUND_TEXELS, covers, period_px=GROUND_TEXELS / 4, seed=seed,
+        litter=range(len(soil_set.sds), len(endmembers)), moisture=ground_moisture(config),
+        relief_size=GROUND_RELIEF_TEXELS, clod_period_px=GROUND_CLOD_TEXELS, slope=GROUND_RELIEF)
+    wettable = [k for k, name in enumerate(names) if "wet" not in name.lower()]
+    maps = [a * (1.0 - wetness) if k in wettable else a for k, a in enumerate(abundances)]
+    maps += [abundances[k] * wetness for k in wettable] if wetness.any() else []
+    spectra = endmembers + ([wet_spectrum(endmembers[k]) for k in wettable] if wetness.any() else [])
+    texel_m = GROUND_TEXTURE_VIEWS * view_width_m(config, lens) / GROUND_RELIEF_TEXELS
+    return mixed_bsdf(mi, spectra, np.stack(maps), to_uv=_texture_uv(config, lens, mi), height=np.array(height),
+                      bump_scale=texel_m)
 
 
 def _texture_uv(config: "SceneConfig", lens: "ThinLens", mi, turn_deg: float = 0.0):
@@ -321,19 +349,105 @@ def ground(view: GroundView, mi, bsdf: dict) -> dict:
 
 #: The far ground reaches this far (m): to the horizon of any view (a ray 0.003° below it).
 FAR_GROUND_M = 20000.0
+#: Distant terrain (:func:`terrain`): a ring of hills from ``TERRAIN_RANGE_M[0]`` to
+#: ``[1]`` metres out, at most ``TERRAIN_HEIGHT_M`` high (a crest 2–3 km out rises up to 3° over the
+#: horizon, below any sun high enough to light a scene), its azimuth steps ``TERRAIN_STEP_DEG``
+#: within 60° of the view's heading (coarser behind) and ``TERRAIN_RINGS`` rings: about 3000 triangles.
+TERRAIN_RANGE_M, TERRAIN_HEIGHT_M, TERRAIN_STEP_DEG, TERRAIN_RINGS = (900.0, 6000.0), 150.0, 1.0, 12
 
 
-def far_ground(view: GroundView, mi, bsdf: dict) -> dict:
+def terrain_heights(east_m, north_m, seed: int = 0) -> np.ndarray:
+    """Heights (m) of the distant hills at ground-frame points: OpenSimplex fBm of a 2.5-km
+    period (4 octaves), positive part, under an envelope rising from 0 at the ring's inner edge
+    to :data:`TERRAIN_HEIGHT_M` 1.5 km farther out; 0 inside :data:`TERRAIN_RANGE_M`."""
+    from opensimplex import OpenSimplex
+
+    x, y = np.asarray(east_m, dtype=np.float64), np.asarray(north_m, dtype=np.float64)
+    noise = OpenSimplex(seed=int(seed) + 7877)
+    field = np.zeros_like(x)
+    amplitude, period = 1.0, 2500.0
+    for octave in range(4):
+        field += amplitude * np.vectorize(noise.noise2)(x / period + 13.1 * octave, y / period - 7.7 * octave)
+        amplitude, period = amplitude * 0.5, period / 2.0
+    r = np.hypot(x, y)
+    envelope = np.clip((r - TERRAIN_RANGE_M[0]) / 1500.0, 0.0, 1.0)
+    envelope = envelope * envelope * (3 - 2 * envelope)
+    return TERRAIN_HEIGHT_M * envelope * np.clip(0.35 + field, 0.0, None) / 1.2
+
+
+def terrain_mesh(view: GroundView, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (ground frame), faces (facing up) and texture coordinates of the ring of hills
+    around the look point: azimuth steps of :data:`TERRAIN_STEP_DEG` within 60° of the view's
+    heading, growing to 10° behind it, :data:`TERRAIN_RINGS` rings spaced geometrically over
+    :data:`TERRAIN_RANGE_M`; each vertex 1 m lower than its hill so that the ring's flat edges sink
+    under the far ground instead of fighting with it."""
+    view_dir = view.rotation.T @ np.array([0.0, 0.0, 1.0])
+    heading = math.atan2(view_dir[0], view_dir[1])  # from north towards east
+    steps, a = [], 0.0
+    while a < 2 * math.pi - 1e-9:
+        steps.append(a)
+        off = min(a, 2 * math.pi - a)  # angular distance from the heading
+        a += math.radians(TERRAIN_STEP_DEG if off < math.radians(60) else min(10.0, TERRAIN_STEP_DEG + (off - math.radians(60)) * 12))
+    azimuth = heading + np.array(steps)
+    radii = np.geomspace(*TERRAIN_RANGE_M, TERRAIN_RINGS)
+    az, rr = np.meshgrid(azimuth, radii, indexing="ij")  # (A, R)
+    east, north = rr * np.sin(az), rr * np.cos(az)
+    up = terrain_heights(east, north, seed) - 1.0
+    vertices = np.stack([east, north, up], axis=-1).reshape(-1, 3)
+    n_a, n_r = az.shape
+    idx = np.arange(n_a * n_r).reshape(n_a, n_r)
+    nxt = np.roll(idx, -1, axis=0)  # the ring closes
+    v00, v01, v10, v11 = idx[:, :-1], idx[:, 1:], nxt[:, :-1], nxt[:, 1:]
+    # azimuth grows clockwise seen from above (east of north): (outward, clockwise) faces down, so reverse
+    faces = np.concatenate([np.stack([v00, v11, v01], -1).reshape(-1, 3), np.stack([v00, v10, v11], -1).reshape(-1, 3)])
+    texcoords = np.stack([east / (2 * TERRAIN_RANGE_M[1]) + 0.5, north / (2 * TERRAIN_RANGE_M[1]) + 0.5], -1).reshape(-1, 2)
+    return vertices, faces, texcoords
+
+
+#: The hills' cover: green grass and pasture, dry grass, woods (leaves at half their reflectance:
+#: a canopy's shadows) and bare soil, their shares drawn per seed.
+TERRAIN_TEXELS, TERRAIN_CANOPY_SHADE = 512, 0.5
+
+
+def terrain(view: GroundView, mi, seed: int = 0) -> dict:
+    """The ring of hills (:func:`terrain_mesh`) as a mesh of a mixture of vegetation and soil
+    spectra (:func:`spectral_cam.textures.abundance_maps`, fields of ~600 m): the horizon of
+    a wide view is a line of hills, not the far ground's ruler-straight edge."""
+    from ..reflectance_sets import reflectance_set
+    from ..spectrum import Spectrum
+    from ..textures import abundance_maps
+    from .common import mixed_bsdf
+    from .meshes import mitsuba_mesh
+
+    plants, soils = reflectance_set("usgs_vegetation"), reflectance_set("usgs_soils")
+    by_name = dict(zip(plants.names, plants.sds))
+    oak = by_name["green_oak_leaf1_fresh_ASD"]
+    woods = Spectrum(oak.wavelengths, TERRAIN_CANOPY_SHADE * np.asarray(oak.values), "canopy")
+    endmembers = [by_name["green_lawn_grass_GDS91_BECK"], by_name["dry_grass_golden_dry_GDS480_ASD"], woods,
+                  soils.sds[-1]]
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x7E77A]))
+    covers = rng.dirichlet([3.0, 1.5, 2.0, 0.5]) + 0.02
+    maps = abundance_maps(TERRAIN_TEXELS, covers, period_px=TERRAIN_TEXELS / 16, seed=int(seed) + 31337)
+    vertices, faces, texcoords = terrain_mesh(view, seed)
+    return {"terrain": mitsuba_mesh(mi, "terrain", vertices, faces, mixed_bsdf(mi, endmembers, np.array(maps)),
+                                    view.transform(mi), texcoords=texcoords)}
+
+
+def far_ground(view: GroundView, mi, bsdf: dict, *, seed: int = 0, hills: bool = True) -> dict:
     """Four strips on z = 0 around the ground square, out to :data:`FAR_GROUND_M`: the ground to
     the horizon (the square ends 200 m out, which left a black band under the horizon), in the
     same plane without overlapping it (no z-fighting), kept apart from the textured square
-    whose texture coordinates need its small extent for float precision."""
+    whose texture coordinates need its small extent for float precision; and with ``hills``, the
+    ring of distant hills of ``seed`` (:func:`terrain`) standing on them."""
     near, far = GROUND_SIZE_M / 2, FAR_GROUND_M
     strips = {"north": ((0.0, (near + far) / 2), (far, (far - near) / 2)),
               "south": ((0.0, -(near + far) / 2), (far, (far - near) / 2)),
               "east": (((near + far) / 2, 0.0), ((far - near) / 2, near)),
               "west": ((-(near + far) / 2, 0.0), ((far - near) / 2, near))}
-    return {f"ground_far_{side}": {
+    entries = {f"ground_far_{side}": {
         "type": "rectangle", "bsdf": bsdf,
         "to_world": view.transform(mi, mi.ScalarTransform4f().translate([cx, cy, 0.0]).scale([hx, hy, 1.0]))}
         for side, ((cx, cy), (hx, hy)) in strips.items()}
+    if hills:
+        entries.update(terrain(view, mi, seed))
+    return entries
