@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from . import charts, cornell_box, dead_leaves, depth_targets, tabletop, vegetation  # noqa: F401  (each registers its presets)
+from . import charts, cornell_box, dead_leaves, depth_targets, room, tabletop, vegetation  # noqa: F401  (each registers its presets)
 from .charts import colorchecker_patches, white_reference_mask
 from .common import EDGE_REFLECTANCES, PRESETS, Patch
 
