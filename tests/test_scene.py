@@ -189,3 +189,24 @@ def test_every_range_is_a_real_interval():
 
     for key, (low, high, _) in PHYSICAL_RANGES.items():
         assert 0 <= low < high < float("inf"), key
+
+
+def test_asset_and_scatter_tables_round_trip_and_override(tmp_path):
+    """[[scene.assets]] and [[scene.scatter]] (arrays of tables) are written back as inline tables
+    that read back equal, through JSON too, and --set replaces them (one table or a list)."""
+    from pathlib import Path
+
+    config = load_scene(Path(__file__).parent.parent / "scenes" / "field_litter.toml")
+    assert [a.name for a in config.scene.assets] == ["rock", "crate", "mushroom"]
+    assert [s.kind for s in config.scene.scatter] == ["stones", "clods", "straw", "grass_blades"]
+    text = config.to_toml()
+    assert "assets = [{file = \"rock\"" in text and "size_m = {lognormal = [-4.2, 0.5]}" in text
+    (tmp_path / "again.toml").write_text(text)
+    assert load_scene(tmp_path / "again.toml") == config
+    assert scene_from_dict(json.loads(json.dumps(config.to_dict()))) == config
+    one = load_scene(tmp_path / "again.toml", overrides=['scene.scatter={kind = "straw", density_per_m2 = 5}'])
+    assert [(s.kind, s.density_per_m2.a) for s in one.scene.scatter] == [("straw", 5.0)]
+    none = config.replace(**{"scene.assets": [], "scene.scatter": []})
+    assert none.scene.assets == () and none.scene.scatter == ()
+    with pytest.raises(ConfigError, match="array of tables"):
+        config.replace(**{"scene.assets": "rock"})
