@@ -27,8 +27,9 @@ goes to ``position_m``, scaled by ``scale`` (file units are metres), turned by
 kernel trace each, one merged mesh: :func:`use_instances`), their feet uniform over the disc
 of ``spread_m`` around ``position_m`` or, with ``spread_m = 0``, over the ground the frame
 sees. Shape names (the segmentation's): ``name`` (default the file's stem) for one copy and
-for merged copies; instances ``name_<n>``, whose pixels the shape-index AOV reports as the
-inner mesh ``name`` (:func:`spectral_cam.presets.scatter.instanced_meshes`).
+for merged copies; instances ``name_<n>`` (each its own segment in the scalar variants; the
+JIT variants' shape-index AOV reports the inner mesh ``name`` instead:
+:func:`spectral_cam.presets.scatter.instanced_meshes`).
 
 References
 ----------

@@ -19,10 +19,10 @@ stones the ``usgs_stone`` samples, clods the ``usgs_soils``, straw the dry grass
 the green lawn grass (two-sided Lambertian: thin blades are seen from both sides).
 
 The segmentation: merged, each variant is a shape ``<name>_<v>`` (class ``name``, which
-defaults to the kind). Instanced, every instance is a top-level shape ``<name>_<n>``, but
-Mitsuba's ``shape_index`` AOV reports the shapegroup's *inner* mesh for a ray that meets any
-instance (measured on 3.9.1), one id per variant mesh named ``<name>`` (:func:`instanced_meshes`
-lists them: the shape map must add them to its lookup).
+defaults to the kind). Instanced, every instance is a top-level shape ``<name>_<n>``: the
+scalar variants' ``shape_index`` AOV reports the instance's own place in ``scene.shapes()``
+(one segment per copy, measured on 3.9.1), while the JIT variants report the shapegroup's
+*inner* mesh, named ``<name>`` (:func:`instanced_meshes` lists them for a shape map to add).
 
 References
 ----------
