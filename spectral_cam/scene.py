@@ -240,7 +240,8 @@ class SceneSection:
     def _check_assets(self) -> None:
         if not (self.assets or self.scatter):
             return
-        outdoor = [name for name in PRESETS if "view_pitch_deg" in PRESETS[name].options]
+        # the presets on the ground of outdoor.GroundView (their heading is [sky]'s), those under the sky
+        outdoor = [name for name in PRESETS if "light" in PRESETS[name].options]
         if self.mitsuba_xml or self.preset not in outdoor:
             _fail("scene.assets/scatter", self.mitsuba_xml or self.preset,
                   f"assets and scatter stand on the ground of an outdoor preset ({', '.join(outdoor)})")

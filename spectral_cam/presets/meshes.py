@@ -67,13 +67,15 @@ def mitsuba_mesh(mi, name: str, vertices: np.ndarray, faces: np.ndarray, bsdf: d
     mesh = mi.Mesh(name, len(vertices), len(faces), props=props, has_vertex_normals=True,
                    has_vertex_texcoords=texcoords is not None)
     params = mi.traverse(mesh)
-    params["vertex_positions"] = mi.Float(np.ascontiguousarray(vertices, dtype=np.float32).ravel())
-    params["faces"] = mi.UInt32(np.ascontiguousarray(faces, dtype=np.uint32).ravel())
+    # the buffers' own types: mi.Float is a Python float in the scalar variants, an array in the JIT ones
+    floats, indices = type(params["vertex_positions"]), type(params["faces"])
+    params["vertex_positions"] = floats(np.ascontiguousarray(vertices, dtype=np.float32).ravel())
+    params["faces"] = indices(np.ascontiguousarray(faces, dtype=np.uint32).ravel())
     if texcoords is not None:
-        params["vertex_texcoords"] = mi.Float(np.ascontiguousarray(texcoords, dtype=np.float32).ravel())
+        params["vertex_texcoords"] = floats(np.ascontiguousarray(texcoords, dtype=np.float32).ravel())
     params.update()
     for key, values in (attributes or {}).items():
         values = np.asarray(values, dtype=np.float32).reshape(len(vertices), -1)
-        mesh.add_attribute(key, values.shape[1], mi.Float(np.ascontiguousarray(values).ravel()))
+        mesh.add_attribute(key, values.shape[1], floats(np.ascontiguousarray(values).ravel()))
     mesh.recompute_vertex_normals()
     return mesh

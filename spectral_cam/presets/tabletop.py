@@ -195,7 +195,7 @@ def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
         ground_bsdf = outdoor.textured_ground_bsdf(config, lens, mi)
     far = (diffuse(sum(GROUND_REFLECTANCES) / 2) if config.scene.ground == "checker"
            else diffuse(reflectance_set(config.scene.soil_reflectances).sds[0]))
-    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far)}
+    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far, seed=config.scene.layout_seed)}
     if config.scene.ground == "table":  # a room: the table stands before a wall
         objects.update(outdoor.backdrop(config, lens, mi, view))
     if config.scene.chart:

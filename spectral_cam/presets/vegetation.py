@@ -257,7 +257,7 @@ def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     else:
         ground_bsdf = diffuse(soil)
     far = diffuse(0.25) if s.ground == "checker" else diffuse(soil)
-    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far)}
+    objects = {"ground": outdoor.ground(view, mi, ground_bsdf), **outdoor.far_ground(view, mi, far, seed=config.scene.layout_seed)}
     layout = vegetation_layout(config, lens)
     field = field_layout(config, lens) if s.layout == "rows" else []
     weeds = [item for item in field if item[0].startswith("weed_")]
