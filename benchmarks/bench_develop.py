@@ -5,7 +5,8 @@ Each DNG is a Bayer mosaic of a smooth random texture with our sensor's colour m
 (ColorMatrix1/2, AsShotNeutral, NoiseProfile), written by ``write_dng``. Each side is a fresh
 Python process from start to the written 8-bit PNG, so imports count as a user meets them:
 
-- ours: ``spectral-cam develop RAW -o OUT.png`` (defaults: menon2007, DNG matrix), and with
+- ours: ``spectral-cam develop RAW -o OUT.png`` (defaults: the ISP's default demosaic,
+  ``ISPConfig.demosaic``, named in the CSV and the README; the DNG matrix), and with
   ``--set isp.demosaic=malvar2004``;
 - rawpy: ``rawpy.imread(...).postprocess(demosaic_algorithm=AHD, use_camera_wb=True)`` and an
   OpenCV PNG write, in a ``python -c`` process.
@@ -65,22 +66,31 @@ def make_dng(path: Path, megapixels: float) -> Path:
 BEGIN, END = "<!-- bench-develop:begin -->", "<!-- bench-develop:end -->"
 
 
+def default_demosaic() -> str:
+    """The demosaic a plain ``spectral-cam develop`` uses: the ISP configuration's default."""
+    from spectral_cam.isp.config import ISPConfig
+
+    return ISPConfig().demosaic
+
+
 def readme_block(rows: list[dict]) -> str:
-    """The README's paragraph on develop speed, from the CSV rows."""
+    """The README's paragraph on develop speed, from the CSV rows (a CSV written before the
+    ``default_demosaic`` column names the configuration's default now)."""
     big = max(rows, key=lambda r: float(r["megapixels"]))
     small = min(rows, key=lambda r: float(r["megapixels"]))
+    default = big.get("default_demosaic") or default_demosaic()
     return (
         f"{BEGIN}\n"
         "`python benchmarks/bench_develop.py OUT` times `spectral-cam develop` as a user meets it, a fresh\n"
         "process from the DNG to the PNG, against a fresh rawpy process (LibRaw AHD, camera white balance,\n"
         "an OpenCV PNG) on the same file, interleaved in one run ([CSV](docs/bench/bench_develop.csv),\n"
         f"[chart](docs/bench/bench_develop.png)): at {float(big['megapixels']):g} MP "
-        f"{float(big['ours_s']):.2f} s with the default menon2007 and "
+        f"{float(big['ours_s']):.2f} s with the default {default} and "
         f"{float(big['ours_malvar2004_s']):.2f} s with malvar2004, against rawpy's "
         f"{float(big['rawpy_ahd_s']):.2f} s (×{float(big['ratio']):.2f} and ×{float(big['ratio_malvar2004']):.2f});\n"
         f"at {float(small['megapixels']):g} MP ×{float(small['ratio']):.2f} and "
         f"×{float(small['ratio_malvar2004']):.2f}. A develop imports neither Mitsuba, Dask nor\n"
-        "colour-science (which loads matplotlib); menon2007 runs on the four CFA planes in row strips\n"
+        f"colour-science (which loads matplotlib); {default} runs on the four CFA planes in row strips\n"
         "on parallel threads; PNGs are deflated in parallel slices (zlib level 1).\n"
         f"{END}"
     )
@@ -121,6 +131,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     cli = str(Path(sys.executable).with_name("spectral-cam"))
     rows = []
+    default = default_demosaic()
     with tempfile.TemporaryDirectory() as folder:
         for megapixels in (float(v) for v in args.sizes.split(",")):
             dng = make_dng(Path(folder) / f"{megapixels:g}mp.dng", megapixels)
@@ -133,7 +144,7 @@ def main() -> None:
             for repeat in range(args.repeats):  # interleaved, the order rotated, so drift hits all alike
                 for times, argv in runs[repeat % 3:] + runs[:repeat % 3]:
                     times.append(wall(argv))
-            row = {"megapixels": megapixels, "ours_s": float(np.median(ours)),
+            row = {"megapixels": megapixels, "default_demosaic": default, "ours_s": float(np.median(ours)),
                    "ours_malvar2004_s": float(np.median(malvar)), "rawpy_ahd_s": float(np.median(libraw))}
             row["ratio"] = row["ours_s"] / row["rawpy_ahd_s"]
             row["ratio_malvar2004"] = row["ours_malvar2004_s"] / row["rawpy_ahd_s"]
@@ -145,11 +156,11 @@ def main() -> None:
     fig = figure(7, 4)
     ax, ratio = fig.subplots(1, 2)
     sizes = [r["megapixels"] for r in rows]
-    ax.plot(sizes, [r["ours_s"] for r in rows], "o-", label="spectral-cam develop (menon2007)")
+    ax.plot(sizes, [r["ours_s"] for r in rows], "o-", label=f"spectral-cam develop ({default})")
     ax.plot(sizes, [r["ours_malvar2004_s"] for r in rows], "o--", label="spectral-cam develop (malvar2004)")
     ax.plot(sizes, [r["rawpy_ahd_s"] for r in rows], "s-", label="rawpy / LibRaw AHD")
     ax.set_xlabel("frame (MP)"), ax.set_ylabel("whole process, s"), ax.legend(fontsize=8)
-    ratio.plot(sizes, [r["ratio"] for r in rows], "o-", label="menon2007")
+    ratio.plot(sizes, [r["ratio"] for r in rows], "o-", label=default)
     ratio.plot(sizes, [r["ratio_malvar2004"] for r in rows], "o--", label="malvar2004")
     ratio.legend(fontsize=8)
     ratio.axhline(1.5, color="grey", ls="--", lw=1)
