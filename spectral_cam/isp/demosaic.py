@@ -58,29 +58,11 @@ __all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "rcd",
 
 _F32 = np.float32
 
+from .scratch import Scratch as _Scratch
+
 #: Output rows per band for the linear methods: a band's planes and intermediates stay in the
 #: CPU cache, and the bands are shared among threads.
 BAND_ROWS = 64
-
-
-class _Scratch:
-    """One thread's named buffers, reused from band to band: ``scratch(key, shape)`` is a
-    C-contiguous float32 (or ``dtype``) array of that shape whose contents are undefined; a
-    key asked for with a smaller shape gets a view of the same memory."""
-
-    def __init__(self):
-        self._buffers: dict[tuple, np.ndarray] = {}
-        self._views: dict[tuple, np.ndarray] = {}
-
-    def __call__(self, key: str, shape: tuple[int, ...], dtype=_F32) -> np.ndarray:
-        view = self._views.get((key, shape, dtype))
-        if view is None:
-            size = int(np.prod(shape))
-            buffer = self._buffers.get((key, dtype))
-            if buffer is None or buffer.size < size:
-                buffer = self._buffers[key, dtype] = np.empty(size, dtype)
-            view = self._views[key, shape, dtype] = buffer[:size].reshape(shape)
-        return view
 
 
 def by_planes(mosaic: np.ndarray, cfa: str, sites, *, pad: int, offset: int, band_rows: int = BAND_ROWS,

@@ -76,7 +76,7 @@ def menon2007_sites(R, Gr, Gb, B, scratch, *, refining_step: bool = True):
         (h, w) float32 planes: red, green in red rows, green in blue rows, blue.
     scratch
         ``scratch(key, shape, dtype=float32)`` → a reusable C-contiguous buffer
-        (:class:`spectral_cam.isp.demosaic._Scratch`).
+        (:class:`spectral_cam.isp.scratch.Scratch`).
     refining_step
         Apply the paper's refining step.
 

@@ -371,7 +371,7 @@ def rcd_band(band: np.ndarray, *, median: bool = True) -> np.ndarray:
     """
     import cv2
 
-    from .demosaic import _Scratch
+    from .scratch import Scratch as _Scratch
 
     h, w = band.shape
     X = cv2.copyMakeBorder(np.ascontiguousarray(band, dtype=_F32), 0, h % 2, 0, w % 2, cv2.BORDER_REFLECT_101)
@@ -413,7 +413,7 @@ def rcd(mosaic: np.ndarray, cfa: str = "RGGB", *, median: bool = True, band_rows
 
     import cv2
 
-    from .demosaic import _Scratch
+    from .scratch import Scratch as _Scratch
 
     mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
     height, width = mosaic.shape

@@ -1,0 +1,31 @@
+"""One thread's reusable float32 buffers, shared by the demosaicers that work in row bands on
+threads (:mod:`spectral_cam.isp.demosaic`, :mod:`spectral_cam.isp.rcd`): a module of its own so
+that neither imports the other for it."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["Scratch"]
+
+_F32 = np.float32
+
+
+class Scratch:
+    """One thread's named buffers, reused from band to band: ``scratch(key, shape)`` is a
+    C-contiguous float32 (or ``dtype``) array of that shape whose contents are undefined; a
+    key asked for with a smaller shape gets a view of the same memory."""
+
+    def __init__(self):
+        self._buffers: dict[tuple, np.ndarray] = {}
+        self._views: dict[tuple, np.ndarray] = {}
+
+    def __call__(self, key: str, shape: tuple[int, ...], dtype=_F32) -> np.ndarray:
+        view = self._views.get((key, shape, dtype))
+        if view is None:
+            size = int(np.prod(shape))
+            buffer = self._buffers.get((key, dtype))
+            if buffer is None or buffer.size < size:
+                buffer = self._buffers[key, dtype] = np.empty(size, dtype)
+            view = self._views[key, shape, dtype] = buffer[:size].reshape(shape)
+        return view
