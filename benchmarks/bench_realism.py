@@ -47,7 +47,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ("colorchecker", "dof", "dead_leaves", "slanted_edge", "cornell_box", "tabletop", "vegetation", "meadow", "field",
-          "glass_sphere")
+          "room", "mixed_light_room", "glass_sphere")
 SHORT_SIDE = 320  # the bundled scenes' 480 × 320 frames
 #: The measures scored against the photographs' range: CSV column, README heading, format.
 MEASURES = (("detail", "detail (L* per px)", ".2f"), ("dark_p25", "dark channel p25", ".0f"),
