@@ -746,7 +746,27 @@ class SceneConfig:
 
     def replace(self, **overrides: Any) -> "SceneConfig":
         """A copy with ``"section.key": value`` overrides applied and validated."""
-        return scene_from_dict(self.to_dict(), overrides=overrides)
+        # its instance budget was reckoned when it was read: copies that move only the focus, the
+        # light or the lens (the capture plan's) are not reckoned again, each with a lens of its own
+        return scene_from_dict(_CheckedDict(self.to_dict()), overrides=overrides)
+
+
+def _budget_reckoned(data: Mapping[str, Any], overrides: Mapping[str, Any] | None) -> bool:
+    """Whether ``scene_from_dict`` must reckon the scatter's instance budget: always for a scene
+    read from a file or a dict, and for a copy whose overrides change what the count depends on
+    (the copies, the ground in view: :data:`_BUDGET_KEYS`, any ``[sensor]`` key)."""
+    if not isinstance(data, _CheckedDict):
+        return True
+    return any(str(key) in _BUDGET_KEYS or str(key).startswith("sensor.") for key in (overrides or {}))
+
+
+#: The keys besides ``[sensor]`` that change how many copies a scene holds.
+_BUDGET_KEYS = frozenset({"scene.scatter", "scene.assets", "scene.preset", "scene.distance_m", "scene.view_pitch_deg",
+                          "scene.layout_seed", "lens.focal_length_mm"})
+
+
+class _CheckedDict(dict):
+    """A config's own dict, whose instance budget was reckoned when it was read."""
 
 
 def _toml_value(value: Any) -> str:
@@ -860,7 +880,8 @@ def scene_from_dict(
     lens_table = _lens_for_xml_camera(_lens_for_prescription(dict(merged.get("lens", {}))), sections["scene"],
                                       sections["sensor"])
     sections["lens"] = section_from_table("lens", lens_table, base_dir)
-    if sections["scene"].scatter or any(a.count > 1 for a in sections["scene"].assets):
+    copies = sections["scene"].scatter or any(a.count > 1 for a in sections["scene"].assets)
+    if copies and _budget_reckoned(data, overrides):
         from .optics import ThinLens
         from .presets.scatter import check_instance_budget
 

@@ -240,6 +240,18 @@ GROUND_CLOD_TEXELS, GROUND_RELIEF = 16.0, 0.6
 GROUND_TEXTURE_VIEWS = 3.0
 
 
+def ground_texels(lens: "ThinLens") -> tuple[int, int]:
+    """Texels on a side of a textured ground's colours and of its height map for this frame: the
+    power of two that gives about 0.7 colour texel and 1.4 height texels a pixel at the look point
+    (a 480-px frame: :data:`GROUND_TEXELS` and :data:`GROUND_RELIEF_TEXELS`, the most), at least
+    128 and 256. The fields' periods are fractions of the texture, so a smaller frame samples the
+    same patches coarser; its clods, :data:`GROUND_CLOD_TEXELS` texels, stay at the pixel scale.
+    A 32-px test frame built 2048² fields for 2.4 s a layout."""
+    wanted = lens.width_px * GROUND_TEXELS / 480.0  # 1024 colour texels over 3 view widths of 480 px
+    colour = int(min(GROUND_TEXELS, max(128, 2 ** math.ceil(math.log2(max(wanted, 1.0))))))
+    return colour, int(min(GROUND_RELIEF_TEXELS, 2 * colour))
+
+
 def ground_moisture(config: "SceneConfig") -> float:
     """The share of a textured ground that is wet, drawn by ``layout_seed`` uniformly over
     :data:`spectral_cam.textures.MOISTURE_SHARE`."""
@@ -252,13 +264,13 @@ def ground_moisture(config: "SceneConfig") -> float:
 def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     """The ground as a mixture of measured spectra: the samples of ``scene.soil_reflectances``
     and leaf litter (the USGS dry grass and dry oak leaf) in patches and grains of fractal
-    noise, wet in the hollows (each endmember's wet spectrum by
+    noise, wet in the hollows (each soil's wet spectrum by
     :func:`spectral_cam.soil_moisture.wet_reflectance`, over :func:`ground_moisture` of the
-    ground; a sample measured wet is left as it is), with clods, cracks and hollows as a bump map
+    ground; a sample measured wet and the litter are left as they are), with clods, cracks and hollows as a bump map
     of the same fields (:func:`spectral_cam.textures.ground_maps`); drawn by ``layout_seed``.
     The texture spans :data:`GROUND_TEXTURE_VIEWS` view widths around the look point,
-    :data:`GROUND_TEXELS` texels on a side (about a pixel each at the look point) and its height
-    map :data:`GROUND_RELIEF_TEXELS`, mirrored beyond; the bump map's scale is a height-map texel
+    :func:`ground_texels` on a side (about a pixel each at the look point; its height map twice
+    as many), mirrored beyond; the bump map's scale is a height-map texel
     in metres (its heights are in texels), so the relief's slopes are the same in every view.
 
     References
@@ -280,15 +292,18 @@ def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     covers = ([(1 - GROUND_LITTER_COVER) / len(soil_set.sds)] * len(soil_set.sds)
               + [GROUND_LITTER_COVER / len(litter)] * len(litter))
     seed = int(config.scene.layout_seed)
+    texels, relief_texels = ground_texels(lens)
     abundances, wetness, height = ground_maps(
-        GROUND_TEXELS, covers, period_px=GROUND_TEXELS / 4, seed=seed,
+        texels, covers, period_px=texels / 4, seed=seed,
         litter=range(len(soil_set.sds), len(endmembers)), moisture=ground_moisture(config),
-        relief_size=GROUND_RELIEF_TEXELS, clod_period_px=GROUND_CLOD_TEXELS, slope=GROUND_RELIEF)
-    wettable = [k for k, name in enumerate(names) if "wet" not in name.lower()]
+        relief_size=relief_texels, clod_period_px=GROUND_CLOD_TEXELS, slope=GROUND_RELIEF)
+    # the soils get wet twins, the litter not: dry grass and leaves on wet soil darken less, and
+    # each twin is one more level of the blend tree every ray's kernel evaluates
+    wettable = [k for k, name in enumerate(names[:len(soil_set.sds)]) if "wet" not in name.lower()]
     maps = [a * (1.0 - wetness) if k in wettable else a for k, a in enumerate(abundances)]
     maps += [abundances[k] * wetness for k in wettable] if wetness.any() else []
     spectra = endmembers + ([wet_spectrum(endmembers[k]) for k in wettable] if wetness.any() else [])
-    texel_m = GROUND_TEXTURE_VIEWS * view_width_m(config, lens) / GROUND_RELIEF_TEXELS
+    texel_m = GROUND_TEXTURE_VIEWS * view_width_m(config, lens) / relief_texels
     return mixed_bsdf(mi, spectra, np.stack(maps), to_uv=_texture_uv(config, lens, mi), height=np.array(height),
                       bump_scale=texel_m)
 

@@ -105,8 +105,8 @@ FRAME_GRID, DIRECTIONS_PER_POINT = (24, 16), 64
 @dataclass(frozen=True)
 class VisibleSurfaces:
     """Points of the surfaces the camera sees (a grid of rays over the frame) and their normals,
-    turned to the camera's side. ``normals`` is None where no ray hits anything (one point at
-    the scene's centre then stands for the scene)."""
+    turned to the camera's side. ``normals`` is None where no ray hits anything (the camera's
+    own place then stands for the scene: what its emitters send towards the camera)."""
 
     points: np.ndarray
     normals: np.ndarray | None
@@ -125,11 +125,11 @@ def visible_surfaces(mi, scene, sensor, grid: tuple[int, int] = FRAME_GRID) -> V
                                mi.Point2f(u.ravel().astype(np.float32), v.ravel().astype(np.float32)),
                                mi.Point2f(dr.full(mi.Float, 0.5, count), dr.full(mi.Float, 0.5, count)))
     hit = scene.ray_intersect(ray)
-    dr.eval(hit.p, hit.n, ray.d)
+    dr.eval(hit.p, hit.n, ray.d, ray.o)
     valid = np.asarray(hit.is_valid(), dtype=bool)
-    if not valid.any():
-        box = scene.bbox()
-        return VisibleSurfaces(np.array([[(box.min[i] + box.max[i]) / 2 for i in range(3)]]), None)
+    if not valid.any():  # nothing but small emitters in view (every ray passed them): the camera's place
+        origin = np.stack([np.asarray(c, dtype=np.float64) for c in ray.o], axis=1).mean(axis=0)
+        return VisibleSurfaces(origin[None, :], None)
     normal = np.stack([np.asarray(c, dtype=np.float64) for c in hit.n], axis=1)[valid]
     direction = np.stack([np.asarray(c, dtype=np.float64) for c in ray.d], axis=1)[valid]
     normal *= np.where(np.einsum("ij,ij->i", normal, direction) > 0, -1.0, 1.0)[:, None]  # the side seen

@@ -316,7 +316,7 @@ def test_the_recorded_neutral_is_what_a_grey_card_in_the_scene_receives():
     from spectral_cam.spectrum import Spectrum
 
     config = sc.load_scene(ROOT / "scenes" / "tabletop.toml", overrides={
-        "scene.chart": True, "scene.ground": "checker", "sensor.width_px": 240, "sensor.height_px": 160,
+        "scene.chart": True, "scene.ground": "checker", "scene.scatter": [], "sensor.width_px": 240, "sensor.height_px": 160,
         "sensor.pixel_pitch_um": 12.0, "render.spp": 64, "render.spectral_output": True})
     sim = simulate(config)
     radiance = sim.radiance.framed()
