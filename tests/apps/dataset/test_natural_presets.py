@@ -28,6 +28,7 @@ layout_seed = { uniform = [0, 1000] }
 object_materials = { choice = [["diffuse", "plastic"], ["conductor", "glass"]] }
 depths_m = [1.0, 4.0]
 leaf_radius_px = [2.0, 12.0]
+ground = "flat"  # the labels are the point here; the textured ground's fields and blend tree cost each item seconds
 
 [sky]
 hour = { uniform = [9.0, 17.0] }
