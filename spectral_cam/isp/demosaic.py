@@ -58,7 +58,7 @@ __all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "rcd",
 
 _F32 = np.float32
 
-from .scratch import Scratch as _Scratch
+from .scratch import Scratch as _Scratch, run_bands
 
 #: Output rows per band for the linear methods: a band's planes and intermediates stay in the
 #: CPU cache, and the bands are shared among threads.
@@ -151,18 +151,7 @@ def by_planes(mosaic: np.ndarray, cfa: str, sites, *, pad: int, offset: int, ban
                 for c in range(3):
                     out[ys:y1:2, x, c] = site[c][rows, j]
 
-    def run(k: int) -> None:
-        scratch = _Scratch()
-        for n in range(n_bands * k // workers, n_bands * (k + 1) // workers):
-            band(edges[n], edges[n + 1], scratch)
-
-    if workers == 1:
-        run(0)
-    else:
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(run, range(workers)))
+    run_bands(band, edges, workers)
     return out
 
 

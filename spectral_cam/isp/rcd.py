@@ -371,7 +371,7 @@ def rcd_band(band: np.ndarray, *, median: bool = True) -> np.ndarray:
     """
     import cv2
 
-    from .scratch import Scratch as _Scratch
+    from .scratch import Scratch as _Scratch, run_bands
 
     h, w = band.shape
     X = cv2.copyMakeBorder(np.ascontiguousarray(band, dtype=_F32), 0, h % 2, 0, w % 2, cv2.BORDER_REFLECT_101)
@@ -413,7 +413,7 @@ def rcd(mosaic: np.ndarray, cfa: str = "RGGB", *, median: bool = True, band_rows
 
     import cv2
 
-    from .scratch import Scratch as _Scratch
+    from .scratch import Scratch as _Scratch, run_bands
 
     mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
     height, width = mosaic.shape
@@ -456,16 +456,5 @@ def rcd(mosaic: np.ndarray, cfa: str = "RGGB", *, median: bool = True, band_rows
             if cv2.merge([c[rows, cols] for c in rgb], dst=dst) is not dst:  # pragma: no cover
                 raise RuntimeError("cv2.merge did not write into the output")
 
-    def run(k: int) -> None:
-        scratch = _Scratch()
-        for n in range(n_bands * k // workers, n_bands * (k + 1) // workers):
-            band(edges[n], edges[n + 1], scratch)
-
-    if workers == 1:
-        run(0)
-    else:
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(run, range(workers)))
+    run_bands(band, edges, workers)
     return out

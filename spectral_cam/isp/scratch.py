@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Scratch"]
+__all__ = ["Scratch", "run_bands"]
 
 _F32 = np.float32
 
@@ -29,3 +29,23 @@ class Scratch:
                 buffer = self._buffers[key, dtype] = np.empty(size, dtype)
             view = self._views[key, shape, dtype] = buffer[:size].reshape(shape)
         return view
+
+
+def run_bands(band, edges, workers: int) -> None:
+    """Call ``band(y0, y1, scratch)`` for each band between consecutive ``edges``, the bands split
+    into ``workers`` runs of neighbours, each run on a thread with its own :class:`Scratch`
+    (NumPy and OpenCV release the GIL)."""
+    n_bands = len(edges) - 1
+
+    def run(k: int) -> None:
+        scratch = Scratch()
+        for n in range(n_bands * k // workers, n_bands * (k + 1) // workers):
+            band(edges[n], edges[n + 1], scratch)
+
+    if workers == 1:
+        run(0)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        list(pool.map(run, range(workers)))
