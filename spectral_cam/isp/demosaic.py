@@ -58,7 +58,7 @@ __all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "rcd",
 
 _F32 = np.float32
 
-from .scratch import Scratch as _Scratch, run_bands
+from .scratch import Scratch as _Scratch, band_edges, run_bands
 
 #: Output rows per band for the linear methods: a band's planes and intermediates stay in the
 #: CPU cache, and the bands are shared among threads.
@@ -106,15 +106,7 @@ def by_planes(mosaic: np.ndarray, cfa: str, sites, *, pad: int, offset: int, ban
     right = pad + (width + left) % 2
     wq = (width + left + right) // 2
     out = np.empty((height, width, 3), _F32)
-    # about band_rows rows a band, each thread the same number of bands; bands down to a
-    # quarter of that when there are fewer than threads; never under 2 rows
-    workers = max(1, workers or os.cpu_count() or 1)
-    n_bands = max(1, round(height / band_rows), min(workers, height // max(band_rows // 4, 1)))
-    if n_bands > workers:
-        n_bands = -(-n_bands // workers) * workers
-    n_bands = min(n_bands, max(height // 2, 1))
-    workers = min(workers, n_bands)
-    edges = [height * k // n_bands for k in range(n_bands + 1)]
+    edges, workers = band_edges(height, band_rows, max(1, workers or os.cpu_count() or 1))
     pairs = width // 2
     # the output's pixel pairs (x, x + 1), x even, as sites (b, j) of the padded planes
     b0, j0 = left % 2, left // 2 - offset

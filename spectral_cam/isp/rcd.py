@@ -371,7 +371,7 @@ def rcd_band(band: np.ndarray, *, median: bool = True) -> np.ndarray:
     """
     import cv2
 
-    from .scratch import Scratch as _Scratch, run_bands
+    from .scratch import Scratch as _Scratch
 
     h, w = band.shape
     X = cv2.copyMakeBorder(np.ascontiguousarray(band, dtype=_F32), 0, h % 2, 0, w % 2, cv2.BORDER_REFLECT_101)
@@ -413,22 +413,14 @@ def rcd(mosaic: np.ndarray, cfa: str = "RGGB", *, median: bool = True, band_rows
 
     import cv2
 
-    from .scratch import Scratch as _Scratch, run_bands
+    from .scratch import band_edges, run_bands
 
     mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
     height, width = mosaic.shape
     ry, rx = divmod(cfa.index("R"), 2)
     pad = REACH_PX
     out = np.empty((height, width, 3), _F32)
-    # about band_rows rows a band, each thread the same number of bands; bands down to a quarter
-    # of that when there are fewer than threads; never under 2 rows
-    workers = max(1, workers or os.cpu_count() or 1)
-    n_bands = max(1, round(height / band_rows), min(workers, height // max(band_rows // 4, 1)))
-    if n_bands > workers:
-        n_bands = -(-n_bands // workers) * workers
-    n_bands = min(n_bands, max(height // 2, 1))
-    workers = min(workers, n_bands)
-    edges = [height * k // n_bands for k in range(n_bands + 1)]
+    edges, workers = band_edges(height, band_rows, max(1, workers or os.cpu_count() or 1))
     # each band in tiles of about TILE_COLUMNS columns, starting on even columns (the CFA's phase)
     n_tiles = max(1, round(width / TILE_COLUMNS))
     columns = sorted({width * k // n_tiles // 2 * 2 for k in range(n_tiles)} | {width})

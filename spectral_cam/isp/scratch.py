@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Scratch", "run_bands"]
+__all__ = ["Scratch", "band_edges", "run_bands"]
 
 _F32 = np.float32
 
@@ -29,6 +29,17 @@ class Scratch:
                 buffer = self._buffers[key, dtype] = np.empty(size, dtype)
             view = self._views[key, shape, dtype] = buffer[:size].reshape(shape)
         return view
+
+
+def band_edges(height: int, band_rows: int, workers: int) -> tuple[list[int], int]:
+    """Row edges of the bands a frame of ``height`` rows is cut into, and the threads to use:
+    about ``band_rows`` rows a band, each thread the same number of bands; bands down to a
+    quarter of that when there are fewer than threads; never under 2 rows."""
+    n_bands = max(1, round(height / band_rows), min(workers, height // max(band_rows // 4, 1)))
+    if n_bands > workers:
+        n_bands = -(-n_bands // workers) * workers
+    n_bands = min(n_bands, max(height // 2, 1))
+    return [height * k // n_bands for k in range(n_bands + 1)], min(workers, n_bands)
 
 
 def run_bands(band, edges, workers: int) -> None:
