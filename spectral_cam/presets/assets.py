@@ -80,8 +80,19 @@ RESERVED_NAMES = ("ground", "sky", "lamp", "object", "plant", "weed", "chart", "
 MAX_COPIES = 60000
 
 
-def _fail(key: str, value: Any, rule: str) -> None:
+def fail_key(key: str, value: Any, rule: str) -> None:
+    """Raise the one-line ConfigError of a bad ``[[scene.assets]]`` or ``[[scene.scatter]]`` value."""
     raise ConfigError(f"{key} = {value!r}: {rule}")
+
+
+def check_entry_table(where: str, table: Any, keys, hint: str) -> None:
+    """Refuse an array-of-tables entry that is not a table (``hint`` says what one holds) or that
+    has keys other than ``keys``, naming the valid ones."""
+    if not isinstance(table, Mapping):
+        fail_key(where, table, hint)
+    unknown = sorted(set(table) - set(keys))
+    if unknown:
+        raise ConfigError(f"unknown key(s) {', '.join(f'{where}.{k}' for k in unknown)}; valid: {', '.join(keys)}")
 
 
 def _formats() -> str:
@@ -200,14 +211,14 @@ def check_asset_file(path: str | Path, key: str = "file") -> str:
     path = Path(path)
     suffix = path.suffix.lower().lstrip(".")
     if suffix not in ASSET_FORMATS:
-        _fail(key, str(path), f"unknown asset format; valid: {_formats()}; or a bundled asset: {', '.join(BUNDLED)}")
+        fail_key(key, str(path), f"unknown asset format; valid: {_formats()}; or a bundled asset: {', '.join(BUNDLED)}")
     if not path.is_file():
-        _fail(key, str(path), f"file does not exist (relative paths are read from the scene file's folder; "
+        fail_key(key, str(path), f"file does not exist (relative paths are read from the scene file's folder; "
                               f"bundled assets: {', '.join(BUNDLED)})")
     try:
         {"ply": _check_ply, "obj": _check_obj, "gltf": _check_gltf, "glb": _check_gltf}[suffix](path)
     except (OSError, ValueError, KeyError, IndexError, UnicodeDecodeError, struct.error) as exc:
-        _fail(key, str(path), f"not a readable {suffix.upper()} file ({exc}); valid: {_formats()}")
+        fail_key(key, str(path), f"not a readable {suffix.upper()} file ({exc}); valid: {_formats()}")
     return suffix
 
 
@@ -257,7 +268,7 @@ def _numbers(key: str, value: Any, count: int, bound: float, what: str) -> tuple
     if (not isinstance(value, (list, tuple)) or len(value) != count
             or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and abs(v) <= bound
                        for v in value)):
-        _fail(key, value, f"give {count} finite numbers within ±{bound:g} ({what})")
+        fail_key(key, value, f"give {count} finite numbers within ±{bound:g} ({what})")
     return tuple(float(v) for v in value)
 
 
@@ -273,51 +284,47 @@ def asset_from_table(table: Any, index: int, base_dir: str | Path = ".") -> Asse
     if isinstance(table, AssetSpec):
         return table
     where = f"scene.assets[{index}]"
-    if not isinstance(table, Mapping):
-        _fail(where, table, "give a table: file = ..., position_m = [east, north, up], ...")
-    unknown = sorted(set(table) - set(ASSET_KEYS))
-    if unknown:
-        raise ConfigError(f"unknown key(s) {', '.join(f'{where}.{k}' for k in unknown)}; valid: {', '.join(ASSET_KEYS)}")
+    check_entry_table(where, table, ASSET_KEYS, "give a table: file = ..., position_m = [east, north, up], ...")
     file = table.get("file")
     if not isinstance(file, str) or not file:
-        _fail(f"{where}.file", file, f"give the mesh file ({', '.join('.' + s for s in ASSET_FORMATS)}) or a bundled "
+        fail_key(f"{where}.file", file, f"give the mesh file ({', '.join('.' + s for s in ASSET_FORMATS)}) or a bundled "
                                      f"asset ({', '.join(BUNDLED)})")
     file = _resolve(file, Path(base_dir))
     check_asset_file(asset_path(file), f"{where}.file")
     name = table.get("name", Path(file).stem if file not in BUNDLED else file)
     if not isinstance(name, str) or not name or not name.replace("_", "").isalnum() or not name[0].isalpha():
-        _fail(f"{where}.name", name, "give a segmentation name: a letter, then letters, digits and _")
+        fail_key(f"{where}.name", name, "give a segmentation name: a letter, then letters, digits and _")
     if name in RESERVED_NAMES or name.startswith(("ground_far", "scatter_", "asset_group")):
-        _fail(f"{where}.name", name, f"is a name the presets use ({', '.join(RESERVED_NAMES)}); choose another")
+        fail_key(f"{where}.name", name, f"is a name the presets use ({', '.join(RESERVED_NAMES)}); choose another")
     position = _numbers(f"{where}.position_m", table.get("position_m", [0.0, 0.0, 0.0]), 3, 1e5,
                         "east, north, up in metres from the look point")
     scale = table.get("scale", 1.0)
     if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and math.isfinite(scale)
             and 0 < scale <= 1e4):
-        _fail(f"{where}.scale", scale, "must be a number in (0, 1e4] (the file's units are metres)")
+        fail_key(f"{where}.scale", scale, "must be a number in (0, 1e4] (the file's units are metres)")
     rotation = table.get("rotation_deg", [0.0, 0.0, 0.0])
     if rotation != "random":
         rotation = _numbers(f"{where}.rotation_deg", rotation, 3, 360.0,
                             "degrees about east, north, up; or \"random\" about up")
     colour = _numbers(f"{where}.colour", table.get("colour", [0.5, 0.5, 0.5]), 3, 1.0, "display sRGB in [0, 1]")
     if min(colour) < 0:
-        _fail(f"{where}.colour", list(colour), "give three display-sRGB values in [0, 1]")
+        fail_key(f"{where}.colour", list(colour), "give three display-sRGB values in [0, 1]")
     count = table.get("count", 1)
     if not (isinstance(count, int) and not isinstance(count, bool) and 1 <= count <= MAX_COPIES):
-        _fail(f"{where}.count", count, f"must be a whole number in 1..{MAX_COPIES}")
+        fail_key(f"{where}.count", count, f"must be a whole number in 1..{MAX_COPIES}")
     spread = table.get("spread_m", 0.0)
     if not (isinstance(spread, (int, float)) and not isinstance(spread, bool) and 0 <= spread <= 1e4):
-        _fail(f"{where}.spread_m", spread, "must lie in [0, 1e4] m (0: copies over the ground in view)")
+        fail_key(f"{where}.spread_m", spread, "must lie in [0, 1e4] m (0: copies over the ground in view)")
     up = table.get("up", "auto")
     if up not in ("auto", "y", "z"):
-        _fail(f"{where}.up", up, "valid: auto (y for OBJ and glTF, z for PLY), y, z")
+        fail_key(f"{where}.up", up, "valid: auto (y for OBJ and glTF, z for PLY), y, z")
     texture = table.get("texture", "")
     if not isinstance(texture, str):
-        _fail(f"{where}.texture", texture, "give an image file's path")
+        fail_key(f"{where}.texture", texture, "give an image file's path")
     if texture:
         texture = _resolve(texture, Path(base_dir))
         if Path(texture).suffix.lower() not in TEXTURE_SUFFIXES or not Path(texture).is_file():
-            _fail(f"{where}.texture", texture, f"give an existing image ({', '.join(TEXTURE_SUFFIXES)})")
+            fail_key(f"{where}.texture", texture, f"give an existing image ({', '.join(TEXTURE_SUFFIXES)})")
     return AssetSpec(file, name, position, float(scale), rotation, colour, count, float(spread), up, texture)
 
 

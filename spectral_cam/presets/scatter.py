@@ -43,7 +43,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..registry import Registry
-from .assets import ground_in_view
+from .assets import check_entry_table, fail_key, ground_in_view
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
@@ -62,10 +62,6 @@ MAX_INSTANCES = 60000
 #: faces, smooth-shaded: a few pixels across in any view that holds thousands).
 KIND_TRIANGLES = {"stones": 80, "clods": 80, "straw": 96, "grass_blades": 70}
 DISTRIBUTIONS = ("uniform", "log_uniform", "lognormal", "normal")
-
-
-def _fail(key: str, value: Any, rule: str) -> None:
-    raise ConfigError(f"{key} = {value!r}: {rule}")
 
 
 def _number(value: Any) -> bool:
@@ -123,27 +119,27 @@ def parse_distribution(key: str, value: Any, *, low: float, high: float, unit: s
     unit = f" {unit}" if unit else ""
     if _number(value):
         if not low <= value <= high:
-            _fail(key, value, f"must lie in [{low:g}, {high:g}]{unit}")
+            fail_key(key, value, f"must lie in [{low:g}, {high:g}]{unit}")
         return Distribution("constant", float(value))
     if isinstance(value, (list, tuple)):
         value = {"uniform": list(value)}
     if not isinstance(value, Mapping) or len(value) != 1:
-        _fail(key, value, f"give {forms}")
+        fail_key(key, value, f"give {forms}")
     (kind, params), = value.items()
     if kind not in DISTRIBUTIONS:
-        _fail(key, value, f"unknown distribution {kind!r}; give {forms}")
+        fail_key(key, value, f"unknown distribution {kind!r}; give {forms}")
     if not isinstance(params, (list, tuple)) or len(params) != 2 or not all(_number(p) for p in params):
-        _fail(key, value, f"{kind} takes two numbers; give {forms}")
+        fail_key(key, value, f"{kind} takes two numbers; give {forms}")
     a, b = float(params[0]), float(params[1])
     if kind in ("uniform", "log_uniform"):
         if not (low <= a <= b <= high) or (kind == "log_uniform" and a <= 0):
-            _fail(key, value, f"give low <= high within [{max(low, 1e-300) if kind == 'log_uniform' else low:g}, "
+            fail_key(key, value, f"give low <= high within [{max(low, 1e-300) if kind == 'log_uniform' else low:g}, "
                               f"{high:g}]{unit}")
     elif b < 0 or b > 10:
-        _fail(key, value, f"{kind}: the spread must lie in [0, 10]")
+        fail_key(key, value, f"{kind}: the spread must lie in [0, 10]")
     dist = Distribution(kind, a, b)
     if kind in ("lognormal", "normal") and not (low <= dist.high <= high and (kind == "lognormal" or a >= 0)):
-        _fail(key, value, f"its 99.9 % quantile {dist.high:g} must lie in [{low:g}, {high:g}]{unit}")
+        fail_key(key, value, f"its 99.9 % quantile {dist.high:g} must lie in [{low:g}, {high:g}]{unit}")
     return dist
 
 
@@ -325,27 +321,23 @@ def scatter_from_table(table: Any, index: int) -> ScatterSpec:
     where = f"scene.scatter[{index}]"
     if isinstance(table, ScatterSpec):
         return table
-    if not isinstance(table, Mapping):
-        _fail(where, table, "give a table: kind = ..., density_per_m2 = ..., size_m = ...")
-    unknown = sorted(set(table) - set(SCATTER_KEYS))
-    if unknown:
-        raise ConfigError(f"unknown key(s) {', '.join(f'{where}.{k}' for k in unknown)}; valid: {', '.join(SCATTER_KEYS)}")
+    check_entry_table(where, table, SCATTER_KEYS, "give a table: kind = ..., density_per_m2 = ..., size_m = ...")
     kind = table.get("kind")
     if kind not in SCATTER_KINDS:
-        _fail(f"{where}.kind", kind, f"unknown kind; valid: {', '.join(SCATTER_KINDS)}")
+        fail_key(f"{where}.kind", kind, f"unknown kind; valid: {', '.join(SCATTER_KINDS)}")
     name = table.get("name", kind)
     if not isinstance(name, str) or not name or not name.replace("_", "").isalnum():
-        _fail(f"{where}.name", name, "give a segmentation name of letters, digits and _")
+        fail_key(f"{where}.name", name, "give a segmentation name of letters, digits and _")
     if "density_per_m2" not in table:
-        _fail(f"{where}.density_per_m2", None, "give the things per square metre of ground")
+        fail_key(f"{where}.density_per_m2", None, "give the things per square metre of ground")
     density = parse_distribution(f"{where}.density_per_m2", table["density_per_m2"], low=0.0, high=1e5, unit="per m²")
     size = parse_distribution(f"{where}.size_m", table.get("size_m", [0.02, 0.08]), low=1e-4, high=10.0, unit="m")
     max_distance = table.get("max_distance_m", 0.0)
     if not (_number(max_distance) and 0 <= max_distance <= 1e4):
-        _fail(f"{where}.max_distance_m", max_distance, "must lie in [0, 1e4] m (0: 3 × scene.distance_m)")
+        fail_key(f"{where}.max_distance_m", max_distance, "must lie in [0, 1e4] m (0: 3 × scene.distance_m)")
     variants = table.get("variants", 4)
     if not (isinstance(variants, int) and not isinstance(variants, bool) and 1 <= variants <= 64):
-        _fail(f"{where}.variants", variants, "must be a whole number in 1..64 (distinct meshes of the kind)")
+        fail_key(f"{where}.variants", variants, "must be a whole number in 1..64 (distinct meshes of the kind)")
     return ScatterSpec(kind, name, density, size, float(max_distance), variants)
 
 
