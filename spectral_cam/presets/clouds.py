@@ -32,6 +32,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -87,6 +88,19 @@ def _sheet(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return vertices, faces, uv
 
 
+@functools.lru_cache(maxsize=4)
+def _cloud_geometry(seed: int, cover: float) -> tuple[np.ndarray, ...]:
+    """The layer's sheet (:func:`_sheet`) and thickness map, made once per layout and cover: a
+    job builds its scene several times (probes, depth, labels), 0.4 s each for 10⁶ triangles."""
+    field = cloud_field(seed)
+    mask, threshold = cloud_mask(field, cover)
+    thickness = np.clip((field - threshold) / THICK_RISE, 0.0, 1.0) if np.isfinite(threshold) else np.ones_like(field)
+    out = (*_sheet(mask), thickness)
+    for array in out:
+        array.setflags(write=False)
+    return out
+
+
 def _cloud_bsdf(albedo: tuple[float, float]) -> dict:
     from ..leaves import LEAF_PLUGIN
 
@@ -104,10 +118,7 @@ def cloud_layer(config: "SceneConfig", view: "GroundView", mi) -> dict:
     cover = float(config.sky.cloud_cover)
     if cover <= 0.0:
         return {}
-    field = cloud_field(config.scene.layout_seed)
-    mask, threshold = cloud_mask(field, cover)
-    vertices, faces, uv = _sheet(mask)
-    thickness = np.clip((field - threshold) / THICK_RISE, 0.0, 1.0) if np.isfinite(threshold) else np.ones_like(field)
+    vertices, faces, uv, thickness = _cloud_geometry(int(config.scene.layout_seed), cover)
     bsdf = {"type": "blendbsdf", "weight": bitmap_texture(mi, thickness),
             "bsdf_0": _cloud_bsdf(THIN_CLOUD), "bsdf_1": _cloud_bsdf(THICK_CLOUD)}
     half = CLOUD_LAYER_M / 2
