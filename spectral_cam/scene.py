@@ -1016,12 +1016,14 @@ def read_toml(path: str | Path, what: str) -> dict:
 
 
 def load_scene(path: str | Path, overrides: Mapping[str, Any] | list[str] | None = None) -> SceneConfig:
-    """Read a TOML scene file, apply overrides and validate.
+    """Read a scene file, apply overrides and validate.
 
     Parameters
     ----------
     path
-        The ``.toml`` scene file.
+        The ``.toml`` scene file, or a Mitsuba 3 ``.xml`` scene: it is then the scene as
+        ``[scene] mitsuba_xml = path`` with every other key at its default (its camera's pose and
+        field of view kept, :func:`_lens_for_xml_camera`); overrides set the rest.
     overrides
         ``{"lens.f_number": 2.8}`` or a list of ``"section.key=value"`` strings.
 
@@ -1035,7 +1037,13 @@ def load_scene(path: str | Path, overrides: Mapping[str, Any] | list[str] | None
     (4.0, 64, 'colorchecker')
     """
     path = Path(path)
-    data = read_toml(path, "scene file")
+    if path.suffix.lower() == ".xml":  # a user's Mitsuba scene needs no wrapper TOML (issue 39 #18)
+        if not path.is_file():
+            raise ConfigError(f"scene file {str(path)!r} does not exist; give a .toml scene file or a "
+                              "Mitsuba 3 .xml scene")
+        data: dict[str, Any] = {"scene": {"mitsuba_xml": str(path.resolve())}}
+    else:
+        data = read_toml(path, "scene file")
     if isinstance(overrides, (list, tuple)):
         overrides = dict(parse_override(item) for item in overrides)
     return scene_from_dict(data, overrides=overrides, base_dir=path.parent)

@@ -9,7 +9,7 @@ import sys
 
 def configure_parser(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``spectral-cam render``."""
-    parser.add_argument("scene", help="scene file (.toml)")
+    parser.add_argument("scene", help="scene file (.toml), or a Mitsuba 3 scene (.xml) with every other key at its default")
     parser.add_argument("-o", "--output", help="output folder (must not exist unless --force)")
     parser.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
                         help="override a scene key, e.g. --set lens.f_number=2.8 (repeatable)")
