@@ -20,7 +20,7 @@ import numpy as np
 
 from .common import NOISE_FREE, chart_scene, mark_front, pareto_chart, timed, write_rows
 
-__all__ = ["bench_isp", "bench_rawpy", "libraw_xyz"]
+__all__ = ["bench_isp", "bench_rawpy", "libraw_xyz", "demosaic_methods_for"]
 
 
 def _isp_fixture(quick: bool):
@@ -56,6 +56,36 @@ def _score(linear, truth, white, config) -> tuple[float, float]:
     return quality, delta
 
 
+def demosaic_methods_for(cfa: str) -> list[str]:
+    """The registered demosaic methods that take a ``cfa`` mosaic as asked, in registry order.
+
+    :func:`spectral_cam.isp.demosaic.method_for` is what the develop asks: it refuses a method made
+    for another tile (a Quad Bayer remosaic on a Bayer mosaic) and swaps a Bayer method for the
+    tile's default on a larger tile; a method is listed only where it runs unchanged.
+
+    Parameters
+    ----------
+    cfa : str
+        The mosaic's tile (``"RGGB"``, ``"XTRANS"``, ``"QUAD_RGGB"``, ...).
+
+    Returns
+    -------
+    list of str
+        Names from :data:`spectral_cam.isp.demosaic.DEMOSAIC`.
+    """
+    from ...errors import ConfigError
+    from ...isp.demosaic import DEMOSAIC, method_for
+
+    accepted = []
+    for name in DEMOSAIC:
+        try:
+            if method_for(cfa, name) == name:
+                accepted.append(name)
+        except ConfigError:  # made for another tile
+            continue
+    return accepted
+
+
 def _rank_by_detail(rows: list[dict]) -> float:
     """Time ratios against the first row, and the Pareto flags of time against PSNR (stored
     as ``neg_psnr_db``, an error to minimise); returns the baseline time (s)."""
@@ -69,7 +99,8 @@ def _rank_by_detail(rows: list[dict]) -> float:
 
 def bench_isp(out: Path, *, quick: bool) -> list[dict]:
     """Demosaic methods (noise-free RAW) and denoisers (ISO 800 RAW): develop time against
-    PSNR and ΔE2000.
+    PSNR and ΔE2000. Only the methods that take the chart's mosaic run
+    (:func:`demosaic_methods_for`); the Quad Bayer and RGBW ones have their own tiles.
 
     Parameters
     ----------
@@ -84,11 +115,11 @@ def bench_isp(out: Path, *, quick: bool) -> list[dict]:
         One row per stage and method (columns as in ``isp.csv``).
     """
     from ...isp import ISPConfig, develop
-    from ...isp.config import DEMOSAIC_METHODS, DENOISE_METHODS
+    from ...isp.config import DENOISE_METHODS
 
     config, clean, noisy, truth, white = _isp_fixture(quick)
     rows = []
-    for method in DEMOSAIC_METHODS:
+    for method in demosaic_methods_for(clean.cfa):
         isp = ISPConfig(demosaic=method, tone="linear")
         developed, seconds = timed(develop, clean, isp, repeats=2)
         quality, delta = _score(developed.linear, truth, white, config)

@@ -75,7 +75,10 @@ def run_benchmarks(output: str | Path, *, quick: bool = False, only: list[str] |
     out.mkdir(parents=True, exist_ok=True)
     results = {}
     for name in names:
-        t0 = time.perf_counter()
+        t0, started = time.perf_counter(), time.time()
         results[name] = BENCHMARKS[name](out, quick=quick)
-        log(f"bench {name}: {len(results[name])} rows in {time.perf_counter() - t0:.1f} s -> {out}/{name}*.png")
+        # charts are named by what they show (isp writes demosaic.png and denoise.png): list what was written
+        written = sorted(p.name for p in out.iterdir() if p.is_file() and p.stat().st_mtime >= started - 1)
+        log(f"bench {name}: {len(results[name])} rows in {time.perf_counter() - t0:.1f} s -> {out}/ "
+            f"({', '.join(written)})")
     return results
