@@ -12,6 +12,7 @@ import errno
 import glob
 import os
 import shutil
+import socket
 import tempfile
 from pathlib import Path
 from typing import Iterator
@@ -19,7 +20,7 @@ from typing import Iterator
 from .errors import ConfigError
 
 __all__ = ["atomic_path", "staged_directory", "discard_in_progress", "exchange_paths", "recover_interrupted",
-           "check_free_disk"]
+           "remove_abandoned_partials", "check_free_disk"]
 
 
 #: Staging folders and temporary files being written now: what an interrupt must remove
@@ -27,14 +28,58 @@ __all__ = ["atomic_path", "staged_directory", "discard_in_progress", "exchange_p
 _IN_PROGRESS: set[Path] = set()
 
 
+def _partial_prefix(name: str) -> str:
+    """``.<name>.partial-<host>-<pid>-``: the owner is in the name, so a later run can tell a
+    folder a killed process left (kill -9 runs no cleanup) from one another process is filling."""
+    return f".{name}.partial-{socket.gethostname()}-{os.getpid()}-"
+
+
+def _owner_is_gone(path: Path, name: str) -> bool:
+    """True for a ``.partial-`` path this host's process left and that process no longer runs."""
+    ours = f".{name}.partial-{socket.gethostname()}-"
+    pid_text = path.name[len(ours):].split("-", 1)[0] if path.name.startswith(ours) else ""
+    if not pid_text.isdigit():
+        return False  # another machine's (a shared folder) or an older name: not ours to judge
+    try:
+        os.kill(int(pid_text), 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:  # alive, another user's
+        return False
+    return False
+
+
+def remove_abandoned_partials(target: str | Path) -> list[Path]:
+    """Remove the ``.<name>.partial-*`` files and folders beside ``target`` that a killed
+    process on this machine left (its pid no longer runs).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The removed paths.
+    """
+    target = Path(target)
+    removed = []
+    for path in target.parent.glob(f".{glob.escape(target.name)}.partial-*"):
+        if _owner_is_gone(path, target.name):
+            _remove(path)
+            removed.append(path)
+    return removed
+
+
+def _remove(path: Path) -> None:
+    """Remove a folder tree, a file or a symbolic link (not what the link points to)."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        path.unlink(missing_ok=True)
+
+
 def discard_in_progress() -> None:
     """Remove every staging folder and temporary file still being written (a signal handler
     calls this first, so that no partial output survives however the interrupt unwinds)."""
     for path in list(_IN_PROGRESS):
-        if path.is_dir():
-            shutil.rmtree(path, ignore_errors=True)
-        else:
-            path.unlink(missing_ok=True)
+        _remove(path)
         _IN_PROGRESS.discard(path)
 
 
@@ -52,8 +97,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path in the target's folder; rename it onto ``path`` on success,
     remove it on failure. A killed process leaves only a ``.partial-*`` file behind."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.partial-", suffix=path.suffix, dir=path.parent)
+    _make_parent(path)
+    remove_abandoned_partials(path)
+    fd, tmp = tempfile.mkstemp(prefix=_partial_prefix(path.name), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     tmp = Path(tmp)
     try:
@@ -77,33 +123,54 @@ def staged_directory(target: str | Path, *, force: bool = False) -> Iterator[Pat
     """
     target = Path(target)
     recover_interrupted(target)
-    if target.exists() and not force:
-        raise ConfigError(f"{target} exists; pass --force (force=True) to overwrite it")
-    target.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=target.parent))
+    if os.path.lexists(target) and not force:  # a dangling symbolic link is there too
+        raise ConfigError(f"{target} exists{_what_is_there(target)}; pass --force (force=True) to replace it")
+    _make_parent(target)
+    remove_abandoned_partials(target)
+    stage = Path(tempfile.mkdtemp(prefix=_partial_prefix(target.name), dir=target.parent))
     try:
         with _in_progress(stage):
             umask = os.umask(0)
             os.umask(umask)
             os.chmod(stage, 0o777 & ~umask)  # mkdtemp makes 0700
             yield stage
-        _publish(stage, target, force=force)  # no longer discardable: it may hold the old result
+        try:
+            _publish(stage, target, force=force)  # no longer discardable: it may hold the old result
+        except OSError as exc:  # name the user's path, not the hidden staging folder
+            raise OSError(exc.errno, f"cannot put the result at {target}: {exc.strerror}") from None
     finally:
-        if stage.exists():
-            shutil.rmtree(stage, ignore_errors=True)
+        if os.path.lexists(stage):
+            _remove(stage)
+
+
+def _what_is_there(target: Path) -> str:
+    if target.is_symlink():
+        return f" (a symbolic link to {os.readlink(target)}{'' if target.exists() else ', which does not exist'})"
+    return "" if target.is_dir() else " (a file)"
+
+
+def _make_parent(path: Path) -> None:
+    """Create ``path``'s folder, or say which part of it is in the way."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        blocker = next((p for p in (path.parent, *path.parent.parents) if os.path.lexists(p) and not p.is_dir()), None)
+        where = f"{blocker}{_what_is_there(blocker)}" if blocker else str(path.parent)
+        raise ConfigError(f"cannot write {path}: {where} is in the way of its folder; choose another path "
+                          "or remove it") from None
 
 
 def _publish(stage: Path, target: Path, *, force: bool) -> None:
     """Move a finished staging folder onto ``target``. ``force`` is checked again here, since
     ``target`` may have appeared while the work ran; a replaced result is restored if the
     final rename fails, so one of the two always survives."""
-    if not target.exists():
+    if not os.path.lexists(target):
         os.rename(stage, target)  # an empty folder created meanwhile would be replaced, not merged
         return
     if not force:
         raise ConfigError(f"{target} appeared while this result was being made; pass --force to replace it")
-    if exchange_paths(stage, target):  # one atomic step: the old result is now at `stage`
-        shutil.rmtree(stage, ignore_errors=True)
+    if exchange_paths(stage, target):  # one atomic step: the old result (folder, file or link) is now at `stage`
+        _remove(stage)
         return
     # no atomic exchange here: two renames; a kill between them leaves the old result in
     # the .old folder, which recover_interrupted() moves back on the next run

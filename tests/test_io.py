@@ -125,3 +125,66 @@ def test_exr_compression_auto_zips_what_compresses_and_keeps_every_bit(tmp_path)
             back = {name: channel.pixels for name, channel in exr.channels().items()}
         for name, values in channels.items():
             np.testing.assert_array_equal(back[name], values)
+
+
+# Issue 39 #32 and #31: --force onto a file or a symbolic link leaves nothing hidden behind; a
+# killed run's staging folder is removed by the next run; a dangling -o is named, not the stage.
+
+@pytest.mark.parametrize("kind", ["file", "symlink", "dangling symlink"])
+def test_force_onto_a_file_or_a_link_leaves_nothing_behind(tmp_path, kind):
+    (tmp_path / "elsewhere").mkdir()
+    target = tmp_path / "out"
+    if kind == "file":
+        target.write_text("a user's file")
+    else:
+        target.symlink_to(tmp_path / ("elsewhere" if kind == "symlink" else "missing"))
+    with staged_directory(target, force=True) as stage:
+        (stage / "meta.json").write_text("new")
+    assert not target.is_symlink() and (target / "meta.json").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere", "out"]
+    assert list((tmp_path / "elsewhere").iterdir()) == []  # a link is replaced, not followed
+
+
+def test_a_dangling_link_is_named_as_what_is_in_the_way(tmp_path):
+    (tmp_path / "out").symlink_to(tmp_path / "missing")
+    with pytest.raises(ConfigError, match=r"out exists \(a symbolic link to .*missing, which does not exist\); "
+                                          r"pass --force"):
+        with staged_directory(tmp_path / "out"):
+            pass
+    with pytest.raises(ConfigError, match=r"cannot write .*out/sub: .*out \(a symbolic link .*\) is in the way"):
+        with staged_directory(tmp_path / "out" / "sub"):
+            pass
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+KILLED_MID_RUN = textwrap.dedent("""
+    import os, sys
+    from pathlib import Path
+    import spectral_cam.io as io
+    with io.staged_directory(Path(sys.argv[1])) as stage:
+        (stage / "half.dng").write_bytes(b"II*")
+        with io.atomic_path(Path(sys.argv[1]).parent / "file.json") as tmp:
+            os._exit(9)                                  # kill -9 runs no cleanup
+""")
+
+
+def test_what_a_killed_run_left_is_removed_by_the_next(tmp_path):
+    target = tmp_path / "out"
+    subprocess.run([sys.executable, "-c", KILLED_MID_RUN, str(target)], check=False, timeout=50)
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert len(left) == 2 and all(".partial-" in name for name in left)
+    with staged_directory(target) as stage:
+        (stage / "meta.json").write_text("new")
+    from spectral_cam.io import atomic_path
+
+    with atomic_path(tmp_path / "file.json") as tmp:
+        tmp.write_text("{}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file.json", "out"]
+
+
+def test_a_running_writers_stage_is_left_alone(tmp_path):
+    from spectral_cam.io import _partial_prefix, remove_abandoned_partials
+
+    alive = tmp_path / (_partial_prefix("out") + "x")  # this process: still running
+    alive.mkdir()
+    assert remove_abandoned_partials(tmp_path / "out") == [] and alive.exists()
