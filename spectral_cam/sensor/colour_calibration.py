@@ -436,7 +436,8 @@ def fit_hue_sat_map(
     its table, so each of hue shift (weighted by saturation: a hue error is a chroma-sized error),
     saturation scale and value scale (both as relative errors) is a regularised least-squares fit:
     the residuals plus ``smoothness`` × the table's second differences, the neutral axis's value
-    scale held at 1 (greys and the white stay where the matrix puts them).
+    scale constrained to exactly 1 (the DNG specification's rule: greys and the white stay where the
+    matrix puts them).
 
     Parameters
     ----------
@@ -490,19 +491,27 @@ def fit_hue_sat_map(
     rough = np.sqrt(smoothness) * _hsm_roughness(hues, sats)
     tie = 1e-3 * np.eye(nodes)  # a node no sample reaches stays at the identity
 
-    def solve(rows, values, identity, extra=None):
-        blocks = [rows, rough, tie] + ([extra[0]] if extra else [])
-        rhs = [values, rough @ np.full(nodes, identity), tie @ np.full(nodes, identity)] + ([extra[1]] if extra else [])
-        return np.linalg.lstsq(np.vstack(blocks), np.concatenate(rhs), rcond=None)[0]
+    def solve(rows, values, identity, fixed=None):
+        """Penalised least squares for the table; the ``fixed`` nodes are held at ``identity``
+        exactly (their columns move to the right-hand side), not pulled there by a penalty."""
+        blocks = np.vstack([rows, rough, tie])
+        rhs = np.concatenate([values, rough @ np.full(nodes, identity), tie @ np.full(nodes, identity)])
+        free = np.ones(nodes, bool)
+        if fixed is not None:
+            free[fixed] = False
+        table = np.full(nodes, float(identity))
+        rhs = rhs - blocks[:, ~free] @ table[~free]
+        table[free] = np.linalg.lstsq(blocks[:, free], rhs, rcond=None)[0]
+        return table
 
     turn = np.mod(hsv_t[:, 0] - hsv_s[:, 0] + 3.0, 6.0) - 3.0  # hexcone units, the short way round
     shift = solve(design * hsv_s[:, 1:2], hsv_s[:, 1] * turn * 60.0, 0.0)
     relative_s = 1.0 / np.maximum(hsv_t[:, 1], 1e-3)
     sat_scale = solve(design * (hsv_s[:, 1] * relative_s)[:, None], hsv_t[:, 1] * relative_s, 1.0)
-    neutral = np.zeros((hues, nodes))
-    neutral[np.arange(hues), np.arange(hues) * sats] = 1e3  # the value scale at saturation 0 stays 1
+    # the DNG specification (and Adobe's SDK, dng_hue_sat_map::SetDelta, which warns and resets it) wants
+    # the value scale at saturation 0 exactly 1: greys and the white stay where the matrix puts them
     relative_v = 1.0 / hsv_t[:, 2]
     val_scale = solve(design * (hsv_s[:, 2] * relative_v)[:, None], hsv_t[:, 2] * relative_v, 1.0,
-                      (neutral, np.full(hues, 1e3)))
+                      fixed=np.arange(hues) * sats)
     table = np.stack([shift, np.clip(sat_scale, 0, None), np.clip(val_scale, 0, None)], axis=-1)
     return HueSatMap(table.reshape(1, hues, sats, 3))

@@ -95,3 +95,57 @@ def test_root_polynomial_correction_keeps_white_neutral(illuminant):
     xyz = correction(np.ones((1, 3)))[0]
     d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
     assert colour.delta_E(colour.XYZ_to_Lab(xyz, colour.XYZ_to_xy(d65)), [100, 0, 0], method="CIE 2000") < 0.05
+
+
+# ----------------------------------------------------------------------------- issue 39 #8
+def _flat_capture_dng(camera: str, path):
+    """A 32 × 32 grey flat field exposed by ``camera`` (the full expose → write_dng path) as a DNG."""
+    from spectral_cam.raw import write_dng
+
+    bands = spectra.parse_bands("400:700:20")
+    wl, irradiance = spectra.absolute_irradiance("D65", 100.0)
+    radiance = spectra.band_integrals(0.18 * irradiance / np.pi, wl, bands)
+    cfg = scene_from_dict({"sensor": {"width_px": 32, "height_px": 32, "model": camera},
+                           "illuminant": {"spd": "D65"}, "exposure": {"time_s": 0.001}})
+    image = SpectralImage(np.broadcast_to(radiance.astype(np.float32), (32, 32, len(bands.centres_nm))).copy(),
+                          np.asarray(bands.centres_nm), np.asarray(bands.edges_nm))
+    return write_dng(S.expose(image, cfg), path)
+
+
+@pytest.mark.timeout(600)
+def test_every_cameras_written_hue_sat_map_keeps_value_scale_exactly_1_at_zero_saturation(tmp_path):
+    """Issue 39 #8. The DNG specification (ProfileHueSatMapData, ch. 6) wants the value scale of
+    every zero-saturation entry to be exactly 1.0; Adobe's SDK (dng_hue_sat_map::SetDelta) warns
+    "Value scale for zero saturation entries must be 1.0" and resets it otherwise (five cameras'
+    maps stored 0.99999994 when a penalty pulled them towards 1). For each bundled camera the
+    DNG written by expose → write_dng is read back with tifffile (the float32 the file holds), and
+    Adobe's DNG SDK (dngpy, a test extra) parses every one of them without that warning."""
+    import subprocess
+    import sys
+
+    import tifffile
+
+    from spectral_cam.raw.dng import DNG_TAGS
+
+    paths = []
+    for camera in spectra.camera_names():
+        path = _flat_capture_dng(camera, tmp_path / f"{camera}.dng")
+        with tifffile.TiffFile(path) as tif:
+            tags = tif.pages[0].tags
+            hues, sats, values = tags[DNG_TAGS["ProfileHueSatMapDims"]].value
+            for slot in (1, 2):
+                data = np.asarray(tags[DNG_TAGS[f"ProfileHueSatMapData{slot}"]].value, dtype=np.float32)
+                table = data.reshape(values, hues, sats, 3)
+                zero_sat_value = table[:, :, 0, 2]
+                assert np.all(zero_sat_value == np.float32(1.0)), (camera, slot, zero_sat_value[zero_sat_value != 1])
+        paths.append(str(path))
+    dngpy = pytest.importorskip("dngpy", reason="dngpy (Adobe's DNG SDK) is a test extra: pip install -e '.[test]'")
+    assert dngpy
+    script = ("import sys, dngpy\n"
+              "for path in sys.argv[1:]:\n"
+              "    dng = dngpy.Dng(path)\n"
+              "    dng.raw_pixels, dng.metadata, dng.color_info\n")
+    run = subprocess.run([sys.executable, "-c", script, *paths], capture_output=True, text=True, timeout=300,
+                         check=False)
+    assert run.returncode == 0, run.stderr
+    assert "zero saturation" not in run.stdout + run.stderr, run.stdout + run.stderr
