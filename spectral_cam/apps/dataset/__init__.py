@@ -26,8 +26,9 @@ distribution, plus a ``[dataset]`` table::
 
 Distributions (:data:`~spectral_cam.apps.dataset.spec.DISTRIBUTIONS`): ``uniform = [low, high]``, ``log_uniform = [low,
 high]`` (uniform in log, both > 0), ``choice = [v, ...]`` with optional ``weights``; list
-bounds sample list-valued keys element by element; keys whose type is a whole number are
-rounded. ``--sweep key=start:stop:count`` (``:log`` for a geometric series, or
+bounds sample list-valued keys element by element; keys whose type is a whole number draw
+whole numbers from ceil(low) to floor(high), both ends included (``uniform``: each equally
+likely; ``log_uniform``: each with its rounding cell's log-width). ``--sweep key=start:stop:count`` (``:log`` for a geometric series, or
 ``key=[v1, v2, ...]``) adds a grid axis; several sweeps give their product, and ``-n`` then
 counts items per grid point. A sweep renders a contact sheet and, for the ``dof_targets``
 and ``point_sources`` presets, a chart of measured blur against depth beside the thin-lens

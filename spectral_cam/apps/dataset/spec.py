@@ -118,7 +118,7 @@ class Distribution:
     values, weights
         Choices and their relative weights (uniform when empty).
     whole
-        Round draws to whole numbers (keys typed ``int``).
+        Draw whole numbers, both bounds included (keys typed ``int``; :func:`_whole_draw`).
     """
 
     key: str
@@ -150,13 +150,14 @@ class Distribution:
             return json_ready(self.values[int(rng.choice(len(self.values), p=p))])
         low = np.asarray(self.low, dtype=float)
         high = np.asarray(self.high, dtype=float)
+        if self.whole:
+            draw = _whole_draw(rng, self.kind, low, high)
+            return draw.tolist() if np.ndim(draw) else int(draw)
         if self.kind == "uniform":
             draw = rng.uniform(low, high)
         else:
             draw = np.exp(rng.uniform(np.log(low), np.log(high)))
-        if self.whole:
-            draw = np.rint(draw).astype(int)
-        return draw.tolist() if np.ndim(draw) else (int(draw) if self.whole else float(draw))
+        return draw.tolist() if np.ndim(draw) else float(draw)
 
     def to_dict(self) -> dict:
         """The distribution as the spec writes it (``{"uniform": [low, high]}``, ...)."""
@@ -166,6 +167,25 @@ class Distribution:
                 out["weights"] = list(self.weights)
             return out
         return {self.kind: [json_ready(self.low), json_ready(self.high)]}
+
+
+def _whole_draw(rng: np.random.Generator, kind: str, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Whole numbers from ceil(low) to floor(high), both included: each equally likely for
+    ``uniform``; for ``log_uniform`` each k has the log-width of its rounding cell,
+    P(k) ∝ ln((k + ½) / (k − ½)) (a continuous log-uniform draw over [lo − ½, hi + ½], rounded).
+    Rounding a continuous draw over [lo, hi] instead gives both ends half a cell, so they came
+    up half as often (19 and 21 of 200 draws of [4, 10] against about 32 for the others).
+
+    References
+    ----------
+    .. [1] NumPy ``Generator.integers`` (``endpoint=True``: the high end included).
+    .. [2] Optuna ``IntDistribution(log=True)``: log-uniform over [low − ½, high + ½], rounded.
+    """
+    lo, hi = np.ceil(low).astype(np.int64), np.floor(high).astype(np.int64)
+    if kind == "uniform":
+        return rng.integers(lo, hi, endpoint=True)
+    draw = np.rint(np.exp(rng.uniform(np.log(lo - 0.5), np.log(hi + 0.5)))).astype(np.int64)
+    return np.clip(draw, lo, hi)  # exp(log(hi + ½)) may round up past hi by one ulp
 
 
 def _bound(key: str, value: Any, kind: str) -> Any:
@@ -215,6 +235,9 @@ def _parse_distribution(key: str, table: Mapping[str, Any]) -> Distribution:
         raise ConfigError(f"{key}: log_uniform bounds must be > 0; got [{spec[0]!r}, {spec[1]!r}]")
     if whole and max(np.abs(np.atleast_1d(low)).max(), np.abs(np.atleast_1d(high)).max()) >= 2 ** 53:
         raise ConfigError(f"{key}: whole-number bounds must stay below 2**53; got [{spec[0]!r}, {spec[1]!r}]")
+    if whole and np.any(np.ceil(lows) > np.floor(highs)):
+        raise ConfigError(f"{key} takes whole numbers, and [{spec[0]!r}, {spec[1]!r}] holds none; give bounds "
+                          f"with at least one whole number between them, e.g. [4, 10]")
     return Distribution(key, kind, low=low, high=high, whole=whole)
 
 

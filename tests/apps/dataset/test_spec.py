@@ -96,3 +96,28 @@ def test_the_same_spec_and_scene_file_give_the_same_items_in_any_folder(tmp_path
     scene = tmp_path / "b" / "scenes" / "mixed_light_room.xml"
     scene.write_text(scene.read_text().replace('value="2856"', 'value="3000"'))
     assert load_spec(tmp_path / "b" / "plans" / "mixed_light_room.toml").hash != copies[0].hash
+
+
+def test_whole_number_uniform_draws_every_value_including_both_ends_equally_often():
+    """Issue 39 #13: ``uniform = [4, 10]`` on a whole-number key gave 4 and 10 half as often as
+    5 … 9 (a rounded continuous draw). Against the discrete uniform distribution on 4 … 10
+    (SciPy's chi-square goodness of fit, 7000 draws: expected 1000 each)."""
+    from scipy import stats
+
+    spec = spec_from_dict({"sensor": {"width_px": {"uniform": [4, 10]},
+                                      "height_px": {"log_uniform": [1, 8]}}})
+    rng = np.random.default_rng(39)
+    width, height = spec.distributions["sensor.width_px"], spec.distributions["sensor.height_px"]
+    draws = [width.sample(rng) for _ in range(7000)]
+    assert all(isinstance(d, int) for d in draws)
+    counts = np.bincount(draws, minlength=11)[4:]
+    assert counts.sum() == 7000 and counts.min() > 0
+    assert stats.chisquare(counts).pvalue > 1e-3, counts  # rounding gave ~500 at each end: p ~ 1e-80
+    # log-uniform over whole numbers: each k with its rounding cell's log-width ln((k + ½)/(k − ½))
+    k = np.arange(1, 9)
+    expected = np.log((k + 0.5) / (k - 0.5))
+    counts = np.bincount([height.sample(rng) for _ in range(7000)], minlength=9)[1:]
+    assert stats.chisquare(counts, 7000 * expected / expected.sum()).pvalue > 1e-3, counts
+    # bounds holding no whole number are refused at load
+    with pytest.raises(ConfigError, match="holds none"):
+        spec_from_dict({"sensor": {"width_px": {"uniform": [4.2, 4.8]}}})
