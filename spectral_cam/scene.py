@@ -528,10 +528,11 @@ class SensorSection:
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
             _fail("sensor.seed", self.seed, "must be a whole number >= 0")
         spectra.validate_transmission(self.ir_cut)
-        from .sensor.olpf import parse_olpf
+        from .sensor.olpf import check_olpf_margin
         from .sensor.shading import parse_angular_response
 
-        parse_olpf(self.olpf)
+        check_olpf_margin(self.olpf, model=self.model, pixel_pitch_um=self.pixel_pitch_um, crop_margin_px=margin,
+                          cfa=self.cfa)  # parses it; its light from beyond the frame must be rendered
         if isinstance(self.angular_response_deg, list):
             object.__setattr__(self, "angular_response_deg", tuple(self.angular_response_deg))
         parse_angular_response(self.angular_response_deg)

@@ -12,9 +12,22 @@ It acts on the irradiance before the pixels sample it, so it is applied to each 
 full-resolution electron-rate plane (linear in the band irradiance, so equal to filtering every
 band) before the colour filter array picks each pixel's channel: the false colour a Bayer mosaic
 makes of detail between its colour Nyquist (1/4 cycle per pixel) and the pixel Nyquist (1/2) is
-what it takes off. Shifts by whole pixels are exact (they commute with sampling); a fractional
-separation is applied as the band-limited (Fourier) shift of the rendered pixels, exact below
-the pixel Nyquist frequency.
+what it takes off.
+
+The rendered image is known only as pixel values, so a displacement is applied to them: a whole-
+pixel one is exact (it commutes with sampling); a fractional one, d = k + φ, moves each pixel's light
+— taken as spread evenly over the pixel — by d and shares it by overlap area between the pixels k
+and k + 1 away, (1 − φ) and φ. The filter's spots are non-negative copies of the light, so the
+output is non-negative by construction, and the sum is kept; a band-limited (Fourier) shift would
+treat the pixel-sampled image's aliased detail as band-limited and ring below zero at every edge.
+Among the non-negative kernels whose centroid lies at d, this two-tap one adds the least blur (the
+least variance, φ(1 − φ)), so its transfer function, |½(1 + (1 − φ)·e^(−2πifk) + φ·e^(−2πif(k+1)))|,
+is the closest to |cos(π·f·d)| that pixel data allows; exact would need the render supersampled.
+
+The light of a frame pixel comes from up to ⌈d⌉ pixels above and left of it: the render's crop
+margin (``sensor.crop_margin_px``) must hold them, or the filter would repeat the edge's pixels in
+their place (a render job's scene refuses a separation beyond its margin; :func:`apply_olpf` on a
+bare image repeats its edge).
 
 The birefringence of quartz or lithium niobate changes by ~1 % across the visible (Ghosh 1999),
 so d is taken as the same in every band.
@@ -34,7 +47,8 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["CAMERA_OLPF", "olpf_separation_px", "apply_olpf", "olpf_mtf", "OLPF_CHOICES"]
+__all__ = ["CAMERA_OLPF", "olpf_separation_px", "apply_olpf", "olpf_mtf", "olpf_kernel_mtf", "olpf_margin_px",
+           "check_olpf_margin", "OLPF_CHOICES"]
 
 #: ``sensor.olpf`` words: no filter, or the camera's own (:data:`CAMERA_OLPF`).
 OLPF_CHOICES = ("off", "camera")
@@ -113,30 +127,84 @@ def olpf_separation_px(olpf, *, model: str, pixel_pitch_um: float) -> tuple[floa
 
 
 def olpf_mtf(frequency_cycles_per_px, separation_px: float) -> np.ndarray:
-    """|H| of the filter along one axis: |cos(π·f·d)| (f in cycles per pixel, d in pixels)."""
+    """|H| of the ideal filter along one axis: |cos(π·f·d)| (f in cycles per pixel, d in pixels)."""
     return np.abs(np.cos(np.pi * np.asarray(frequency_cycles_per_px, dtype=float) * separation_px))
 
 
+def olpf_kernel_mtf(frequency_cycles_per_px, separation_px: float) -> np.ndarray:
+    """|H| along one axis of the filter as applied to pixels (:func:`apply_olpf`).
+
+    Parameters
+    ----------
+    frequency_cycles_per_px : array_like
+        Spatial frequency f (cycles per pixel).
+    separation_px : float
+        Spot separation d = k + φ (pixels).
+
+    Returns
+    -------
+    numpy.ndarray
+        |½(1 + (1 − φ)·e^(−2πifk) + φ·e^(−2πif(k+1)))|: |cos(π·f·d)| for a whole-pixel d, below it
+        by the area-weighted share's blur for a fractional one.
+    """
+    f = np.asarray(frequency_cycles_per_px, dtype=float)
+    whole, frac = _whole_and_fraction(separation_px)
+    shifted = (1.0 - frac) * np.exp(-2j * np.pi * f * whole) + frac * np.exp(-2j * np.pi * f * (whole + 1))
+    return np.abs(0.5 * (1.0 + shifted))
+
+
+def olpf_margin_px(separation_px: float) -> int:
+    """Pixels of rendered margin above and left of the frame the filter reads: ⌈d⌉."""
+    return int(np.ceil(separation_px - 1e-9))
+
+
+def check_olpf_margin(olpf, *, model: str, pixel_pitch_um: float, crop_margin_px: int, cfa: str = "RGGB") -> None:
+    """Refuse a spot separation that reaches beyond the rendered crop margin.
+
+    Raises
+    ------
+    ConfigError
+        When ⌈d⌉ > ``crop_margin_px``, naming the margin (or the separation) that would fit.
+    """
+    if cfa == "none" and parse_olpf(olpf) == "camera":
+        return  # a monochrome sensor's "camera" filter is none (radiometry._olpf)
+    separation, _ = olpf_separation_px(olpf, model=model, pixel_pitch_um=pixel_pitch_um)
+    need = olpf_margin_px(separation)
+    if need <= crop_margin_px:
+        return
+    fits = need + need % 2  # the margin is even (it keeps the CFA phase at the crop)
+    widen = f"sensor.crop_margin_px = {fits}, or " if fits <= 256 else ""
+    raise ConfigError(
+        f"sensor.olpf = {olpf!r} is a {separation:.4g}-pixel spot separation at {pixel_pitch_um:g} µm pitch: the "
+        f"filter moves light {need} px into the frame from outside it, but sensor.crop_margin_px = {crop_margin_px} "
+        f"renders only {crop_margin_px} px there. Set {widen}a separation of at most {crop_margin_px} px "
+        f"({crop_margin_px * pixel_pitch_um:g} µm at this pitch)")
+
+
+def _whole_and_fraction(separation_px: float) -> tuple[int, float]:
+    whole = int(np.floor(separation_px))
+    return whole, float(separation_px) - whole
+
+
+def _shifted(plane: np.ndarray, pixels: int, axis: int) -> np.ndarray:
+    """``plane`` moved ``pixels`` towards higher indices along ``axis``, its first pixels repeated."""
+    index = np.clip(np.arange(plane.shape[axis]) - pixels, 0, None)
+    return np.take(plane, index, axis=axis)
+
+
 def _split(plane: np.ndarray, separation_px: float, axis: int) -> np.ndarray:
-    """½(E + E shifted by d along ``axis``): one plate's two spots."""
+    """½(E + E displaced by d along ``axis``): one plate's two spots, the displaced one shared by
+    overlap area between the two pixels it straddles (non-negative weights summing to 1)."""
     if separation_px == 0:
         return plane
-    whole = float(separation_px).is_integer()
-    if whole:  # exact: a whole-pixel shift commutes with sampling (edge pixels repeated)
-        k = int(separation_px)
-        shifted = np.take(plane, np.clip(np.arange(plane.shape[axis]) - k, 0, None), axis=axis)
-        return 0.5 * (plane + shifted)
-    pad = int(np.ceil(separation_px)) + 16  # reflect padding keeps the circular FFT from wrapping edges
-    widths = [(0, 0)] * plane.ndim
-    widths[axis] = (pad, pad)
-    padded = np.pad(plane, widths, mode="reflect")
-    n = padded.shape[axis]
-    spectrum = np.fft.rfft(padded, axis=axis)
-    shape = [1] * plane.ndim
-    shape[axis] = -1
-    transfer = 0.5 * (1.0 + np.exp(-2j * np.pi * np.fft.rfftfreq(n) * separation_px)).reshape(shape)
-    out = np.fft.irfft(spectrum * transfer, n=n, axis=axis)
-    return np.take(out, np.arange(pad, pad + plane.shape[axis]), axis=axis).astype(plane.dtype, copy=False)
+    if not np.issubdtype(plane.dtype, np.floating):
+        plane = plane.astype(np.float64)
+    whole, frac = _whole_and_fraction(separation_px)
+    out = _shifted(plane, whole, axis) * plane.dtype.type(0.5 * (1.0 - frac))
+    if frac > 0:
+        out += _shifted(plane, whole + 1, axis) * plane.dtype.type(0.5 * frac)
+    out += plane * plane.dtype.type(0.5)
+    return out
 
 
 def apply_olpf(planes: np.ndarray, separation_px: float) -> np.ndarray:
@@ -152,12 +220,16 @@ def apply_olpf(planes: np.ndarray, separation_px: float) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        The filtered planes, same shape and dtype; the total power is kept (edges repeated).
+        The filtered planes, same shape and (floating) dtype, non-negative where the input is; the
+        sum is kept away from the edges (light moved past the bottom and right edges leaves, and the
+        ⌈d⌉ pixels nearest the top and left edges take the edge's pixels for the light that would
+        come from beyond it: a render job renders its crop margin there).
 
     References
     ----------
     .. [1] Greivenkamp (1990), Appl. Opt. 29(5), 676–684.
     """
-    if not (np.isfinite(separation_px) and separation_px >= 0):
+    if isinstance(separation_px, bool) or not isinstance(separation_px, (int, float, np.floating, np.integer)) \
+            or not (np.isfinite(separation_px) and separation_px >= 0):
         raise ConfigError(f"OLPF spot separation {separation_px!r} px: give a number >= 0")
     return _split(_split(planes, separation_px, axis=1), separation_px, axis=0)

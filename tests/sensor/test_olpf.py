@@ -1,7 +1,13 @@
 """Issue 29 #1: the optical low-pass filter. The slanted-edge MTF (ISO 12233) of a noise-free
 monochrome capture equals the pixel aperture's sinc times the filter's |cos(π f d)| up to Nyquist;
 the camera table follows the makers' specifications; false colour on a Bayer capture of fine
-detail drops with the filter; bad settings are refused with what would be valid."""
+detail drops with the filter; bad settings are refused with what would be valid.
+
+Issue 39 #22: a fractional separation is a non-negative kernel (the displaced spot shared by area
+between the two pixels it straddles), never a ringing Fourier shift: no light below black on any
+sensor kind, the sum kept, its MTF within the area-weighting's own error of |cos(π f d)|; a separation
+beyond the rendered crop margin is refused with the margin that would fit, and 29.99 µm and 30 µm
+give nearly the same frame."""
 
 from __future__ import annotations
 
@@ -44,18 +50,155 @@ def _capture(fraction: np.ndarray, olpf) -> np.ndarray:
     return raw.mosaic.astype(float) - raw.black_level
 
 
-@pytest.mark.parametrize(("separation", "upto_cycles_per_px"), [(0.0, 0.5), (1.0, 0.5), (0.6, 0.4)])
-def test_the_slanted_edge_mtf_is_the_pixel_sinc_times_the_filters_cosine(separation, upto_cycles_per_px):
-    """MTF(f) = |sinc(f)|·|cos(π f d)| within 0.02, the reference analytic (the box pixel aperture
-    and the four-spot filter): up to the Nyquist frequency (0.5 cycle per pixel) without a filter and
-    for d = 1 pitch (whole-pixel shifts, exact: zero at Nyquist); for d = 0.6 pitch (a Fourier shift of
-    the rendered pixels) up to 0.4 — at Nyquist it measures 0.28 against 0.38, the aliased part of the
-    pixel-sampled image shifted as if it were band-limited (docs/design.md)."""
+def _two_tap_mtf(freqs, separation):
+    """|½(1 + (1 − φ)e^(−2πifk) + φe^(−2πif(k+1)))|, d = k + φ: the two-spot split with the displaced
+    spot's light shared by overlap area between the pixels it straddles (a pixel's light taken as
+    even over the pixel)."""
+    k = np.floor(separation)
+    phi = separation - k
+    shifted = (1 - phi) * np.exp(-2j * np.pi * freqs * k) + phi * np.exp(-2j * np.pi * freqs * (k + 1))
+    return np.abs(0.5 * (1 + shifted))
+
+
+@pytest.mark.parametrize("separation", [0.0, 1.0, 0.6, 1.5])
+def test_the_slanted_edge_mtf_is_the_pixel_sinc_times_the_filters_transfer(separation):
+    """MTF(f) = |sinc(f)|·|H(f)| within 0.02 up to the Nyquist frequency (0.5 cycle per pixel), the
+    reference analytic (the box pixel aperture and the two plates): H = cos(π f d) for no filter and
+    d = 1 pitch (whole-pixel shifts, exact: zero at Nyquist); for d = 0.6 and 1.5 pitch the area-shared
+    split's transfer (its displaced spot between two pixels), which only a supersampled render could
+    make |cos(π f d)| (docs/design.md)."""
     image = _capture(_slanted_edge(), separation)
     freqs, mtf = slanted_edge_mtf(image)
-    upto = freqs <= upto_cycles_per_px + 1e-9
-    expected = np.abs(np.sinc(freqs[upto])) * np.abs(np.cos(np.pi * freqs[upto] * separation))
+    upto = freqs <= 0.5 + 1e-9
+    expected = np.abs(np.sinc(freqs[upto])) * _two_tap_mtf(freqs[upto], separation)
+    if float(separation).is_integer():
+        np.testing.assert_allclose(expected, np.abs(np.sinc(freqs[upto]) * np.cos(np.pi * freqs[upto] * separation)),
+                                   atol=1e-12)
     np.testing.assert_allclose(mtf[upto], expected, atol=0.02)
+
+
+@pytest.mark.parametrize("separation", [0.5, 1.0, 1.5, 2.0, 3.7])
+def test_the_kernels_mtf_is_the_two_spot_cosine_within_the_area_sharing_error(separation):
+    """A sinusoid of f cycles per pixel through the filter (one axis) keeps |H(f)| of its amplitude.
+    Whole-pixel d: |cos(π f d)| to 1e-9, the two-spot split's analytic MTF. Fractional d: off it by no
+    more than half the area-shared shift's error |(1 − φ)e^(−2πifk) + φe^(−2πif(k+1)) − e^(−2πifd)|
+    (0.024 at f = 0.1 for d = 0.5), and never above 1 (no gain)."""
+    n = 512
+    x = np.arange(n)
+    for f in np.arange(1, 33) / 64.0:  # whole cycles over the row: periodic; read away from the edge
+        row = 1.0 + 0.5 * np.cos(2 * np.pi * f * x)
+        out = apply_olpf(np.tile(row, (3, 1)), separation)[1]  # rows equal: the vertical plate keeps them
+        inner = slice(16, n - 16)
+        fit = np.linalg.lstsq(np.stack([np.ones(n), np.cos(2 * np.pi * f * x), np.sin(2 * np.pi * f * x)], 1)[inner],
+                              out[inner], rcond=None)[0]
+        measured = np.hypot(fit[1], fit[2]) / 0.5
+        ideal = abs(np.cos(np.pi * f * separation))
+        k, phi = np.floor(separation), separation - np.floor(separation)
+        error = 0.5 * abs((1 - phi) * np.exp(-2j * np.pi * f * k) + phi * np.exp(-2j * np.pi * f * (k + 1))
+                          - np.exp(-2j * np.pi * f * separation))
+        assert measured <= 1 + 1e-9
+        assert abs(measured - ideal) <= error + 1e-9, (f, measured, ideal)
+        if phi == 0:
+            assert measured == pytest.approx(ideal, abs=1e-9)
+
+
+@pytest.mark.parametrize("separation", [0.5, 1.5, 3.7])
+def test_a_point_becomes_four_non_negative_spots_holding_its_light(separation):
+    """A point far from the edges: per axis ½ stays, ½ moves d = k + φ and is shared (1 − φ) at k and φ
+    at k + 1 (the overlap of a pixel-wide beam displaced by d); the 2-D spot is their outer product,
+    non-negative, summing to the point's power (1 to 1e-6)."""
+    plane = np.zeros((24, 24), np.float32)
+    plane[6, 6] = 1.0
+    out = apply_olpf(plane, separation)
+    k, phi = int(np.floor(separation)), separation - np.floor(separation)
+    taps = np.zeros(6)
+    taps[0] += 0.5
+    taps[k] += 0.5 * (1 - phi)
+    taps[k + 1] += 0.5 * phi
+    expected = np.zeros_like(out)
+    expected[6:12, 6:12] = np.outer(taps, taps)
+    np.testing.assert_allclose(out, expected, atol=1e-7)
+    assert out.min() >= 0 and out.sum() == pytest.approx(1.0, abs=1e-6)
+
+
+def _dark_surround_radiance(h: int = 48, w: int = 48, bands=(550.0,), edges=(545.0, 555.0)) -> SpectralImage:
+    """Bright bars and a point on black (``scene.surround = 0``): where a Fourier shift rings."""
+    data = np.zeros((h, w, len(bands)), np.float32)
+    data[10:30, 12:20] = 0.05
+    data[35, 35] = 0.08  # below the 16-bit range's clip, so the sum can be compared
+    data[20:22, 30:44] = 0.02
+    return SpectralImage(data, tuple(bands), tuple(edges))
+
+
+@pytest.mark.parametrize("separation", [0.5, 1.5, 3.7])
+def test_a_fractional_filter_never_makes_light_below_black(separation):
+    """Noise-free (shot noise off), a dark field with bright bars: no pixel below the black level
+    (the Fourier shift put 35-38 % more than 5 DN below it), and the frame's light is the unfiltered
+    frame's within the edges' share."""
+    radiance = _dark_surround_radiance()
+    raws = {}
+    for olpf in (0.0, separation):
+        scene = sc.scene_from_dict({"sensor": {"width_px": 48, "height_px": 48, "model": "ideal", "cfa": "none",
+                                               "bit_depth": 16, "olpf": olpf, **QUIET},
+                                    "exposure": {"time_s": 0.02}})
+        raw = sc.expose(radiance, scene)
+        raws[olpf] = raw.mosaic.astype(float) - raw.black_level
+    assert raws[separation].min() >= 0
+    assert raws[separation].sum() == pytest.approx(raws[0.0].sum(), rel=2e-3)
+
+
+def test_single_photon_and_event_sensors_take_a_fractional_filter():
+    """A QIS (binomial jots need rates >= 0: the Fourier shift raised "lam < 0") and an event sensor
+    (log intensity: NaN below zero) expose a dark-surround scene through a 1.5-pitch filter."""
+    from spectral_cam.sensor.events import log_intensity
+
+    radiance = _dark_surround_radiance(bands=(450.0, 550.0, 650.0), edges=(400.0, 500.0, 600.0, 700.0))
+    qis = sc.scene_from_dict({"sensor": {"width_px": 48, "height_px": 48, "olpf": 1.5, "kind": "qis",
+                                         "jot_frames": 4}, "exposure": {"time_s": 0.02}})
+    capture = sc.expose_photon_counting(radiance, qis)
+    assert capture is not None
+    event = sc.scene_from_dict({"sensor": {"width_px": 48, "height_px": 48, "olpf": 1.5, "kind": "event",
+                                           "dark_current_e_per_s": 0.0}})
+    assert np.all(np.isfinite(log_intensity(radiance, event)))
+
+
+def test_a_separation_beyond_the_crop_margin_is_refused_with_the_margin_that_fits():
+    """30 µm at 1 µm pitch reads 30 px beyond the frame: with the 8-px margin it is refused, naming
+    crop_margin_px = 30 and the 8 µm that would fit; an odd need rounds to the even margin above."""
+    sensor = {"pixel_pitch_um": 1.0, "olpf": "30 um"}
+    with pytest.raises(ConfigError, match=r"crop_margin_px = 30.*at most 8 px \(8 µm"):
+        sc.scene_from_dict({"sensor": sensor})
+    with pytest.raises(ConfigError, match="crop_margin_px = 4"):  # 2.5 px reads 3 px out: the even 4
+        sc.scene_from_dict({"sensor": {"olpf": 2.5, "crop_margin_px": 2}})
+    with pytest.raises(ConfigError, match="crop_margin_px = 2"):
+        sc.scene_from_dict({"sensor": {"olpf": "camera", "model": "sony_ilce_7m3", "crop_margin_px": 0}})
+    sc.scene_from_dict({"sensor": {**sensor, "crop_margin_px": 30}})
+    sc.scene_from_dict({"sensor": {"olpf": "camera", "model": "nikon_d850", "crop_margin_px": 0}})  # none: fits
+
+
+def test_29_99_and_30_um_give_nearly_the_same_frame():
+    """At 1 µm pitch with a 30-px crop margin of real pixels (a textured surround, as a render gives),
+    29.99 µm and 30 µm move the frame's mean by < 0.1 % and no pixel by more than 1 % of the signal
+    (the Fourier shift's padding moved the frame 11-19 %); the filtered frame holds the unfiltered
+    frame's light within 3 % (what the margin moves in and the edges move out)."""
+    margin, size = 30, 32
+    full = size + 2 * margin
+    yy, xx = np.indices((full, full))
+    texture = 0.02 + 0.015 * np.sin(xx / 3.1) * np.cos(yy / 4.3) + 0.01 * ((xx // 5 + yy // 7) % 2)
+    radiance = SpectralImage(texture[..., None].astype(np.float32), (550.0,), (545.0, 555.0),
+                             frame=(margin, margin, size, size))
+    frames = {}
+    for olpf in ("off", "29.99 um", "30 um"):
+        scene = sc.scene_from_dict({"sensor": {"width_px": size, "height_px": size, "model": "ideal", "cfa": "none",
+                                               "bit_depth": 16, "pixel_pitch_um": 1.0, "crop_margin_px": margin,
+                                               "olpf": olpf, **QUIET}, "exposure": {"time_s": 0.02}})
+        raw = sc.expose(radiance, scene)
+        top, left, h, w = raw.crop
+        frames[olpf] = raw.mosaic[top:top + h, left:left + w].astype(float) - raw.black_level
+    a, b = frames["29.99 um"], frames["30 um"]
+    assert abs(a.mean() / b.mean() - 1) < 1e-3
+    assert np.abs(a - b).max() < 0.01 * b.mean()
+    assert b.mean() == pytest.approx(frames["off"].mean(), rel=0.03)
 
 
 def test_the_camera_table_follows_the_makers_specifications():
