@@ -52,6 +52,10 @@ PATCH_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "patch_i
                  "reference_r", "reference_g", "reference_b", "test_r", "test_g", "test_b",
                  "reference_L", "reference_a", "reference_b_star", "test_L", "test_a", "test_b_star",
                  "delta_e2000", "delta_l", "delta_c", "delta_h", "clipped", "snr", "snr_db")
+#: patches.csv's per-patch numbers, by name (a slice by position once dropped two of them)
+_PATCH_NUMBERS = ("reference_r", "reference_g", "reference_b", "test_r", "test_g", "test_b",
+                  "reference_L", "reference_a", "reference_b_star", "test_L", "test_a", "test_b_star",
+                  "delta_e2000", "delta_l", "delta_c", "delta_h")
 #: Pipelines per row of heat maps (seven in one row made 6-px digits).
 HEATMAPS_PER_ROW = 3
 #: Columns of comparisons.csv (:func:`spectral_cam.apps.validate.statistics.compare_pipelines`).
@@ -106,7 +110,7 @@ def _patch_rows(result) -> Iterator[dict]:
             snr = float(c.snr[i])
             values = (*c.reference[i], *c.test[i], *ref_lab[i], *test_lab[i], c.delta_e[i], *c.delta_lch[i])
             yield {**_coordinates(c), "patch_index": str(i), "patch": name, "role": _role(c, i),
-                   **dict(zip(PATCH_COLUMNS[8:22], (float(v) for v in values))),
+                   **dict(zip(_PATCH_NUMBERS, (float(v) for v in values), strict=True)),
                    "clipped": "true" if c.clipped[i] else "false", "snr": snr, "snr_db": _snr_db(snr)}
 
 

@@ -4,7 +4,10 @@ console errors."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
+
+from spectral_cam.apps.validate import plan_from_dict, run_plan
 
 
 @pytest.mark.timeout(120)
@@ -24,3 +27,44 @@ def test_headless_chromium_loads_the_report_without_console_errors(example, chro
     assert all(complete and width > 100 and height > 50 for complete, width, height in page["images"])
     html = (out / "report.html").read_text()
     assert "<script" not in html and 'src="http' not in html  # self-contained, nothing fetched
+
+
+@pytest.fixture(scope="module")
+def one_seed_report(tmp_path_factory):
+    """A one-seed report of two pipelines on the ColorChecker (D65, D850): ours, and ours without
+    its colour matrix, compared."""
+    ours = {"name": "ours", "type": "ours", "isp": {"tone": "linear", "demosaic": "bilinear"}}
+    no_matrix = {"name": "no-matrix", "type": "ours", "isp": {**ours["isp"], "colour_matrix": "none"}}
+    plan = plan_from_dict({"validate": {"illuminants": ["D65"], "cameras": ["nikon_d850"], "patch_px": 8,
+                                        "gap_px": 2, "reflectance_sets": ["colorchecker"], "swatches": "none",
+                                        "seeds": 1, "compare": [["no-matrix", "ours"]]},
+                           "pipeline": [ours, no_matrix]})
+    out = tmp_path_factory.mktemp("one_seed") / "report"
+    return run_plan(plan, out), out
+
+
+@pytest.mark.timeout(120)
+def test_patches_csv_splits_each_difference_into_lightness_chroma_and_hue(one_seed_report, read_csv):
+    """Issue 39 #5: delta_l, delta_c and delta_h of every row are CIE 15's ΔL*, ΔC*ab and ΔH*ab
+    recomputed from the row's two linear sRGB colours with colour-science (|ΔH| =
+    √(ΔE*ab² − ΔL*² − ΔC*²), CIE 15:2004 §8.2.1)."""
+    import colour
+
+    _, out = one_seed_report
+    rows = read_csv(out / "patches.csv")
+    assert rows
+    space = colour.RGB_COLOURSPACES["sRGB"]
+
+    def lab(row, which):
+        rgb = np.array([float(row[f"{which}_{c}"]) for c in "rgb"])
+        return colour.XYZ_to_Lab(colour.RGB_to_XYZ(rgb, space, apply_cctf_decoding=False), space.whitepoint)
+
+    for row in rows:
+        reference, test = lab(row, "reference"), lab(row, "test")
+        delta_l = test[0] - reference[0]
+        delta_c = np.hypot(*test[1:]) - np.hypot(*reference[1:])
+        delta_e = colour.delta_E(test, reference, method="CIE 1976")
+        delta_h = np.sqrt(max(delta_e ** 2 - delta_l ** 2 - delta_c ** 2, 0.0))
+        assert float(row["delta_l"]) == pytest.approx(delta_l, abs=1e-6)
+        assert float(row["delta_c"]) == pytest.approx(delta_c, abs=1e-6), row
+        assert abs(float(row["delta_h"])) == pytest.approx(delta_h, abs=1e-5), row
