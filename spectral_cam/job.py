@@ -149,7 +149,8 @@ def _event_capture(config: SceneConfig, lens, progress=None):
                                   "sensor.kind": "cmos"})
         image = render(make_plan(frame, with_margin=False, with_depth=False, lens=lens), progress=progress)
         logs.append(log_intensity(image, frame))
-    return simulate_events(logs, times, config)
+    # the light's clock as the poses': the frames are t − span/2 after exposure.start_s
+    return simulate_events(logs, times, config, flicker_origin_s=float(config.exposure.start_s) - span / 2)
 
 
 def _write_radiance(sim: Simulation, folder: Path, stem: str) -> list[Path]:

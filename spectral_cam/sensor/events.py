@@ -25,7 +25,9 @@ References
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -111,7 +113,71 @@ def log_intensity(radiance, config) -> np.ndarray:
     model = signal_model(radiance, config)
     rate = electron_rates(radiance.data, model.weights, cfa=config.sensor.cfa, cos4=model.cos4,
                           olpf_px=model.olpf_px, channel_gain=model.channel_gain)
-    return np.log(rate.astype(np.float64) + max(float(config.sensor.dark_current_e_per_s), 1e-3))
+    return np.log(rate.astype(np.float64) + log_floor(config.sensor))
+
+
+def log_floor(sensor) -> float:
+    """The photocurrent's floor I_d (e⁻/s) under L = ln(rate + I_d): the dark current, at least 1e-3."""
+    return max(float(sensor.dark_current_e_per_s), 1e-3)
+
+
+#: Largest error of the piecewise-linear log intensity under a flickering light, as a share of the
+#: smallest threshold: the flicker is sampled densely enough that ln(w) between samples strays from
+#: its chords by less (a missed extremum would drop or add a crossing).
+FLICKER_LOG_TOLERANCE = 0.01
+#: Samples per flicker period of a PWM light (a step: the timing resolution of its events).
+PWM_SAMPLES_PER_PERIOD = 64
+
+
+def flicker_samples_per_period(light, threshold: float) -> int:
+    """Samples per period of the light's waveform for the event model's piecewise-linear log intensity.
+
+    The chord of ln(1 + m·cos θ) over a step h errs by at most h²/8·max|∂²/∂θ²| = h²/8·m/(1 − m) (at the
+    trough); h is chosen so this stays under :data:`FLICKER_LOG_TOLERANCE`·C (16 to 4096 samples; a
+    depth of 1 is taken as 0.999: the dark floor bounds the trough). A PWM light gets
+    :data:`PWM_SAMPLES_PER_PERIOD`.
+
+    References
+    ----------
+    .. [1] Rebecq, Gehrig & Scaramuzza (2018), ESIM (adaptive sampling of the log intensity).
+    """
+    if light.flicker_waveform == "pwm":
+        return PWM_SAMPLES_PER_PERIOD
+    depth = min(float(light.flicker_depth), 0.999)
+    curvature = depth / (1.0 - depth)
+    step = math.sqrt(8.0 * FLICKER_LOG_TOLERANCE * threshold / curvature)
+    return int(min(max(math.ceil(2.0 * math.pi / step), 16), 4096))
+
+
+def _segments(frames, times, config, origin_s: float):
+    """(L₀, L₁, t₀, t₁) between which L is linear in time: the frames' intervals, each cut into the
+    flicker's samples when the light flickers (L = ln(rate(t)·w(t) + I_d), rate interpolated as
+    ln(rate + I_d) between frames)."""
+    from .temporal import flickers, instantaneous_power
+
+    if not flickers(config):
+        yield from zip(frames[:-1], frames[1:], times[:-1], times[1:])
+        return
+    light, floor = config.illuminant, log_floor(config.sensor)
+    threshold = max(float(config.sensor.event_threshold) - 3.0 * float(config.sensor.event_threshold_sigma), 0.01)
+    per_period = flicker_samples_per_period(light, threshold)
+    kwargs = {"waveform": light.flicker_waveform, "frequency_hz": light.flicker_hz, "depth": light.flicker_depth,
+              "duty": light.flicker_duty, "origin_s": origin_s}
+
+    def flickered(l0, l1, t0, t1, t):
+        base = l0 + (l1 - l0) * ((t - t0) / (t1 - t0))
+        rate = np.maximum(np.exp(base) - floor, 0.0)
+        return np.log(rate * float(instantaneous_power(t, **kwargs)) + floor)
+
+    previous = None
+    for l0, l1, t0, t1 in zip(frames[:-1], frames[1:], times[:-1], times[1:]):
+        steps = max(1, math.ceil((t1 - t0) * light.flicker_hz * per_period))
+        edges = np.linspace(t0, t1, steps + 1)
+        previous = flickered(l0, l1, t0, t1, edges[0]) if previous is None else previous
+        for a, b in zip(edges[:-1], edges[1:]):
+            level = flickered(l0, l1, t0, t1, b)
+            yield previous, level, a, b
+            previous = level
 
 
 def _thresholds(sensor, shape, rng) -> tuple[np.ndarray, np.ndarray]:
@@ -121,7 +187,8 @@ def _thresholds(sensor, shape, rng) -> tuple[np.ndarray, np.ndarray]:
     return draw(), draw()
 
 
-def simulate_events(log_frames, times_s, config, *, seed: int | None = None) -> EventStream:
+def simulate_events(log_frames, times_s, config, *, seed: int | None = None,
+                    flicker_origin_s: float | None = None) -> EventStream:
     """Events between log-intensity frames (:func:`log_intensity`) at ``times_s``.
 
     Parameters
@@ -135,6 +202,11 @@ def simulate_events(log_frames, times_s, config, *, seed: int | None = None) -> 
         ``event_refractory_s``, ``event_leak_hz``, ``event_shot_noise_hz``, ``seed``.
     seed : int, optional
         Noise seed (default ``config.render.seed``).
+    flicker_origin_s : float, optional
+        The light's clock at ``times_s = 0`` (s; default ``exposure.start_s``): a flickering light
+        (``illuminant.flicker_*``) multiplies each pixel's photocurrent by w(t) between the frames
+        (:func:`spectral_cam.sensor.temporal.instantaneous_power`), sampled per
+        :func:`flicker_samples_per_period`.
 
     Returns
     -------
@@ -153,10 +225,13 @@ def simulate_events(log_frames, times_s, config, *, seed: int | None = None) -> 
     rng = np.random.default_rng([int(sensor.seed), int(config.render.seed if seed is None else seed), 0xE7])
     c_on, c_off = _thresholds(sensor, shape, rng)
     refractory, leak = float(sensor.event_refractory_s), float(sensor.event_leak_hz)
-    reference = frames[0].copy()
+    origin = float(config.exposure.start_s) if flicker_origin_s is None else float(flicker_origin_s)
+    segments = _segments(frames, times, config, origin)
+    first = next(segments)
+    reference = first[0].copy()
     last_event = np.full(shape, -np.inf)
     out_x, out_y, out_t, out_p = [], [], [], []
-    for (l0, l1), (t0, t1) in zip(zip(frames[:-1], frames[1:]), zip(times[:-1], times[1:])):
+    for l0, l1, t0, t1 in itertools.chain([first], segments):
         dt = t1 - t0
         slope = (l1 - l0) / dt
         t = np.full(shape, t0)
@@ -196,7 +271,8 @@ def simulate_events(log_frames, times_s, config, *, seed: int | None = None) -> 
     x = np.concatenate(out_x) if out_x else np.empty(0, int)
     order = np.argsort(np.concatenate(out_t), kind="stable") if out_t else np.empty(0, int)
     meta = {"threshold": float(sensor.event_threshold), "threshold_sigma": float(sensor.event_threshold_sigma),
-            "refractory_s": refractory, "leak_hz": leak, "shot_noise_hz": shot, "frame_times_s": times.tolist()}
+            "refractory_s": refractory, "leak_hz": leak, "shot_noise_hz": shot, "frame_times_s": times.tolist(),
+            "flicker_origin_s": origin}
     if not out_t:
         return EventStream(np.empty(0, np.uint16), np.empty(0, np.uint16), np.empty(0), np.empty(0, np.int8), shape, meta)
     return EventStream(x[order].astype(np.uint16), np.concatenate(out_y)[order].astype(np.uint16),

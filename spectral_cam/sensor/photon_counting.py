@@ -181,27 +181,42 @@ class PhotonCountingCapture:
         return path
 
 
-def _draw_counts(h: np.ndarray, frames: int, *, bits: int, frame_s: float, dead_time_s: float, afterpulsing: float,
-                 rng: np.random.Generator) -> np.ndarray:
-    """(F, H, W) uint8 detections: Poisson(h) per frame, or the dead-time counter, capped at 2^b − 1."""
+def _draw_counts(light: np.ndarray, frames: int, *, dark: float, bits: int, frame_s: float, dead_time_s: float,
+                 afterpulsing: float, rng: np.random.Generator, factors: np.ndarray | None = None) -> np.ndarray:
+    """(F, H, W) uint8 detections: Poisson(h) per frame, or the dead-time counter, capped at 2^b − 1.
+
+    h = light·W[f, r] + dark for frame f of row r: ``light`` the (H, W) mean detections per frame from the
+    scene's light, ``factors`` W (F, H) its flicker over each frame's window on each row (None: steady),
+    ``dark`` the dark counts per frame (not modulated)."""
     cap = 2 ** bits - 1
-    out = np.empty((frames, *h.shape), dtype=np.uint8)
+    out = np.empty((frames, *light.shape), dtype=np.uint8)
+    steady = light + dark
+
+    def mean(f: int) -> np.ndarray:
+        return steady if factors is None else light * factors[f][:, None] + dark
+
     if dead_time_s == 0 or bits == 1:
         for f in range(frames):
-            out[f] = np.minimum(rng.poisson(h), cap)
+            out[f] = np.minimum(rng.poisson(mean(f)), cap)
     else:
-        from scipy.special import gammainc
-
-        rate = h / frame_s
-        survival = np.stack([gammainc(n, rate * max(frame_s - (n - 1) * dead_time_s, 0.0))
-                             for n in range(1, cap + 1)])  # P(N >= n)
+        survival = None
         for f in range(frames):
-            u = rng.random(h.shape)
+            if survival is None or factors is not None:  # P(N >= n), again for each frame of a flickering light
+                survival = _survival(mean(f), cap=cap, frame_s=frame_s, dead_time_s=dead_time_s)
+            u = rng.random(light.shape)
             out[f] = np.sum(u[None] < survival, axis=0)
     if afterpulsing > 0 and bits > 1:
         for f in range(frames):
             out[f] = np.minimum(out[f] + rng.binomial(out[f], afterpulsing), cap)
     return out
+
+
+def _survival(h: np.ndarray, *, cap: int, frame_s: float, dead_time_s: float) -> np.ndarray:
+    """(cap, H, W) P(N ≥ n) of the non-paralysable counter for a mean of ``h`` detections a frame."""
+    from scipy.special import gammainc
+
+    rate = h / frame_s
+    return np.stack([gammainc(n, rate * max(frame_s - (n - 1) * dead_time_s, 0.0)) for n in range(1, cap + 1)])
 
 
 def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
@@ -223,6 +238,7 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
     from . import _colour_metadata, _with_scene_light
     from .metered_exposure import resolve_exposure
     from .radiometry import electron_rates, signal_model, validate_radiance
+    from .temporal import frame_row_factors
 
     config = _with_scene_light(config, radiance)
     sensor = config.sensor
@@ -239,13 +255,16 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
         # frame's range, as the CMOS meter puts it below the full well
         exposure_s = frames * auto_detections(int(sensor.jot_bits)) / float(reference_rate)
     frame_s = exposure_s / frames
-    h = (rate.astype(np.float64) + sensor.dark_current_e_per_s) * frame_s
+    light = rate.astype(np.float64) * frame_s
+    h = light + sensor.dark_current_e_per_s * frame_s
+    # a flickering light, per jot frame and row (the rolling shutter's row times): as the CMOS path's rows
+    factors = frame_row_factors(config, light.shape[0], frame_s, frames)
     seed = config.render.seed if frame_seed is None else frame_seed
     rng = np.random.default_rng([int(sensor.seed), int(seed), 0x51])
     dead = sensor.dead_time_s if sensor.kind == "spad" else 0.0
     afterpulsing = sensor.afterpulsing if sensor.kind == "spad" else 0.0
-    counts = _draw_counts(h, frames, bits=int(sensor.jot_bits), frame_s=frame_s, dead_time_s=dead,
-                          afterpulsing=afterpulsing, rng=rng)
+    counts = _draw_counts(light, frames, dark=sensor.dark_current_e_per_s * frame_s, bits=int(sensor.jot_bits),
+                          frame_s=frame_s, dead_time_s=dead, afterpulsing=afterpulsing, rng=rng, factors=factors)
     colour = _colour_metadata(radiance, config, model)
     meta = {"exposure_s": exposure_s, "frame_s": frame_s, "frames": frames, "kind": sensor.kind,
             "mean_detections_per_frame": float(h.mean()), "photon_detection_efficiency_peak": sensor.peak_qe,
