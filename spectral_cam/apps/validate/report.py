@@ -315,6 +315,14 @@ def _pivot_html(result) -> list[str]:
             *_table_html("pipeline", [html.escape(_short(i)) for i in illuminants], zip(names, table))]
 
 
+def _significance_mark(row: dict) -> str:
+    """The report's mark of a comparison: none (significant, shown bold), "n.s.", or "no interval (1 seed)"."""
+    from .statistics import significance_text
+
+    text = significance_text(row)
+    return {"true": "", "false": "n.s."}.get(text, text)
+
+
 def _comparisons_html(result) -> list[str]:
     """The plan's pipeline comparisons, significant differences marked."""
     from .statistics import compare_pipelines
@@ -327,8 +335,8 @@ def _comparisons_html(result) -> list[str]:
     out = ["<h2>Comparisons</h2>",
            f'<p class="small">Difference in mean ΔE2000 (a − b) per cell, paired over {seeds} noise seed(s) with a 95 % '
            "Student's t interval; <b>bold</b>: the interval excludes 0 (significant); n.s.: it does not"
-           + (" (one seed: no interval, nothing marked)" if seeds < 2 else "") + '; <a href="comparisons.csv">'
-           "comparisons.csv</a>.</p>",
+           + ("; with one seed there is no interval, so no difference is called significant or not (set "
+              "validate.seeds ≥ 2)" if seeds < 2 else "") + '; <a href="comparisons.csv">comparisons.csv</a>.</p>',
            "<table><tr><th>a − b</th><th>set</th><th>illuminant</th><th>camera</th><th>exposure</th>"
            "<th>difference</th><th></th></tr>"]
     for row in rows:
@@ -337,7 +345,7 @@ def _comparisons_html(result) -> list[str]:
         shown = f"<b>{value}</b>" if row["significant"] else value
         out.append(f"<tr><td>{esc(row['a'])} − {esc(row['b'])}</td><td>{esc(row['set'])}</td>"
                    f"<td>{esc(_short(row['illuminant']))}</td><td>{esc(row['camera'])}</td><td>{esc(row['exposure'])}</td>"
-                   f'<td class="num">{shown}</td><td>{"" if row["significant"] else "n.s."}</td></tr>')
+                   f'<td class="num">{shown}</td><td>{esc(_significance_mark(row))}</td></tr>')
     return out + ["</table>"]
 
 
@@ -576,7 +584,7 @@ def write_report(result, folder: str | Path) -> dict[str, Path]:
     dict
         ``{"html", "cells_csv", "patches_csv", "pivot_csv", "comparisons_csv", "metamerism_csv"}`` → path.
     """
-    from .statistics import METAMERISM_COLUMNS, compare_pipelines, pipeline_metamerism, pivot
+    from .statistics import METAMERISM_COLUMNS, compare_pipelines, pipeline_metamerism, pivot, significance_text
 
     folder = Path(folder)
     paths = {"cells_csv": write_cells_csv(result, folder / "cells.csv"),
@@ -585,7 +593,7 @@ def write_report(result, folder: str | Path) -> dict[str, Path]:
     paths["pivot_csv"] = write_csv(({"pipeline": name, **{i: v for i, v in zip(illuminants, values)}}
                                     for name, values in zip(names, table)), folder / "pivot.csv",
                                    ("pipeline", *illuminants), number=exact_number)
-    paths["comparisons_csv"] = write_csv(({**row, "significant": str(row["significant"]).lower()}
+    paths["comparisons_csv"] = write_csv(({**row, "significant": significance_text(row)}
                                           for row in compare_pipelines(result)), folder / "comparisons.csv",
                                          COMPARISON_COLUMNS, number=exact_number)
     paths["metamerism_csv"] = write_csv(pipeline_metamerism(result), folder / "metamerism.csv", METAMERISM_COLUMNS,

@@ -19,7 +19,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from .run import ValidationResult
 
-__all__ = ["compare_pipelines", "pivot", "sensitivity_metamerism_index", "cct_sweep",
+__all__ = ["compare_pipelines", "significance_text", "pivot", "sensitivity_metamerism_index", "cct_sweep",
            "illuminant_metamerism_index", "pipeline_metamerism", "METAMERISM_COLUMNS"]
 
 
@@ -32,7 +32,9 @@ def compare_pipelines(result: "ValidationResult") -> list[dict]:
     list of dict
         ``set``, ``illuminant``, ``camera``, ``exposure``, ``a``, ``b``, ``difference`` (a − b,
         mean over the seeds), ``ci95`` (half-width, Student's t on the paired differences; None
-        with one seed) and ``significant`` (the interval excludes 0; False with one seed).
+        with one seed) and ``significant`` (True: the interval excludes 0; False: it holds 0;
+        None with one seed, where there is no interval and nothing can be called either,
+        :func:`significance_text`).
 
     References
     ----------
@@ -56,8 +58,17 @@ def compare_pipelines(result: "ValidationResult") -> list[dict]:
             mean = float(np.mean(differences))
             rows.append({"set": key[0], "illuminant": key[1], "camera": key[2], "exposure": key[3], "a": a, "b": b,
                          "difference": mean, "ci95": half, "seeds": n,
-                         "significant": bool(half is not None and abs(mean) > half)})
+                         "significant": None if half is None else bool(abs(mean) > half)})
     return rows
+
+
+def significance_text(row: dict) -> str:
+    """How a comparison row reads (comparisons.csv, the report): ``"true"`` (the 95 % interval
+    excludes 0), ``"false"`` (it holds 0: not significant), or ``"no interval (1 seed)"`` — one
+    noise realisation gives no interval, so a difference is neither significant nor not."""
+    if row["significant"] is None:
+        return f"no interval ({row['seeds']} seed)"
+    return str(bool(row["significant"])).lower()
 
 
 def pivot(result: "ValidationResult") -> tuple[list[str], list[str], np.ndarray]:

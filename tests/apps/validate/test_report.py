@@ -68,3 +68,21 @@ def test_patches_csv_splits_each_difference_into_lightness_chroma_and_hue(one_se
         assert float(row["delta_l"]) == pytest.approx(delta_l, abs=1e-6)
         assert float(row["delta_c"]) == pytest.approx(delta_c, abs=1e-6), row
         assert abs(float(row["delta_h"])) == pytest.approx(delta_h, abs=1e-5), row
+
+
+@pytest.mark.timeout(120)
+def test_one_seed_calls_no_difference_significant_or_not(one_seed_report, read_csv):
+    """Issue 39 #6: with one noise seed a Student's t interval has no degrees of freedom (SciPy's
+    t quantile at 0 d.f. is NaN), so a difference (here several ΔE: no colour matrix against ours)
+    is neither significant nor "n.s.": comparisons.csv and the report say there is no interval."""
+    from scipy import stats
+
+    assert np.isnan(stats.t.ppf(0.975, 0))  # one seed: no interval exists
+    result, out = one_seed_report
+    (row,) = read_csv(out / "comparisons.csv")
+    assert float(row["difference"]) > 1.0 and row["ci95"] == "" and row["seeds"] == "1"
+    assert row["significant"] == "no interval (1 seed)"
+    page = (out / "report.html").read_text(encoding="utf-8")
+    comparisons = page[page.index("<h2>Comparisons</h2>"):]
+    comparisons = comparisons[:comparisons.index("</table>")]
+    assert "n.s." not in comparisons.split("</p>", 1)[1] and "no interval (1 seed)" in comparisons
