@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,7 +39,8 @@ import numpy as np
 
 from ..errors import ConfigError, SensorError
 
-__all__ = ["PhotonCountingCapture", "expose_photon_counting", "expected_count", "SENSOR_KINDS"]
+__all__ = ["PhotonCountingCapture", "expose_photon_counting", "expected_count", "saturation_count",
+           "metered_frame_time", "SENSOR_KINDS"]
 
 #: ``sensor.kind`` choices.
 SENSOR_KINDS = ("cmos", "qis", "spad")
@@ -62,14 +64,67 @@ def expected_count(h, *, bits: int, frame_s: float, dead_time_s: float = 0.0) ->
     return total
 
 
-#: Where ``exposure.time_s = "auto"`` puts the reference's mean count, as a share of a frame's range:
-#: one bit at 1 − e^(−H) = 0.8 (H = 1.6), b bits at 0.8·(2^b − 1).
-AUTO_SHARE = 0.8
+def saturation_count(*, bits: int, frame_s: float, dead_time_s: float = 0.0) -> int:
+    """The most detections a jot or SPAD can register in one frame: 2^b − 1 (its bits), and with a
+    dead time τ the n with (n − 1)·τ < t_f, i.e. ⌈t_f/τ⌉ (a SPAD whose dead time exceeds the frame counts
+    at most 1).
+
+    References
+    ----------
+    .. [1] Müller, J. W. (1973). Dead-time problems. Nucl. Instrum. Methods 112, 47–57.
+    """
+    cap = 2 ** int(bits) - 1
+    if dead_time_s > 0:
+        cap = min(cap, max(1, math.ceil(frame_s / dead_time_s)))
+    return cap
 
 
-def auto_detections(bits: int) -> float:
-    """Mean detections per frame the auto exposure gives the reference (white) jots."""
-    return -np.log(1.0 - AUTO_SHARE) if bits == 1 else AUTO_SHARE * (2 ** bits - 1)
+def metered_frame_time(rate_hz: float, *, share: float, bits: int, dead_time_s: float = 0.0) -> float:
+    """The frame time t_f that puts a jot of detection rate ``rate_hz`` at ``share`` of the count's
+    saturation: E[count](rate·t_f) = share·n_sat(t_f) (:func:`expected_count`, :func:`saturation_count`).
+
+    The count's saturation is to a single-photon sensor what the full well is to an integrating one: the
+    meter (:func:`spectral_cam.sensor.metered_exposure.resolve_exposure`) puts its grey, or its reference,
+    at its share of it, so the white stays below the count that every frame reads. With a dead time
+    n_sat depends on t_f: the shortest t_f whose own n_sat is the one it was solved for.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Detections per second of the reference (light and dark counts), > 0.
+    share : float
+        Target mean count over n_sat, in (0, 1).
+    bits, dead_time_s
+        The sensor's.
+
+    Returns
+    -------
+    float
+        t_f (s).
+    """
+    from scipy.optimize import brentq
+
+    if not (rate_hz > 0 and 0 < share < 1):
+        raise SensorError(f"metering a single-photon sensor needs a positive rate and a share in (0, 1); got "
+                          f"{rate_hz!r} Hz, {share!r}")
+    def frame_time(count: int) -> float:
+        target = share * count
+
+        def excess(t):
+            return float(expected_count(rate_hz * t, bits=bits, frame_s=t, dead_time_s=dead_time_s)) - target
+
+        high = target / rate_hz
+        while excess(high) < 0:
+            high *= 2.0
+        return float(brentq(excess, 1e-12 * high, high, xtol=1e-15 * high, rtol=1e-12))
+
+    # the shortest exposure that holds: the least n whose frame time's n_sat is n (n_sat(t(n)) grows with n,
+    # from at least 1 to at most 2^b − 1, so the first n with n_sat(t(n)) ≤ n has n_sat = n)
+    for count in range(1, 2 ** int(bits)):
+        frame_s = frame_time(count)
+        if saturation_count(bits=bits, frame_s=frame_s, dead_time_s=dead_time_s) <= count:
+            return frame_s
+    return frame_s
 
 
 @functools.lru_cache(maxsize=8)
@@ -120,6 +175,12 @@ class PhotonCountingCapture:
     def frames(self) -> int:
         return int(self.counts.shape[0])
 
+    @property
+    def saturation(self) -> int:
+        """The most a frame can count (:func:`saturation_count`): the bits' 2^b − 1, or fewer under a
+        dead time."""
+        return saturation_count(bits=self.bits, frame_s=self.frame_s, dead_time_s=self.dead_time_s)
+
     def sum(self) -> np.ndarray:
         """(H, W) float64 detections summed over the frames."""
         return self.counts.sum(axis=0, dtype=np.float64)
@@ -128,7 +189,7 @@ class PhotonCountingCapture:
         """(H, W) estimated photo-detections per frame from the light, Ĥ − DCR·t_f (see the module).
 
         Jots whose every frame saturated are given the estimate of half a frame short of that."""
-        cap = 2 ** self.bits - 1
+        cap = self.saturation
         mean = self.sum() / self.frames
         mean = np.minimum(mean, cap * (1.0 - 0.5 / self.frames))
         h, table = _inverse_table(self.bits, self.frame_s, self.dead_time_s)
@@ -147,7 +208,7 @@ class PhotonCountingCapture:
         frames can give), with the CFA and the colour metadata of a CMOS capture of the same light."""
         from ..raw import RawImage
 
-        cap = 2 ** self.bits - 1
+        cap = self.saturation
         h, table = _inverse_table(self.bits, self.frame_s, self.dead_time_s)
         top = float(np.interp(cap * (1.0 - 0.5 / self.frames), table, h))
         mosaic = np.clip(np.round(self.reconstruct() / top * 65535.0), 0, 65535).astype(np.uint16)
@@ -219,6 +280,24 @@ def _survival(h: np.ndarray, *, cap: int, frame_s: float, dead_time_s: float) ->
     return np.stack([gammainc(n, rate * max(frame_s - (n - 1) * dead_time_s, 0.0)) for n in range(1, cap + 1)])
 
 
+def _metered_frame_s(config, reference_rate: float, dead_time_s: float) -> float:
+    """The metered frame time: the meter's rate (its grey-equivalent, or for ``etr`` the reference) at the
+    share of the count's saturation the CMOS meter gives the full well (GREY_RAW·2^EV; ``auto_fraction``)."""
+    from ..metering import GREY_RAW
+
+    exposure = config.exposure
+    if exposure.metering == "etr":  # E[count] reaches n_sat only as H → ∞: a fraction of 1 is held just below
+        share = min(float(exposure.auto_fraction), 0.99)
+    else:
+        share = GREY_RAW * 2.0 ** exposure.compensation_ev
+    if not share < 1:
+        raise ConfigError(f"exposure.compensation_ev = {exposure.compensation_ev!r} puts a single-photon sensor's "
+                          f"metered grey at {share:.3g} of its count's saturation; valid: below "
+                          f"{math.log2(1 / GREY_RAW):.2f} EV")
+    return metered_frame_time(reference_rate + float(config.sensor.dark_current_e_per_s), share=share,
+                              bits=int(config.sensor.jot_bits), dead_time_s=dead_time_s)
+
+
 def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
                            white_mask: np.ndarray | None = None) -> PhotonCountingCapture:
     """Expose a single-photon sensor (``sensor.kind = "qis"`` or ``"spad"``) to a radiance image.
@@ -250,10 +329,9 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
                           channel_gain=model.channel_gain)
     exposure_s, reference_rate = resolve_exposure(radiance, config, model, white_mask=white_mask)
     frames = int(sensor.jot_frames)
+    dead = sensor.dead_time_s if sensor.kind == "spad" else 0.0
     if config.exposure.time_s == "auto" and reference_rate:
-        # metered for the jots: the reference (the white, or the 99th percentile) at AUTO_DETECTIONS of the
-        # frame's range, as the CMOS meter puts it below the full well
-        exposure_s = frames * auto_detections(int(sensor.jot_bits)) / float(reference_rate)
+        exposure_s = frames * _metered_frame_s(config, float(reference_rate), dead)
     frame_s = exposure_s / frames
     light = rate.astype(np.float64) * frame_s
     h = light + sensor.dark_current_e_per_s * frame_s
@@ -261,13 +339,13 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
     factors = frame_row_factors(config, light.shape[0], frame_s, frames)
     seed = config.render.seed if frame_seed is None else frame_seed
     rng = np.random.default_rng([int(sensor.seed), int(seed), 0x51])
-    dead = sensor.dead_time_s if sensor.kind == "spad" else 0.0
     afterpulsing = sensor.afterpulsing if sensor.kind == "spad" else 0.0
     counts = _draw_counts(light, frames, dark=sensor.dark_current_e_per_s * frame_s, bits=int(sensor.jot_bits),
                           frame_s=frame_s, dead_time_s=dead, afterpulsing=afterpulsing, rng=rng, factors=factors)
     colour = _colour_metadata(radiance, config, model)
     meta = {"exposure_s": exposure_s, "frame_s": frame_s, "frames": frames, "kind": sensor.kind,
-            "mean_detections_per_frame": float(h.mean()), "photon_detection_efficiency_peak": sensor.peak_qe,
+            "mean_detections_per_frame": float(h.mean()),
+            "saturation_count": saturation_count(bits=int(sensor.jot_bits), frame_s=frame_s, dead_time_s=dead), "photon_detection_efficiency_peak": sensor.peak_qe,
             "dark_count_rate_hz": sensor.dark_current_e_per_s, "camera_model": f"spectral_cam {sensor.model}",
             "seeds": {"sensor": int(sensor.seed), "frame": int(seed)}, "model": sensor.model}
     return PhotonCountingCapture(counts, sensor.cfa, sensor.kind, int(sensor.jot_bits), frame_s,

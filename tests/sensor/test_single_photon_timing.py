@@ -101,3 +101,45 @@ def test_an_event_pixel_fires_the_crossings_of_the_flickering_log_intensity(star
     assert per_pixel.min() >= 0.98 * expected and per_pixel.max() <= 1.02 * expected
     on = (stream.p > 0).sum() / per_pixel.sum()
     assert on == pytest.approx(0.5, abs=0.02)  # as many up as down over whole periods
+
+
+METERED = [({"kind": "qis"}, 1), ({"kind": "qis", "jot_bits": 4}, 15),
+           ({"kind": "spad", "jot_bits": 4, "dead_time_s": 1.0}, 1)]  # τ far beyond any frame: 1 count at most
+
+
+@pytest.mark.parametrize(("sensor", "saturation"), METERED)
+@pytest.mark.parametrize("metering", ["average", "etr"])
+def test_the_single_photon_meter_puts_its_reference_below_the_counts_saturation(sensor, saturation, metering):
+    """A metered flat field's mean count is the meter's share of the analytic saturation count
+    (min(2^b − 1, ⌈t_f/τ⌉): 1 for one bit, 15 for four, 1 for a 4-bit SPAD whose dead time exceeds the
+    frame): ISO 12232's 10/78 for ``average``, ``auto_fraction`` 0.8 for ``etr``, within 3 % (it was
+    metered for 0.8·15 = 12 and 1.6 detections: every frame of the white read its saturation)."""
+    from spectral_cam.metering import GREY_RAW
+
+    shape = (32, 32)
+    scene = _scene(shape, exposure={"time_s": "auto", "metering": metering}, sensor={**sensor, "jot_frames": 256})
+    capture = expose_photon_counting(_flat(0.05, shape), scene)
+    assert capture.meta["saturation_count"] == saturation
+    share = 0.8 if metering == "etr" else GREY_RAW
+    assert capture.counts.mean() == pytest.approx(share * saturation, rel=0.03)
+    assert capture.counts.max() <= saturation
+    # the reconstruction's white: the estimate of a count half a frame short of saturating every frame;
+    # for n_sat = 1 that is 1 − e^(−H) = 1 − 0.5/F, H = ln(2F)
+    if saturation == 1:
+        top = capture.to_raw().meta["detections_per_frame_at_white"]
+        assert top == pytest.approx(math.log(2 * capture.frames), rel=1e-3)
+
+
+@pytest.mark.parametrize(("sensor", "saturation"), METERED)
+def test_a_white_patch_does_not_saturate_a_metered_single_photon_sensor(sensor, saturation):
+    """A frame of 18 % grey with a white patch (0.9) on a tenth of it, metered ``average``: no white jot
+    reads its saturation count in every frame (69–83 % did), and the white's mean count stays below
+    0.8 of the saturation."""
+    shape = (40, 40)
+    data = np.full((*shape, 1), 0.18 * 0.2, np.float32)
+    data[:, :4] = 0.9 * 0.2
+    scene = _scene(shape, exposure={"time_s": "auto"}, sensor={**sensor, "jot_frames": 256})
+    capture = expose_photon_counting(SpectralImage(data, (550.0,), (545.0, 555.0)), scene)
+    white = capture.counts[:, :, :4]
+    assert not np.any(np.all(white == saturation, axis=0))
+    assert white.mean() < 0.8 * saturation
