@@ -40,11 +40,11 @@ from ...io import atomic_path
 from ...records import exact_number, write_csv
 from ...viz import figure, png_data_uri
 
-__all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "write_report", "write_cells_csv", "write_patches_csv",
+__all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "reference_data", "write_report", "write_cells_csv", "write_patches_csv",
            "heatmap_figure", "swatches_figure", "render_html"]
 
 CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "warnings", "calibration",
-                "n_patches", "seeds", "delta_e_mean_ci95",
+                "reference_data", "n_patches", "seeds", "delta_e_mean_ci95",
                 "delta_e_mean", "delta_e_p95", "delta_e_max", "wb_angular_error_deg", "snr_median", "snr_min",
                 "exposure_scale", "delta_l_mean", "delta_c_mean", "delta_h_mean", "patches_clipped", "tone_slope",
                 "exposure_s", "iso", "K_dn_per_e", "runtime_s", "dng")
@@ -77,11 +77,26 @@ def _coordinates(cell) -> dict:
             "pipeline": cell.pipeline}
 
 
+def reference_data(refset) -> str:
+    """What a set's truth is computed from: its spectra's source (the scores depend on it: the
+    ColorChecker's BabelColor average and ISO 17321-1's measurement of the same chart give other
+    truths) and, for a set other than the ColorChecker, the white reference appended to it."""
+    from ...colour_ground_truth import WHITE_PATCH
+    from ...spectra import COLORCHECKER_SET
+
+    colorchecker = f"colour-science SDS_COLOURCHECKERS[{COLORCHECKER_SET!r}]"
+    if refset.name == "colorchecker":
+        return f"{refset.description}; {colorchecker}"
+    return f"{refset.description}; white reference: ColorChecker {WHITE_PATCH} of {colorchecker}"
+
+
 def _cell_rows(result) -> Iterator[dict]:
+    sources = {refset.name: reference_data(refset) for refset in result.plan.reflectance_sets}
     for c in result.cells:
         # whole numbers and the rounded run time as text: exact_number writes every number as a float
         yield {**_coordinates(c), "status": c.status, "failures": "; ".join(c.failures),
                "warnings": "; ".join(c.warnings), "calibration": c.calibration,
+               "reference_data": sources.get(c.set_name, ""),
                "n_patches": str(c.n_set), "seeds": str(len(c.seed_means)), "delta_e_mean_ci95": c.delta_e_mean_ci95,
                **{k: c.stats.get(k) for k in _STAT_COLUMNS}, "exposure_s": c.exposure_s, "iso": c.iso,
                "K_dn_per_e": c.gain_dn_per_e, "runtime_s": f"{c.runtime_s:.4f}", "dng": c.dng}
@@ -496,6 +511,10 @@ def render_html(result, *, generated: str | None = None) -> str:
         + (f" — patches of {plan.patch_px} px, band radiance ρ·E/π on {esc(plan.bands)} nm band centres, "
            f"{plan.illuminance_lux:g} lx" if plan.chart == "synthetic" else " — Mitsuba render of the ColorChecker preset")
         + ". Sets other than the ColorChecker carry its white 9.5 patch as white reference.</li>",
+        "<li><b>Reference data</b> (the truth's spectra; another measurement of the same chart gives another "
+        "truth and other scores, so compare scores only on the same data; <code>cells.csv</code> column "
+        "<code>reference_data</code>): "
+        + "; ".join(f"<i>{esc(r.name)}</i>: {esc(reference_data(r))}" for r in plan.reflectance_sets) + ".</li>",
         "<li><b>ΔE2000</b> per patch on patch means (interior, 20 % margin), after scaling the pipeline's image "
         "so the white reference has the ground truth's luminance; mean, 95th percentile, max over the set.</li>",
         "<li><b>In or out of sample</b>: the RAW's colour matrices (DNG ColorMatrix1/2, ForwardMatrix1/2 and the "

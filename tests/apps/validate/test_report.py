@@ -86,3 +86,40 @@ def test_one_seed_calls_no_difference_significant_or_not(one_seed_report, read_c
     comparisons = page[page.index("<h2>Comparisons</h2>"):]
     comparisons = comparisons[:comparisons.index("</table>")]
     assert "n.s." not in comparisons.split("</p>", 1)[1] and "no interval (1 seed)" in comparisons
+
+
+@pytest.mark.timeout(120)
+def test_the_report_and_cells_csv_name_the_colorchecker_data_the_truth_is_computed_from(one_seed_report, read_csv):
+    """Issue 39 #7: the scores depend on which measurement of the chart is the truth. cells.csv
+    and the report name it (BabelColor average, from colour-science), and it is the data used:
+    patches.csv's truth under D65 is colour-science's XYZ → sRGB of SDS_COLOURCHECKERS["BabelColor
+    Average"] (1-nm CIE 1931 2°, Y of the perfect diffuser 1), not of ISO 17321-1's spectra of the
+    same chart, which differ by several ΔE2000 on some patches."""
+    import colour
+
+    _, out = one_seed_report
+    cells = read_csv(out / "cells.csv")
+    assert all("BabelColor average" in row["reference_data"] and "SDS_COLOURCHECKERS['BabelColor Average']"
+               in row["reference_data"] for row in cells)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "Reference data" in page and "SDS_COLOURCHECKERS[&#x27;BabelColor Average&#x27;]" in page
+    rows = [r for r in read_csv(out / "patches.csv") if r["pipeline"] == "ours"]
+    measured = np.array([[float(r[f"reference_{c}"]) for c in "rgb"] for r in rows])
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    space = colour.RGB_COLOURSPACES["sRGB"]
+
+    def truth(data):
+        grid = colour.SpectralShape(380, 780, 1)  # the 10-nm data on a 1-nm grid, linearly (Sprague moves 0.17)
+        xyz = np.array([colour.sd_to_XYZ(sd.copy().interpolate(grid, interpolator=colour.LinearInterpolator),
+                                         cmfs, d65) / 100 for sd in colour.SDS_COLOURCHECKERS[data].values()])
+        return colour.XYZ_to_RGB(xyz, space, apply_cctf_encoding=False)
+
+    def worst_delta_e(a, b):
+        lab = [colour.XYZ_to_Lab(colour.RGB_to_XYZ(x, space, apply_cctf_decoding=False), space.whitepoint)
+               for x in (a, b)]
+        return float(np.max(colour.delta_E(*lab, method="CIE 2000")))
+
+    assert worst_delta_e(measured, truth("BabelColor Average")) < 0.03  # measured 0.013
+    assert worst_delta_e(measured, truth("ISO 17321-1")) > 1.5  # measured 1.96
