@@ -878,8 +878,8 @@ def scene_from_dict(
         merged.setdefault(section, {})[key] = value
     sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS if name != "lens"}
     # the prescription first: it sees what the user gave, not a default filled in for an XML camera
-    lens_table = _lens_for_xml_camera(_lens_for_prescription(dict(merged.get("lens", {}))), sections["scene"],
-                                      sections["sensor"])
+    lens_table = _lens_for_prescription(dict(merged.get("lens", {})), base_dir)
+    lens_table = _lens_for_xml_camera(lens_table, sections["scene"], sections["sensor"])
     sections["lens"] = section_from_table("lens", lens_table, base_dir)
     copies = sections["scene"].scatter or any(a.count > 1 for a in sections["scene"].assets)
     if copies and _budget_reckoned(data, overrides):
@@ -896,28 +896,38 @@ def scene_from_dict(
     return SceneConfig(**sections)
 
 
-def _lens_for_prescription(lens: dict[str, Any]) -> dict[str, Any]:
-    """For ``model = "prescription"``: the focal length and f-number are the prescription's
-    (paraxial EFL; the traced f-number: the focal length over the widest axial bundle that
-    passes every aperture)."""
+def _lens_for_prescription(lens: dict[str, Any], base_dir: Path) -> dict[str, Any]:
+    """For ``model = "prescription"``: the focal length is the prescription's (paraxial EFL), the
+    f-number the one asked (the stop is closed to it when rendered), or unset the design's own
+    (traced: the focal length over the widest axial bundle that passes every aperture); one
+    faster than the design's is refused. A relative CSV path is resolved against the scene
+    file's folder here, once, before it is read (issue 39 #12: it was read from the working
+    directory, then resolved again)."""
+    if "prescription" in lens:
+        lens = dict(lens, prescription=_resolve_path(lens["prescription"], base_dir))
     if lens.get("model") != "prescription":
         return lens
     from .optics.prescription import focal_length_and_f_number
 
-    focal_m, f_number = focal_length_and_f_number(str(lens.get("prescription", "dgauss_50mm")))
-    replaced = [f"lens.{key} = {lens[key]!r} by its {value:.4g}" for key, value in
-                (("focal_length_mm", focal_m * 1e3), ("f_number", f_number))
-                if isinstance(lens.get(key), (int, float)) and not isinstance(lens.get(key), bool)
-                and abs(lens[key] - value) > 1e-6 * value]
-    if replaced:  # a prescription is a real lens: said, not done silently (issue 25 #15)
-        import warnings
+    name = str(lens.get("prescription", "dgauss_50mm"))
+    focal_m, own_f_number = focal_length_and_f_number(name)
+    asked = lens.get("f_number")
+    if not (isinstance(asked, (int, float)) and not isinstance(asked, bool)):
+        asked = own_f_number if asked is None else asked  # a wrong type: LensSection says so
+    elif asked < own_f_number * (1 - 1e-4):
+        _fail("lens.f_number", asked, f"lens.prescription {name!r} opens to f/{own_f_number:.4g} at most: valid "
+              f"f-numbers are >= {own_f_number:.4g} (the stop is closed to a slower one), or leave it unset")
+    given = lens.get("focal_length_mm")
+    number = isinstance(given, (int, float)) and not isinstance(given, bool)
+    if number and abs(given - focal_m * 1e3) > 1e-6 * focal_m * 1e3:
+        import warnings  # a prescription is a real lens: said, not done silently (issue 25 #15)
 
         from .errors import SceneWarning
 
-        warnings.warn(f"lens.prescription {lens.get('prescription', 'dgauss_50mm')!r} replaces "
-                      f"{' and '.join(replaced)} (a prescription's focal length and f-number are its own); "
-                      "leave them unset", SceneWarning, stacklevel=4)
-    return dict(lens, focal_length_mm=focal_m * 1e3, f_number=f_number)
+        warnings.warn(f"lens.prescription {name!r} replaces lens.focal_length_mm = {given!r} by its "
+                      f"{focal_m * 1e3:.4g} (a prescription's focal length is its own); leave it unset",
+                      SceneWarning, stacklevel=4)
+    return dict(lens, focal_length_mm=focal_m * 1e3, f_number=asked)
 
 
 def _lens_for_xml_camera(lens: dict[str, Any], scene: SceneSection, sensor: SensorSection) -> dict[str, Any]:

@@ -156,8 +156,8 @@ def execute(plan, *, progress: Callable[[int, int, float], None] | None = None) 
     if plan.lens_model == "prescription":  # what the trace says the lens is (focal length, f-number, field)
         from ..optics.prescription import load_prescription
 
-        image.meta["prescription"] = load_prescription(config.lens.prescription).describe(
-            plan.lens.focus_distance_m, plan.lens.sensor_width_m)
+        design = load_prescription(config.lens.prescription, f_number=config.lens.f_number)  # stop closed to N
+        image.meta["prescription"] = design.describe(plan.lens.focus_distance_m, plan.lens.sensor_width_m)
     image.white_reference = white_reference_mask(config, plan.capture_lens)
     image.meta["illuminant_spd"] = config.illuminant.spd  # what white balance and the truth assume
     image.meta["illuminant_emitter"] = config.illuminant.emitter

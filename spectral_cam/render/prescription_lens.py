@@ -18,10 +18,11 @@ distance) × (1 + 4N_w²)/π, so the film holds the radiance the sensor's camera
 and the image carries the lens's own vignetting (the sensor adds no cos⁴ of its own).
 
 Dispersion: a prescription whose glasses disperse traces one wavelength per ray (the others
-terminated, ×4 on the first); one that gives only nd keeps all four. Aperture blades
-(``lens.blades``, rotation, rounding) shape the stop itself: a ray passes it inside the regular
-polygon (blended with the circle by the rounding) inscribed in the stop's clear aperture, so the
-image's brightness and bokeh follow the opening.
+terminated, ×4 on the first); one that gives only nd keeps all four. The stop is closed to
+``lens.f_number`` (traced; never opened past the design's). Aperture blades (``lens.blades``,
+rotation, rounding) shape the stop itself: a ray passes it inside the regular polygon (blended
+with the circle by the rounding) inscribed in the stop's clear aperture, so the image's
+brightness and bokeh follow the opening.
 
 References
 ----------
@@ -77,7 +78,10 @@ def plugin_dict(lens: Prescription, frame_lens, focus_distance_m: float, *, blad
                 blade_rotation_deg: float = 0.0, blade_rounding: float = 0.0) -> dict:
     """The plugin's scene-dict entries (without film, sampler and pose): ``lens`` focused on
     ``focus_distance_m`` (from the entrance pupil) over the sensor of ``frame_lens`` (the
-    frame's ThinLens: its size and working f-number)."""
+    frame's ThinLens: its size, f-number and working f-number), its stop closed to the frame's
+    f-number (:meth:`Prescription.stopped_down`: ``lens.f_number``; a ConfigError for one faster
+    than the design's)."""
+    lens = lens.stopped_down(float(frame_lens.f_number))
     rear = lens.reversed()
     pupil_z, _ = lens.entrance_pupil()
     length = float(lens.vertices_m()[-1])  # first to last vertex

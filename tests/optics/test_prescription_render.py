@@ -177,18 +177,22 @@ def test_blades_in_the_stop_pass_the_openings_area(blades, rounding):
 
 
 def test_a_prescription_says_which_scene_values_it_replaces():
-    """Issue 25 #15: scenes/dof.toml's 25 mm f/1.4 became 50.36 mm f/2.02 without a word."""
+    """Issue 25 #15: scenes/dof.toml's 25 mm f/1.4 became 50.36 mm f/2.02 without a word. The focal
+    length is the design's, said; an f-number is kept when the lens can close to it (issue 39 #11)
+    and refused when it is faster than the design's."""
     import warnings
 
     from spectral_cam import load_scene
-    from spectral_cam.errors import SceneWarning
+    from spectral_cam.errors import ConfigError, SceneWarning
 
-    with pytest.warns(SceneWarning, match=r"replaces lens.focal_length_mm = 25.* by its 50.36 and lens.f_number"):
-        config = load_scene("scenes/dof.toml", overrides={"lens.model": "prescription"})
-    assert config.lens.focal_length_mm == pytest.approx(50.36, abs=0.01)
+    with pytest.warns(SceneWarning, match=r"replaces lens.focal_length_mm = 25.* by its 50.36"):
+        config = load_scene("scenes/dof.toml", overrides={"lens.model": "prescription", "lens.f_number": 4.0})
+    assert config.lens.focal_length_mm == pytest.approx(50.36, abs=0.01) and config.lens.f_number == 4.0
     with warnings.catch_warnings():
         warnings.simplefilter("error", SceneWarning)  # its own values again: nothing to say
         config.replace(**{"lens.focus_distance_m": 3.0})
+    with pytest.raises(ConfigError, match=r"lens.f_number = 1.4: .* opens to f/2.018 at most"):
+        load_scene("scenes/dof.toml", overrides={"lens.model": "prescription"})
 
 
 @pytest.mark.parametrize("header, content, message", [

@@ -30,7 +30,7 @@ SMALL = {"sensor.width_px": 48, "sensor.height_px": 32}
 #: models, a user's XML scene, and a focus object.
 JOBS = {**{p.stem: (p.name, {}) for p in sorted((ROOT / "scenes").glob("*.toml"))},
         "dof_layered": ("dof.toml", {"lens.model": "layered"}),
-        "dof_prescription": ("dof.toml", {"lens.model": "prescription"}),
+        "dof_prescription": ("dof.toml", {"lens.model": "prescription", "lens.f_number": 4.0}),  # dof.toml: f/1.4
         "tabletop_focus_object": ("tabletop.toml", {"lens.focus_object": "object_3"})}
 
 
