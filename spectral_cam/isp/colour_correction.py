@@ -352,10 +352,19 @@ META_CAMERA_TO_XYZ = "camera_to_xyz_d65"
 META_CAMERA_TO_XYZ_ROOT_POLY = "camera_to_xyz_d65_root_polynomial"
 
 
+def _tag_problems(raw, kinds: tuple[str, ...] = ("ColorMatrix", "ForwardMatrix")) -> str:
+    """What the RAW's reader found wrong with its colour tags of ``kinds`` (``meta["colour_tag_problems"]``),
+    as one clause: the develop names the tag that is wrong, not only what is missing."""
+    problems = (raw.meta or {}).get("colour_tag_problems") or []
+    return "; ".join(str(p) for p in problems if str(p).startswith(kinds))
+
+
 def _dng(raw, gains, supplied):
     if raw.color_matrix is None:
-        raise ConfigError("isp.colour_matrix = 'dng' needs the RAW's ColorMatrix1; this RAW has none "
-                          "(use 'fitted' with a supplied matrix, or 'none')")
+        wrong = _tag_problems(raw)
+        raise ConfigError("isp.colour_matrix = 'dng' needs the RAW's ColorMatrix; "
+                          + (f"this RAW's is unusable: {wrong}" if wrong else "this RAW has none")
+                          + " (use 'fitted' with a supplied matrix, or 'none')")
     second = getattr(raw, "color_matrix_2", None)
     # an RGBW RAW's fourth plane (white) is developed as luminance: the colour rows are R, G, B
     return dng_camera_to_xyz_d65(np.asarray(raw.color_matrix)[:3], 1.0 / np.asarray(gains)[:3],
@@ -389,13 +398,16 @@ def dng_profile_camera_to_xyz_d65(raw, neutral):
 
     forward, hue_sat = raw.forward_matrix, getattr(raw, "hue_sat_map", None)
     if forward is None:
-        raise ConfigError("isp.colour_matrix = 'dng_profile' needs the RAW's ForwardMatrix; this RAW has none "
-                          "(valid: 'dng', 'fitted', 'none')")
-    forward = np.asarray(forward, dtype=np.float64)[:, :3]  # R, G, B (an RGBW RAW's white is luminance)
+        wrong = _tag_problems(raw)
+        raise ConfigError("isp.colour_matrix = 'dng_profile' needs the RAW's ForwardMatrix (and the ColorMatrix "
+                          "it belongs to); " + (f"this RAW's are unusable: {wrong}" if wrong else "this RAW has none")
+                          + " (valid: 'dng', 'fitted', 'none')")
+    forward = _usable_forward(forward, "forward_matrix (the D65 calibration's ForwardMatrix)")
     neutral = np.asarray(neutral, dtype=np.float64)[:3]
     if raw.forward_matrix_2 is not None and raw.color_matrix is not None and raw.color_matrix_2 is not None:
         weight = calibration_weight(np.asarray(raw.color_matrix)[:3], np.asarray(raw.color_matrix_2)[:3], neutral)
-        forward = weight * forward + (1 - weight) * np.asarray(raw.forward_matrix_2, dtype=np.float64)[:, :3]
+        second = _usable_forward(raw.forward_matrix_2, "forward_matrix_2 (the Standard A calibration's ForwardMatrix)")
+        forward = weight * forward + (1 - weight) * second
         if hue_sat is not None and getattr(raw, "hue_sat_map_2", None) is not None:
             hue_sat = hue_sat.blend(raw.hue_sat_map_2, weight)
     d50 = PROPHOTO_TO_XYZ_D50 @ np.ones(3)
@@ -410,6 +422,21 @@ def dng_profile_camera_to_xyz_d65(raw, neutral):
         return (apply_hue_sat_map(rgb.reshape(-1, 3) @ into.T, hue_sat) @ back.T).reshape(rgb.shape)
 
     return transform
+
+
+def _usable_forward(matrix, name: str) -> np.ndarray:
+    """A forward matrix's R, G, B columns (an RGBW RAW's white is luminance), refused unless it is
+    finite, of rank 3 and maps camera white (1, 1, 1) to a positive XYZ — what scaling it onto D50
+    needs (an all-zero one divided 0 by 0 and reached the tone curve as NaN, issue 39 #23)."""
+    forward = np.asarray(matrix, dtype=np.float64)[:, :3]
+    if forward.shape != (3, 3) or not np.all(np.isfinite(forward)):
+        raise ConfigError(f"the RAW's {name} must be 3 finite rows; got {forward.tolist()}")
+    rank = int(np.linalg.matrix_rank(forward))
+    if rank < 3 or not np.all(forward @ np.ones(3) > 0):
+        raise ConfigError(f"the RAW's {name} is {'singular (rank %d)' % rank if rank < 3 else 'not white-preserving'}"
+                          f": {np.round(forward, 6).tolist()}; valid: a rank-3 matrix mapping camera white (1, 1, 1) "
+                          "to a positive XYZ (DNG ch. 6). Use isp.colour_matrix = 'dng' or 'fitted'")
+    return forward
 
 
 def _dng_profile(raw, gains, supplied):
@@ -480,5 +507,21 @@ def colour_transform(raw, method: str, gains: np.ndarray, supplied=None):
             method = "dng"
         else:
             method = "none"
+            if _tag_problems(raw, ("ColorMatrix",)):  # a corrupt matrix is not the same as none: say so
+                import warnings
+
+                from ..errors import SceneWarning
+
+                warnings.warn("isp.colour_matrix = 'auto' developed without colour correction (camera RGB): "
+                              f"{_tag_problems(raw, ('ColorMatrix',))}", SceneWarning, stacklevel=3)
     transform = COLOUR_MATRIX[method](raw, gains, supplied)
+    used = {"dng": ("ColorMatrix",), "dng_profile": ("ColorMatrix", "ForwardMatrix")}.get(method)
+    if transform is not None and used and _tag_problems(raw, used):
+        import warnings
+
+        from ..errors import SceneWarning
+
+        # e.g. a singular Standard A matrix: the develop goes on with the D65 calibration alone
+        warnings.warn(f"isp.colour_matrix = {method!r} developed with the RAW's usable colour tags only: "
+                      f"{_tag_problems(raw, used)}", SceneWarning, stacklevel=3)
     return transform, ("none" if transform is None else method)

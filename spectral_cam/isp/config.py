@@ -25,7 +25,7 @@ from .denoise import DENOISERS
 from .encode import ENCODERS
 from .highlights import HIGHLIGHTS
 from .tone import TONE
-from .white_balance import WHITE_BALANCE
+from .white_balance import WHITE_BALANCE, gains_problem
 
 __all__ = [
     "ISPConfig",
@@ -71,7 +71,8 @@ class ISPConfig:
         ``"as_shot"`` (the RAW's AsShotNeutral), ``"grey_world"``, ``"white_patch"`` or
         ``"manual"`` (then ``wb_gains`` gives the R, G, B gains).
     wb_gains
-        Three gains for ``white_balance = "manual"`` (normalised so the smallest is 1).
+        Three gains for ``white_balance = "manual"`` (normalised so the smallest is 1); the largest at
+        most :data:`~spectral_cam.isp.white_balance.MAX_GAIN_RATIO` (2¹⁴) times the smallest.
     demosaic
         ``"rcd"`` (the default since issue 37 #7: ratio-corrected demosaicing and a 3 × 3
         colour-difference median; on the sharp, off-grid leaf and shadow edges of the bundled
@@ -142,6 +143,8 @@ class ISPConfig:
                       "white_balance = 'manual' needs three positive gains, e.g. [2.0, 1.0, 1.5]")
         elif gains and (len(gains) != 3 or not all(_number(g) and g > 0 for g in gains)):
             _fail("wb_gains", self.wb_gains, "give three positive gains (R, G, B) or none")
+        if gains and gains_problem(gains):  # refused at load, not as NaN in the tone stage (issue 39 #23)
+            _fail("wb_gains", self.wb_gains, gains_problem(gains))
         object.__setattr__(self, "wb_gains", tuple(float(g) for g in gains))
         _choice("demosaic", self.demosaic, DEMOSAIC_METHODS)
         if isinstance(self.denoise, str):

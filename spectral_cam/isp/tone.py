@@ -32,7 +32,7 @@ from ..registry import Registry
 
 __all__ = ["TONE", "srgb_oetf", "srgb_eotf", "filmic", "adobe", "apply_exposure", "tone_map", "grey_input",
            "profile_tone_curve", "adobe_default_curve", "adobe_exposure_ramp", "adobe_exposure_shoulder", "rgb_tone",
-           "SOS_GREY_DISPLAY"]
+           "SOS_GREY_DISPLAY", "finite_linear"]
 
 _F32 = np.float32
 
@@ -119,7 +119,8 @@ def filmic(linear: np.ndarray) -> np.ndarray:
 
 
 def _narkowicz(x):
-    x = np.maximum(x, 0)
+    # the fit passes 1 (white, after the clip) near x = 8: capped at 1e4 it cannot overflow float32
+    x = np.minimum(np.maximum(x, 0), 1e4)
     return (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
 
 
@@ -361,7 +362,8 @@ def _curve_table(ev_negative: float):
     step = np.diff(table).astype(_F32)  # table[i + 1] − table[i]
 
     def curve(values: np.ndarray) -> np.ndarray:
-        position = np.clip(values, 0.0, 1.0) * _F32(_TABLE_SIZE)
+        # fmax then fmin, not clip: NaN becomes 0 (the curve's black end), never an int32 index of −2³¹
+        position = np.fmin(np.fmax(values, _F32(0.0)), _F32(1.0)) * _F32(_TABLE_SIZE)
         index = np.minimum(position.astype(np.int32), _TABLE_SIZE - 1)
         position -= index  # the fraction
         position *= step[index]
@@ -462,6 +464,49 @@ def apply_exposure(linear: np.ndarray, *, ev: float = 0.0) -> np.ndarray:
     return (np.asarray(linear, dtype=_F32) * _F32(2.0 ** float(ev))).astype(_F32, copy=False)
 
 
+#: Bound (linear, 1 = white) that values reach the tone curves within: far beyond white and below black, so
+#: the curves' ends, yet small enough that a colour matrix and a 2²⁰ exposure gain stay finite in float32.
+_LINEAR_BOUND = 1e30
+
+
+def finite_linear(linear: np.ndarray) -> np.ndarray:
+    """``linear`` as float32 with every value finite and within ±1e30: the curves' ends.
+
+    A non-finite value (an earlier stage overflowed: an impossible gain, a corrupt matrix or shading
+    table) has no place on a tone curve; +inf is shown as white, −inf and NaN as black, with a
+    :class:`~spectral_cam.errors.SceneWarning` that counts them (issue 39 #23: a NaN cast to int32
+    indexed the curve's table at −2³¹).
+
+    Parameters
+    ----------
+    linear : numpy.ndarray
+        (..., 3) linear values (1 = white).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32: ``linear`` itself when it is all within the bound, else a clipped copy.
+    """
+    x = np.asarray(linear, dtype=_F32)
+    if x.size == 0:
+        return x
+    low, high = float(x.min()), float(x.max())  # NaN propagates: one check for both
+    if -_LINEAR_BOUND <= low and high <= _LINEAR_BOUND:
+        return x
+    bad = ~np.isfinite(x)
+    if bad.any():
+        import warnings
+
+        from ..errors import SceneWarning
+
+        pixels = int(bad.reshape(-1, x.shape[-1]).any(axis=-1).sum()) if x.ndim > 1 else int(bad.sum())
+        warnings.warn(f"{pixels} pixel(s) reached the tone stage non-finite (NaN or ±inf: an earlier stage "
+                      "overflowed); shown at the curve's ends: +inf as white, −inf and NaN as black",
+                      SceneWarning, stacklevel=3)
+    out = np.nan_to_num(x, nan=0.0, posinf=_LINEAR_BOUND, neginf=-_LINEAR_BOUND)
+    return np.clip(out, -_LINEAR_BOUND, _LINEAR_BOUND, out=out)
+
+
 def tone_map(linear: np.ndarray, *, method: str = "adobe", ev: float = 0.0) -> np.ndarray:
     """Apply the named tone curve at an exposure.
 
@@ -484,10 +529,15 @@ def tone_map(linear: np.ndarray, *, method: str = "adobe", ev: float = 0.0) -> n
     ConfigError
         For an unknown method (listing the valid ones).
 
+    Warns
+    -----
+    SceneWarning
+        When ``linear`` holds non-finite values (:func:`finite_linear` puts them at the curve's ends).
+
     References
     ----------
     .. [1] IEC 61966-2-1:1999.
     .. [2] Adobe DNG SDK 1.7, ``dng_render.cpp``.
     .. [3] Narkowicz, K. (2016). ACES Filmic Tone Mapping Curve.
     """
-    return TONE[method](linear, ev=ev)
+    return TONE[method](finite_linear(linear), ev=ev)

@@ -22,15 +22,37 @@ from ..errors import ConfigError
 from ..registry import Registry
 from .highlights import clipped_mask
 
-__all__ = ["WHITE_BALANCE", "white_balance_gains", "apply_white_balance"]
+__all__ = ["WHITE_BALANCE", "MAX_GAIN_RATIO", "gains_problem", "white_balance_gains", "apply_white_balance"]
+
+
+#: Largest ratio of the largest white-balance gain to the smallest: 2¹⁴, a 14-bit raw's whole range. A
+#: larger one lifts less than one code of the weakest channel to white (low-pressure sodium, the most
+#: extreme bundled light, asks 139 of the canon_eos_5d); 1e300 overflowed float32 to inf and NaN (issue 39 #23).
+MAX_GAIN_RATIO = float(2 ** 14)
+
+
+def gains_problem(gains) -> str | None:
+    """Why ``gains`` cannot be white-balance gains, or None: three (R, G, B) or four (R, G, B, W)
+    finite numbers > 0 whose largest is at most :data:`MAX_GAIN_RATIO` times the smallest."""
+    try:
+        gains = np.asarray(gains, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        return "they are not numbers"
+    if gains.size not in (3, 4) or not np.all(np.isfinite(gains)) or np.any(gains <= 0):
+        return "give three (R, G, B) or four (R, G, B, W) finite numbers > 0"
+    ratio = float(gains.max() / gains.min())
+    if not ratio <= MAX_GAIN_RATIO:  # not <=: an overflow to inf is refused too
+        return (f"the largest is {ratio:.3g} times the smallest; valid: at most {MAX_GAIN_RATIO:g} "
+                "(a 14-bit raw's whole range)")
+    return None
 
 
 def _normalised(gains) -> np.ndarray:
     """Gains (three, or four for RGBW) over their smallest."""
+    problem = gains_problem(gains)
+    if problem:
+        raise ConfigError(f"white-balance gains {np.ravel(np.asarray(gains, dtype=object)).tolist()}: {problem}")
     gains = np.asarray(gains, dtype=np.float64).ravel()
-    if gains.size not in (3, 4) or not np.all(np.isfinite(gains)) or np.any(gains <= 0):
-        raise ConfigError(f"white-balance gains must be three (R, G, B) or four (R, G, B, W) finite numbers > 0; "
-                          f"got {gains.tolist()}")
     return gains / gains.min()
 
 

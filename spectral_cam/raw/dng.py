@@ -126,6 +126,10 @@ def _matrix_tag(name: str, matrix, planes: int = 3) -> tuple:
     if matrix.shape != shape or not np.all(np.isfinite(matrix)):
         raise RawFormatError(f"{name} must be a finite {shape[0]}×{shape[1]} array for {planes} colour planes; "
                              f"got shape {matrix.shape}")
+    rank = int(np.linalg.matrix_rank(matrix))
+    if rank < 3:  # a reader inverts a ColorMatrix and maps white through a ForwardMatrix: neither works singular
+        raise RawFormatError(f"{name} is singular (rank {rank}): a DNG reader could map no camera colour to XYZ "
+                             "through it; give a matrix of rank 3 (an all-zero matrix is no calibration)")
     return (DNG_TAGS[name], _TIFF_SRATIONAL, matrix.size, _rationals(matrix, signed=True), True)
 
 
@@ -326,7 +330,8 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     Raises
     ------
     RawFormatError
-        If the RawImage cannot be stored (wrong mosaic shape or type, bad levels or CFA).
+        If the RawImage cannot be stored (wrong mosaic shape or type, bad levels or CFA, a singular
+        colour or forward matrix).
 
     References
     ----------
@@ -443,7 +448,7 @@ def write_dcp(raw: RawImage, path, *, name: str | None = None) -> Path:
     Raises
     ------
     RawFormatError
-        If the RAW has no colour matrix.
+        If the RAW has no colour matrix, or a colour or forward matrix is singular (issue 39 #31).
 
     References
     ----------

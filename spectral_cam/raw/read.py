@@ -390,8 +390,10 @@ def _tungsten_slot(extras: dict) -> int | None:
 
 
 def _tungsten_matrix(extras: dict, planes: int = 3) -> np.ndarray | None:
-    """The DNG colour matrix calibrated under Standard Illuminant A, from either slot."""
+    """The DNG colour matrix calibrated under Standard Illuminant A, from either slot (None when singular)."""
     slot = _tungsten_slot(extras)
+    if slot and f"ColorMatrix{slot}" in colour_tag_problems(extras, planes):
+        return None
     value = extras.get(f"ColorMatrix{slot}") if slot else None
     return None if value is None else _rational_matrix(value, (planes, 3))
 
@@ -402,6 +404,33 @@ def _daylight_matrix(extras: dict, planes: int) -> np.ndarray | None:
     tungsten = _tungsten_slot(extras)
     slot = next((n for n in (1, 2) if n != tungsten and f"ColorMatrix{n}" in extras), None)
     return None if slot is None else _rational_matrix(extras[f"ColorMatrix{slot}"], (planes, 3))
+
+
+def colour_tag_problems(extras: dict, planes: int = 3) -> dict[str, str]:
+    """What is wrong with each ColorMatrixN / ForwardMatrixN tag present, by tag name: malformed (not
+    ``planes``·3 finite numbers) or singular (rank under 3: an all-zero matrix maps every colour to
+    black). A reader that drops such a tag says which one it dropped (issue 39 #31).
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (ColorMatrix is inverted; ForwardMatrix
+       maps camera white onto D50).
+    """
+    problems = {}
+    for number in (1, 2):
+        code = np.ravel(np.asarray(extras.get(f"CalibrationIlluminant{number}", []), dtype=object))
+        light = f"CalibrationIlluminant{number} = {code[0]}" if code.size else f"no CalibrationIlluminant{number}"
+        for kind, shape in (("ColorMatrix", (planes, 3)), ("ForwardMatrix", (3, planes))):
+            name = f"{kind}{number}"
+            if name not in extras:
+                continue
+            matrix = _rational_matrix(extras[name], shape)
+            if matrix is None:
+                problems[name] = f"{name} ({light}) is malformed: not {shape[0] * shape[1]} finite numbers"
+            elif np.linalg.matrix_rank(matrix) < 3:
+                problems[name] = (f"{name} ({light}) is singular (rank {np.linalg.matrix_rank(matrix)}): it maps no "
+                                  "camera colour to XYZ")
+    return problems
 
 
 def _profile(extras: dict, planes: int = 3) -> dict:
@@ -417,7 +446,8 @@ def _profile(extras: dict, planes: int = 3) -> dict:
         if slot is None:
             continue
         value = extras.get(f"ForwardMatrix{slot}")
-        out[f"forward_matrix{suffix}"] = None if value is None else _rational_matrix(value, (3, planes))
+        if f"ForwardMatrix{slot}" not in colour_tag_problems(extras, planes):  # a singular one is no matrix
+            out[f"forward_matrix{suffix}"] = None if value is None else _rational_matrix(value, (3, planes))
         dims, data = extras.get("ProfileHueSatMapDims"), extras.get(f"ProfileHueSatMapData{slot}")
         if dims is not None and data is not None:
             try:
@@ -426,6 +456,8 @@ def _profile(extras: dict, planes: int = 3) -> dict:
                 pass  # a malformed map (wrong count, non-finite, negative scale) is no map, as for Adobe's reader
     if out["hue_sat_map"] is None or (tungsten and out["hue_sat_map_2"] is None):
         out["hue_sat_map"] = out["hue_sat_map_2"] = None  # half a dual-illuminant profile is none
+    if tungsten and daylight and (out["forward_matrix"] is None) != (out["forward_matrix_2"] is None):
+        out["forward_matrix"] = out["forward_matrix_2"] = None  # both or neither (DNG ch. 6, ForwardMatrix2)
     return out
 
 
@@ -471,7 +503,9 @@ def read_raw(path) -> RawImage:
         1 / camera white-balance multipliers (max 1); ``color_matrix`` = XYZ(D65) → camera
         recovered from LibRaw's ``color_matrix`` (camera → sRGB) and daylight multipliers,
         normalised so D65's white maps to a neutral of max 1; ``noise_profile`` and
-        ``camera_model`` from the DNG tags when present.
+        ``camera_model`` from the DNG tags when present. A malformed or singular ColorMatrixN /
+        ForwardMatrixN is dropped and named in ``meta["colour_tag_problems"]`` (the develop's
+        messages repeat it).
 
     Raises
     ------
@@ -557,6 +591,10 @@ def read_raw(path) -> RawImage:
         tag = extras.get("AsShotNeutral")
         neutral = None if tag is None else _rational_matrix(tag, (1, 4))
         neutral = None if neutral is None or np.any(neutral <= 0) else neutral[0] / neutral[0].max()
+    problems = colour_tag_problems(extras, planes) if cfa != "none" else {}
+    daylight_slot = next((n for n in (1, 2) if n != _tungsten_slot(extras) and f"ColorMatrix{n}" in extras), None)
+    if f"ColorMatrix{daylight_slot}" in problems:
+        matrix = None  # LibRaw derives nothing usable from it: the develop says which tag, not "none"
     _check_white_level(path, extras.get("WhiteLevel"), black_levels)
     noise = extras.get("NoiseProfile")
     noise = np.atleast_1d(np.asarray(noise, dtype=float)) if noise is not None else np.empty(0)
@@ -589,5 +627,6 @@ def read_raw(path) -> RawImage:
             "make": str(extras.get("Make", "")).strip(),
             "model": str(extras.get("Model", "")).strip(),
             "libraw_raw_type": raw_type,
+            **({"colour_tag_problems": list(problems.values())} if problems else {}),
         },
     )
