@@ -827,6 +827,19 @@ def _resolve_path(value: Any, base_dir: Path) -> Any:
     return value
 
 
+def _shading_table_path(value: str, base_dir: Path) -> str:
+    """``isp.shading``: ``"off"``, or a table's path resolved against the scene file's folder and
+    read now, so a missing or broken table is refused at load, not after the render (issue 39 #24)."""
+    if value == "off" or not value:
+        return value  # ISPSection names what is valid for an empty one
+    from .isp.shading import load_shading_table
+
+    path = Path(value).expanduser()
+    path = (path if path.is_absolute() else base_dir / path).resolve()
+    load_shading_table(path)
+    return str(path)
+
+
 def parse_override(text: str) -> tuple[str, Any]:
     """Split ``"section.key=value"``; the value is read as a TOML value, else a string."""
     if "=" not in text:
@@ -981,6 +994,8 @@ def section_from_table(name: str, table: Mapping[str, Any], base_dir: str | Path
     for key, parse in _ENTRY_LISTS.get(name, {}).items():
         if key in table:
             kwargs[key] = _entry_list(f"{name}.{key}", table[key], parse, Path(base_dir))
+    if name == "isp" and isinstance(kwargs.get("shading"), str):
+        kwargs["shading"] = _shading_table_path(kwargs["shading"], Path(base_dir))
     try:
         return cls(**kwargs)
     except ConfigError:
