@@ -687,10 +687,11 @@ class CommandPipeline(Pipeline):
     def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
         import json
 
-        with tempfile.TemporaryDirectory(prefix=f"{self.name}-", dir=workdir) as folder:
+        # absolute: the program runs in the plan's folder, not where the caller's relative paths start
+        with tempfile.TemporaryDirectory(prefix=f"{self.name}-", dir=os.path.abspath(workdir)) as folder:
             folder = Path(folder)
             out = folder / f"output{self.output_suffix}"
-            source = self._input(Path(dng_path), folder)
+            source = self._input(Path(os.path.abspath(dng_path)), folder)
             paths = {"{input}": str(source), "{output}": str(out), "{plan_dir}": str(self.base_dir),
                      "{work_dir}": str(folder)}
             env = {**os.environ, "SPECTRAL_CAM_INPUT": str(source), "SPECTRAL_CAM_OUTPUT": str(out)}

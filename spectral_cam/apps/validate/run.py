@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 import re
 import shutil
 import tempfile
@@ -590,6 +591,17 @@ def _combine(runs: list[CellResult], plan: Plan) -> CellResult:
 FAIL_FAST_AFTER = 3
 
 
+def failure_signature(message: str, *, stage: Path, pipeline: str, dng_name: str) -> str:
+    """A failure message with what differs from cell to cell replaced, so that a pipeline failing
+    the same way on every cell is seen to (:data:`FAIL_FAST_AFTER`): paths inside the report's
+    staging folder (the DNG, a command's scratch folder) → ``<file>``, the cell's DNG name →
+    ``<dng>``, a command's scratch-folder name (``<pipeline>-`` and 8 random characters,
+    :mod:`tempfile`'s) → ``<scratch>``."""
+    text = re.sub(re.escape(str(stage)) + r"""[^\s'"]*""", "<file>", message)
+    text = text.replace(Path(dng_name).stem, "<dng>")
+    return re.sub(re.escape(pipeline) + r"-[a-z0-9_]{8}", "<scratch>", text)
+
+
 @contextlib.contextmanager
 def _workspace(output_dir: str | Path | None, force: bool) -> Iterator[Path]:
     """The report's staging folder (published whole at the end), or a temporary one."""
@@ -646,6 +658,8 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
     from ...raw import write_dng
     from ...records import package_versions, write_json
 
+    if output_dir is not None:  # commands run in the plan's folder: every path they get must be absolute
+        output_dir = Path(os.path.abspath(output_dir))
     started = time.perf_counter()
     versions = package_versions()
     cells: list[CellResult] = []
@@ -655,13 +669,14 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
         raw_dir = stage / "raw"
         raw_dir.mkdir(parents=True, exist_ok=True)
         work_dir = Path(tempfile.mkdtemp(prefix=".work-", dir=stage))
-        repeated: dict[str, list[str]] = {p.name: [] for p in plan.pipelines}  # each pipeline's errors in a row
+        # each pipeline's errors in a row: (message, its signature without the cell's file names)
+        repeated: dict[str, list[tuple[str, str]]] = {p.name: [] for p in plan.pipelines}
         for seeded in _exposed_charts(plan):
             paths = [write_dng(exposed.raw, raw_dir / exposed.dng_name) for exposed in seeded]
             for pipeline in plan.pipelines:
                 errors = repeated[pipeline.name]
-                if len(errors) >= FAIL_FAST_AFTER and len(set(errors)) == 1:
-                    cell = _skipped_cell(pipeline, seeded[0], errors[0])
+                if len(errors) >= FAIL_FAST_AFTER and len({signature for _, signature in errors}) == 1:
+                    cell = _skipped_cell(pipeline, seeded[0], errors[-1][0])
                 else:
                     runs = []
                     for exposed, path in zip(seeded, paths):
@@ -669,7 +684,9 @@ def run_plan(plan: Plan, output_dir: str | Path | None = None, *, force: bool = 
                         if runs[-1].status == "error":
                             break  # the other seeds would fail alike
                     cell = _combine(runs, plan)
-                    repeated[pipeline.name] = errors + [cell.failures[0]] if cell.status == "error" else []
+                    signature = failure_signature(cell.failures[0], stage=stage, pipeline=pipeline.name,
+                                                  dng_name=seeded[0].dng_name) if cell.status == "error" else ""
+                    repeated[pipeline.name] = errors + [(cell.failures[0], signature)] if cell.status == "error" else []
                 cells.append(cell)
                 if progress is not None:
                     progress(cell.summary(len(cells), total))

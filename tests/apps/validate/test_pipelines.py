@@ -183,3 +183,76 @@ def test_a_callables_python_path_is_scoped_to_the_call(tmp_path):
     run_plan(plan, tmp_path / "report")
     assert sys.path == before
     assert sys.modules["scoped_isp"].SEEN == [True]
+
+
+LIBRAW_BY_HAND = '''
+import sys
+
+import numpy as np
+import rawpy
+
+with rawpy.imread(sys.argv[1]) as raw:
+    xyz = raw.postprocess(demosaic_algorithm=rawpy.DemosaicAlgorithm.AHD, use_camera_wb=True, no_auto_bright=True,
+                          adjust_maximum_thr=0.0, gamma=(1, 1), output_bps=16, output_color=rawpy.ColorSpace.XYZ,
+                          user_flip=0)
+np.save(sys.argv[2], xyz.astype(np.float64) / 65535)
+'''
+
+
+@pytest.mark.timeout(180)
+def test_a_relative_output_folder_reaches_commands_and_alike_failures_stop(tmp_path, monkeypatch, read_csv):
+    """Issue 39 #2: `validate PLAN -o report/` run from another folder than the plan's. Commands run
+    in the plan's folder, so the paths they get must be absolute: LibRaw run by a script as a
+    command scores what the rawpy pipeline scores on every cell (before: every command cell failed,
+    its DNG not found). A command failing the same way on every cell, its message naming the cell's
+    own DNG and scratch file, is stopped after three cells."""
+    plans = tmp_path / "plans"
+    plans.mkdir()
+    (plans / "libraw_by_hand.py").write_text(LIBRAW_BY_HAND)
+    (plans / "plan.toml").write_text(f'''
+[validate]
+illuminants = ["D65", "A"]
+cameras = ["nikon_d850"]
+reflectance_sets = ["colorchecker"]
+patch_px = 8
+gap_px = 2
+swatches = "none"
+
+[[exposure]]
+name = "base"
+[[exposure]]
+name = "under"
+auto_fraction = 0.3
+
+[[pipeline]]
+name = "libraw"
+type = "rawpy"
+
+[[pipeline]]
+name = "libraw-command"
+type = "command"
+command = "'{sys.executable}' libraw_by_hand.py {{input}} {{output}}"
+output_suffix = ".npy"
+output = "xyz"
+
+[[pipeline]]
+name = "cannot-read"
+type = "command"
+command = "'{sys.executable}' -c 'import sys; sys.exit(\\"cannot read \\" + sys.argv[1] + \\" into \\" + sys.argv[2])' {{input}} {{output}}"
+''')
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    assert main(["validate", str(plans / "plan.toml"), "-o", "report", "-q"]) == 1  # cannot-read's cells
+    cells = read_csv(elsewhere / "report" / "cells.csv")
+    assert not list(plans.glob("report*")), "a relative path was resolved in the plan's folder"
+    by = {(row["illuminant"], row["exposure"], row["pipeline"]): row for row in cells}
+    for illuminant in ("D65", "A"):
+        for exposure in ("base", "under"):
+            command, libraw = by[illuminant, exposure, "libraw-command"], by[illuminant, exposure, "libraw"]
+            assert command["status"] != "error", command["failures"]
+            assert float(command["delta_e_mean"]) == pytest.approx(float(libraw["delta_e_mean"]), abs=1e-9)
+    failing = [row for row in cells if row["pipeline"] == "cannot-read"]
+    assert [row["status"] for row in failing] == ["error"] * 4
+    assert all("cannot read /" in row["failures"] for row in failing[:3])  # absolute paths
+    assert failing[3]["failures"].startswith("not run: it failed the same way on its last 3 cells")
