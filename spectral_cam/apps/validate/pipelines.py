@@ -14,7 +14,8 @@
   scaled by their type's maximum (uint8 / 255, uint16 / 65535), as a command's files are;
   ``python_path`` lists folders (relative to the plan) to import it from.
 - ``command``: ``command`` with ``{input}`` (the DNG) and ``{output}`` (a file with suffix
-  ``output_suffix``, :data:`OUTPUT_SUFFIXES`) placeholders, run without a shell.
+  ``output_suffix``, :data:`OUTPUT_SUFFIXES`) placeholders, run without a shell (placeholders
+  substituted into the arguments as they are; quoted only in a ``sh -c`` script).
 
 A pipeline type is one class registered with :func:`pipeline_type`, which names the plan keys
 it accepts (besides ``name`` and ``type``); its constructor takes those keys as keyword
@@ -37,6 +38,7 @@ import inspect
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -291,6 +293,7 @@ class RawpyPipeline(Pipeline):
         from ...colour_ground_truth import xyz_to_linear_srgb
 
         with rawpy.imread(str(dng_path)) as handle:
+            _check_libraw_tile(raw.cfa, handle)
             image = handle.postprocess(**self._postprocess_options()).astype(np.float64) / 65535.0
         return xyz_to_linear_srgb(image) if self.output_color == "XYZ" else image
 
@@ -299,6 +302,46 @@ class RawpyPipeline(Pipeline):
 
         return (f"LibRaw {'.'.join(map(str, rawpy.libraw_version))} via rawpy "
                 f"({self.demosaic}, wb {self.white_balance}, {self.output_color} output)")
+
+
+def _libraw_tile(handle) -> list[str]:
+    """The colour-filter tile LibRaw reads from an opened file, one string of colour letters per
+    row (``raw_pattern`` through ``color_desc``; LibRaw calls an RGBW DNG's four colours GMCY)."""
+    pattern = handle.raw_pattern
+    if pattern is None:
+        return []
+    letters = bytes(handle.color_desc).decode("ascii", errors="replace")
+    return ["".join(letters[int(i)] if int(i) < len(letters) else "?" for i in row) for row in np.asarray(pattern)]
+
+
+def _check_libraw_tile(cfa: str, handle) -> None:
+    """Refuse a RAW whose colour-filter tile LibRaw does not read as written: LibRaw maps a DNG's
+    CFAPattern onto its 2×2 or X-Trans tables, so a Quad Bayer tile (4×4) comes back as a 2×2
+    ``RR/GG`` and an RGBW tile as four other colours (GMCY); developing that scores the misread
+    mosaic (mean ΔE2000 26–28), not the pipeline.
+
+    Raises
+    ------
+    ConfigError
+        Naming the tile the DNG holds and the one LibRaw reads.
+
+    References
+    ----------
+    .. [1] LibRaw API, ``imgdata.idata.filters`` / ``xtrans`` (the CFA layouts it represents);
+       Adobe DNG Specification 1.7.1.0, CFARepeatPatternDim, CFAPattern.
+    """
+    from ...cfa import MONOCHROME, cfa_pattern
+
+    if str(cfa).lower() in (MONOCHROME, "linear"):
+        return
+    written = ["".join("RGBW"[int(i)] for i in row) for row in cfa_pattern(cfa)]
+    read = _libraw_tile(handle)
+    # LibRaw names Bayer's second green "G" too (color_desc "RGBG"); compare the letters
+    if read != written:
+        raise ConfigError(f"LibRaw cannot read this RAW's {cfa} colour filter tile ({len(written)}×{len(written[0])}: "
+                          f"{' / '.join(written)}); it reads {' / '.join(read) or 'no tile'} — its image would "
+                          "measure the misread mosaic, not a pipeline, so the cell is not scored. Develop this "
+                          "sensor with type = 'ours' (or a program that reads the DNG's CFAPattern)")
 
 
 def _output_space(name: str, key: str, value: Any) -> str:
@@ -364,7 +407,32 @@ def _check_output(image, name: str) -> np.ndarray:
 @pipeline_type("callable", options=("function", "output", "python_path"),
                description="a Python function(raw_path) -> (H, W, 3) array")
 class CallablePipeline(Pipeline):
-    """A user's Python function ``function(raw_path) -> (H, W, 3) array``."""
+    """A user's Python function ``function(raw_path) -> (H, W, 3) array``.
+
+    The function is called as ``function(raw_path)``, or with the cell's :class:`CellContext`
+    as ``function(raw_path, context)`` where it has a second positional parameter, or
+    ``function(raw_path, context=context)`` where it has a ``context`` parameter (or
+    ``**kwargs``).
+
+    Notes
+    -----
+    The user's function takes ``raw_path`` (str, the cell's DNG, an absolute path) and,
+    optionally, ``context`` (:class:`CellContext`: what the cell is; a command gets the same as
+    JSON in ``$SPECTRAL_CAM_CONTEXT``), whose attributes are
+
+    - ``set_name``, ``illuminant``, ``camera``, ``exposure`` (str): the cell's coordinates as
+      the plan names them;
+    - ``frame_size`` ((int, int)): (width, height) of the developed frame, pixels;
+    - ``patches`` (list of dict): every patch's ``name``, centre ``column``/``row`` and
+      ``half_width_px``/``half_height_px`` (pixels, 0 at the frame's top-left corner) and
+      ``role`` (``"patch"`` or ``"white reference"``);
+    - ``white_index`` (int): the white reference's place in ``patches`` (the metric matches
+      exposure and scores white balance on it: balancing on it scores that patch's own tint);
+    - ``exposure_s`` (float, seconds) and ``iso`` (float): what the sensor did.
+
+    It returns an (H, W, 3) array of the whole frame in the space ``output`` names
+    (:data:`OUTPUT_SPACES`); integer arrays are scaled by their type's maximum.
+    """
 
     required = {"function": "function = 'module:function'"}
 
@@ -478,14 +546,44 @@ def _read_image_file(path: Path) -> np.ndarray:
     return _unit_range(np.asarray(data))
 
 
-def _substitute(argument: str, paths: Mapping[str, str]) -> str:
-    """An argument with its placeholders replaced: a whole-argument placeholder by the path,
-    a placeholder inside a longer argument by the path quoted for a POSIX shell."""
-    if argument in paths:
-        return paths[argument]
-    for placeholder, path in paths.items():
-        argument = argument.replace(placeholder, shlex.quote(path))
-    return argument
+#: Programs that parse their ``-c`` argument as shell code: a placeholder there is shell-quoted.
+POSIX_SHELLS = ("sh", "bash", "dash", "zsh", "ksh", "mksh", "ash", "busybox")
+
+
+def _shell_script_index(argv: Sequence[str]) -> int | None:
+    """Where ``argv`` holds shell code: the argument after a POSIX shell's ``-c`` (``sh -c
+    "prog {input}"``, ``bash -ec '...'``), or None when no shell parses any argument."""
+    if not argv or Path(argv[0]).name not in POSIX_SHELLS:
+        return None
+    for i, argument in enumerate(argv[1:], start=1):
+        if argument.startswith("-") and not argument.startswith("--") and "c" in argument[1:]:
+            return i + 1 if i + 1 < len(argv) else None
+    return None
+
+
+def substitute_placeholders(argv: Sequence[str], paths: Mapping[str, str]) -> list[str]:
+    """A command's arguments with their placeholders replaced by the paths.
+
+    The program gets each argument as it is (no shell parses it), so a path goes in as it is,
+    whole or inside a longer argument (``--configdir={work_dir}/config``): quotes there would
+    reach the program as part of the path. Only the script a POSIX shell runs (``sh -c "prog
+    {input}"``) gets the paths quoted (``shlex.quote``), so no folder name can inject a command.
+
+    Examples
+    --------
+    >>> paths = {"{work_dir}": "/tmp/out dir/w"}
+    >>> substitute_placeholders(["prog", "--configdir={work_dir}/config"], paths)
+    ['prog', '--configdir=/tmp/out dir/w/config']
+    >>> substitute_placeholders(["sh", "-c", "prog {work_dir}"], paths)
+    ['sh', '-c', "prog '/tmp/out dir/w'"]
+    """
+    script = _shell_script_index(argv)
+    out = []
+    for i, argument in enumerate(argv):
+        for placeholder, path in paths.items():
+            argument = argument.replace(placeholder, shlex.quote(path) if i == script else path)
+        out.append(argument)
+    return out
 
 
 def raw_template(raw) -> np.ndarray:
@@ -526,8 +624,41 @@ def find_crop(image: np.ndarray, template: np.ndarray, *, search_px: int = 16) -
             score = float(np.corrcoef(a, b)[0, 1]) * a.size / luminance.size
             if score > best + 1e-9:
                 best, where = score, (top, left)
+    if best == -np.inf:
+        raise ConfigError(f"cannot register the tool's {luminance.shape[1]} × {luminance.shape[0]} px image on the "
+                          f"{width} × {height} frame: no offset within ±{search_px} px lays half of it on the frame "
+                          "with any contrast; declare crop = [top, bottom, left, right] (pixels the tool removed)")
     top, left = where
     return top, height - top - luminance.shape[0], left, width - left - luminance.shape[1]
+
+
+#: A tool's image whose luminance correlates with the RAW's own less than this is misregistered:
+#: the example plan's tools, registered, measure r = 0.92–0.94; the same images flipped 0.33–0.54.
+MIN_REGISTRATION_CORRELATION = 0.75
+
+
+def check_registration(image: np.ndarray, template: np.ndarray, *, name: str) -> None:
+    """Refuse a tool's image (on the frame's grid) that does not show the chart where the RAW
+    has it: Pearson's r between its luminance and :func:`raw_template` over the pixels it
+    covers below :data:`MIN_REGISTRATION_CORRELATION` (shifted, flipped, rotated, or another
+    crop than declared). The message says what was measured.
+
+    Raises
+    ------
+    ConfigError
+        With the correlation and the share of the frame the image covers.
+    """
+    luminance = np.asarray(image, dtype=np.float64)[..., :3].mean(axis=-1)
+    covered = np.isfinite(luminance)
+    if covered.sum() < 2 or np.ptp(template[covered]) == 0 or np.ptp(luminance[covered]) == 0:
+        r = float("nan")
+    else:
+        r = float(np.corrcoef(luminance[covered], template[covered])[0, 1])
+    if not r >= MIN_REGISTRATION_CORRELATION:
+        raise ConfigError(f"pipeline {name!r}: its image is misregistered on the frame: its luminance correlates with "
+                          f"the RAW's at r = {r:.2f} (registered images measure 0.92–0.94) over the "
+                          f"{100 * covered.mean():.0f} % of the frame it covers — shifted, flipped, rotated or cropped "
+                          "other than declared; check crop = [top, bottom, left, right] (pixels the tool removed)")
 
 
 def register(image: np.ndarray, frame: tuple[int, int], crop, template: np.ndarray | None = None) -> np.ndarray:
@@ -576,10 +707,21 @@ def _check_crop(name: str, crop: Any):
                       "tool removed (negative: added)")
 
 
+def _kill_group(process: subprocess.Popen) -> None:
+    """Kill a program's whole process group (it leads its own session) and reap it."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(process.pid, signal.SIGKILL)
+    process.communicate()
+
+
 def _text(data: bytes | None) -> str:
     """A program's output as text whatever it wrote (binary on stdout decodes with replacements)."""
     return (data or b"").decode("utf-8", errors="replace")
 
+
+#: The largest ``input_min_bytes``: the padded copy is written for every cell (size floors of raw
+#: developers are ~100 kB; a larger value is a typo, and 2**62 asked the memory for it).
+MAX_INPUT_MIN_BYTES = 2 ** 30
 
 #: Placeholders of a command: the DNG, the output file, the plan's folder, a scratch folder.
 PLACEHOLDERS = ("{input}", "{output}", "{plan_dir}", "{work_dir}")
@@ -597,11 +739,13 @@ class CommandPipeline(Pipeline):
     paths in the command mean what they mean beside the plan.
 
     Without ``shell`` the command line is split like a POSIX shell would (``shlex``) and run
-    without one: a placeholder that is a whole argument becomes the path as it is, one inside a
-    longer argument (``sh -c "prog {input}"``) the path quoted for a POSIX shell
-    (``shlex.quote``). With ``shell = true`` the line runs through ``/bin/sh -c`` with every
-    placeholder quoted, so redirections work (``dcraw -c {input} > {output}``). Either way no
-    folder name can inject a command; the paths are also in ``$SPECTRAL_CAM_INPUT``,
+    without one: a placeholder becomes the path as it is, a whole argument or part of one
+    (``--configdir={work_dir}/config``), except in the script of a POSIX shell's ``-c`` (``sh -c
+    "prog {input}"``), where the path is quoted for that shell (``shlex.quote``;
+    :func:`substitute_placeholders`). With ``shell = true`` the line runs through ``/bin/sh -c``
+    with every placeholder quoted, so redirections work (``dcraw -c {input} > {output}``). Either
+    way no folder name can inject a command. The program leads a session of its own: at
+    ``timeout_s`` its whole process group is killed (a shell's children too). The paths are also in ``$SPECTRAL_CAM_INPUT``,
     ``$SPECTRAL_CAM_OUTPUT``, and the cell's :class:`CellContext` as JSON in the file
     ``$SPECTRAL_CAM_CONTEXT``. What the program prints is read as bytes (a tool may write its
     image to stdout) and shown, decoded with replacements, when it fails. A plan, like a Python
@@ -639,8 +783,10 @@ class CommandPipeline(Pipeline):
         for key, value in (("shell", shell), ("optional", optional)):
             if not isinstance(value, bool):
                 raise ConfigError(f"pipeline {name!r}: {key} = {value!r}; give true or false")
-        if isinstance(input_min_bytes, bool) or not isinstance(input_min_bytes, int) or input_min_bytes < 0:
-            raise ConfigError(f"pipeline {name!r}: input_min_bytes = {input_min_bytes!r}; give a whole number >= 0")
+        if isinstance(input_min_bytes, bool) or not isinstance(input_min_bytes, int) \
+                or not 0 <= input_min_bytes <= MAX_INPUT_MIN_BYTES:
+            raise ConfigError(f"pipeline {name!r}: input_min_bytes = {input_min_bytes!r}; give a whole number of bytes "
+                              f"in 0..{MAX_INPUT_MIN_BYTES} (1 GiB; RawTherapee's floor is 100000)")
         self.command, self.output, self.output_suffix, self.timeout_s = command, output, suffix, float(timeout_s)
         self.shell, self.crop, self.input_min_bytes = shell, _check_crop(name, crop), int(input_min_bytes)
         self.version_command, self.optional, self.base_dir = str(version_command), optional, Path(base_dir).resolve()
@@ -680,9 +826,29 @@ class CommandPipeline(Pipeline):
             return dng_path
         padded = folder / dng_path.name
         shutil.copyfile(dng_path, padded)
-        with padded.open("ab") as handle:
-            handle.write(b"\0" * (self.input_min_bytes - size))
+        with padded.open("r+b") as handle:
+            handle.truncate(self.input_min_bytes)  # zeros, without holding them in memory
         return padded
+
+    def _run(self, argv: list[str], env: dict) -> subprocess.CompletedProcess:
+        """Run the program in the plan's folder, in a session of its own: at ``timeout_s`` the
+        whole process group is killed (a shell's children too, which a plain kill of the shell
+        leaves running)."""
+        try:
+            process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
+                                       cwd=self.base_dir, start_new_session=True)
+        except FileNotFoundError:
+            raise ConfigError(f"pipeline {self.name!r}: program {argv[0]!r} not found") from None
+        try:
+            stdout, stderr = process.communicate(timeout=self.timeout_s)
+        except subprocess.TimeoutExpired:
+            _kill_group(process)
+            raise ConfigError(f"pipeline {self.name!r}: no result within {self.timeout_s:g} s (stopped it and "
+                              "every process it started)") from None
+        except BaseException:  # Ctrl-C: nothing it started outlives the run
+            _kill_group(process)
+            raise
+        return subprocess.CompletedProcess(argv, process.returncode, stdout, stderr)
 
     def develop(self, raw, dng_path: Path, workdir: Path, context: "CellContext | None" = None) -> np.ndarray:
         import json
@@ -698,19 +864,8 @@ class CommandPipeline(Pipeline):
             if context is not None:
                 (folder / "context.json").write_text(json.dumps(context.to_dict()))
                 env["SPECTRAL_CAM_CONTEXT"] = str(folder / "context.json")
-            if self.shell:
-                line = self.command
-                for placeholder, path in paths.items():
-                    line = line.replace(placeholder, shlex.quote(path))
-                argv = ["/bin/sh", "-c", line]
-            else:
-                argv = [_substitute(arg, paths) for arg in self.argv]
-            try:
-                done = subprocess.run(argv, capture_output=True, timeout=self.timeout_s, env=env, cwd=self.base_dir)
-            except FileNotFoundError:
-                raise ConfigError(f"pipeline {self.name!r}: program {argv[0]!r} not found") from None
-            except subprocess.TimeoutExpired:
-                raise ConfigError(f"pipeline {self.name!r}: no result within {self.timeout_s:g} s") from None
+            argv = substitute_placeholders(["/bin/sh", "-c", self.command] if self.shell else self.argv, paths)
+            done = self._run(argv, env)
             if done.returncode != 0:
                 tail = (_text(done.stderr) or _text(done.stdout)).strip()[-500:]
                 raise ConfigError(f"pipeline {self.name!r}: exit status {done.returncode}: {tail}")
@@ -728,9 +883,12 @@ class CommandPipeline(Pipeline):
                                       "declare the output's encoding (srgb, bt709, linear_srgb, gamma:<γ>)")
                 image = icc_to_linear_srgb(image, profile)
         frame = raw.mosaic.shape[:2] if raw.crop is None else tuple(raw.crop[2:])
+        template = raw_template(raw)
         if image.shape[:2] != tuple(frame):
-            image = register(image, tuple(frame), self.crop, raw_template(raw) if self.crop == "auto" else None)
-        return image if self.output == "icc" else _to_linear_srgb(image, self.output)
+            image = register(image, tuple(frame), self.crop, template if self.crop == "auto" else None)
+        image = image if self.output == "icc" else _to_linear_srgb(image, self.output)
+        check_registration(image, template, name=self.name)
+        return image
 
     def describe(self) -> str:
         version = f" ({self.version})" if self.version else ""

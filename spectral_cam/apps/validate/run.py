@@ -147,7 +147,8 @@ def evaluate_patches(linear: np.ndarray, chart: Chart, reference: np.ndarray) ->
     Raises
     ------
     ConfigError
-        If the image is the wrong size or black at the white reference.
+        If the image is the wrong size, or gives no positive luminance at the white reference
+        (saying what it measured there: no pixels or Y ≤ 0 in a lit frame, misregistered).
 
     References
     ----------
@@ -167,7 +168,7 @@ def evaluate_patches(linear: np.ndarray, chart: Chart, reference: np.ndarray) ->
     w = chart.white_index
     y_test = float(means[w] @ weights)
     if not y_test > 0:
-        raise ConfigError("the pipeline's image is black (or negative) at the white reference")
+        raise ConfigError(_unscorable_white(linear, chart, y_test, weights))
     scale = float(reference[w] @ weights) / y_test
     test = means * scale
     delta = delta_e2000(test, reference)
@@ -198,6 +199,25 @@ def evaluate_patches(linear: np.ndarray, chart: Chart, reference: np.ndarray) ->
         "patches_clipped": float(np.sum(clipped[:n])),
         "tone_slope": tone_slope(test[:n], reference[:n]),
     }
+
+
+def _unscorable_white(linear: np.ndarray, chart: Chart, y_test: float, weights: np.ndarray) -> str:
+    """Why the white reference gives no exposure scale, with what was measured there: no pixels
+    (the image does not cover it: misregistered or cropped), or Y ≤ 0 while the rest of the frame
+    is lit (the chart lies elsewhere in the image: misregistered, flipped or rotated), or a black
+    frame."""
+    patch = chart.patches[chart.white_index]
+    where = f"the white reference ({patch.name}, centre column {patch.column}, row {patch.row})"
+    interior = linear[patch.interior(PATCH_MARGIN)].reshape(-1, 3)
+    covered = np.isfinite(interior).all(axis=1).mean() if interior.size else 0.0
+    if covered < 1.0:
+        return (f"the pipeline's image does not cover {where}: {100 * (1 - covered):.0f} % of its interior lies outside "
+                "the image — misregistered (declare crop = [top, bottom, left, right], the pixels the tool removed)")
+    lit = np.nanmean(linear.reshape(-1, 3) @ weights)
+    if lit > 0:
+        return (f"the pipeline's image measures Y = {y_test:.3g} at {where} while the frame's mean is {lit:.3g}: the "
+                "chart is not where the frame has it — misregistered (shifted, flipped or rotated; check crop)")
+    return f"the pipeline's image is black or negative everywhere (mean Y {lit:.3g}; {y_test:.3g} at {where})"
 
 
 def lab_difference_split(test: np.ndarray, reference: np.ndarray) -> np.ndarray:

@@ -4,13 +4,16 @@ type accepts the plan keys its registry entry declares."""
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from spectral_cam.apps.validate import PIPELINES, plan_from_dict, run_plan
+from spectral_cam.apps.validate import PIPELINES, load_plan, plan_from_dict, run_plan
 from spectral_cam.cli import main
 from spectral_cam.errors import ConfigError
 
@@ -256,3 +259,156 @@ command = "'{sys.executable}' -c 'import sys; sys.exit(\\"cannot read \\" + sys.
     assert [row["status"] for row in failing] == ["error"] * 4
     assert all("cannot read /" in row["failures"] for row in failing[:3])  # absolute paths
     assert failing[3]["failures"].startswith("not run: it failed the same way on its last 3 cells")
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("cfa", ["QUAD_RGGB", "RGBW"])
+def test_libraw_cells_of_a_tile_libraw_cannot_read_are_refused_with_the_reason(tmp_path, cfa):
+    """Issue 39 #30: LibRaw maps a DNG's CFAPattern onto 2×2 (or X-Trans) tables; it reads a Quad
+    Bayer DNG's 4×4 tile as a 2×2 and an RGBW DNG's as four other colours. Such a cell is refused
+    with the reason (it scored ΔE 26–28 as if the pipeline were wrong); ours develops the same RAW."""
+    import rawpy
+    import tifffile
+
+    plan = plan_from_dict({"validate": {"illuminants": ["D65"], "cameras": ["nikon_d850"], "patch_px": 12,
+                                        "reflectance_sets": ["colorchecker"], "swatches": "none"},
+                           "sensor": {"cfa": cfa}, "render": {"bands": "auto"},
+                           "pipeline": [{"name": "libraw", "type": "rawpy"},
+                                        {"name": "ours", "type": "ours", "isp": {"tone": "linear"}}]})
+    result = run_plan(plan, tmp_path / "report")
+    dng = next((tmp_path / "report" / "raw").glob("*.dng"))
+    with tifffile.TiffFile(dng) as tif:  # the tile the DNG holds, read without LibRaw
+        page = next(p for p in tif.pages if 33421 in p.tags)
+        written = tuple(page.tags[33421].value)
+    with rawpy.imread(str(dng)) as raw:
+        read, colours = np.asarray(raw.raw_pattern), bytes(raw.color_desc)
+    assert written == (4, 4) and (read.shape != written or b"W" not in colours)  # LibRaw misreads it
+    libraw, ours = result.cell(pipeline="libraw"), result.cell(pipeline="ours")
+    assert libraw.status == "error" and libraw.stats == {}
+    assert "LibRaw cannot read this RAW's" in libraw.failures[0] and cfa in libraw.failures[0]
+    assert ours.status == "pass"
+
+
+TOOL = '''
+import os
+import sys
+
+import numpy as np
+import rawpy
+
+mode, source, out = sys.argv[1], sys.argv[-2], sys.argv[-1]
+for argument in sys.argv[2:-2]:  # settings folders: made where their path says, quotes and all
+    folder = argument.split("=", 1)[-1]
+    if not os.path.isdir(os.path.dirname(folder)):
+        sys.exit(f"no folder {os.path.dirname(folder)!r}")
+    os.makedirs(folder)
+with rawpy.imread(source) as raw:
+    xyz = raw.postprocess(use_camera_wb=True, no_auto_bright=True, adjust_maximum_thr=0.0, gamma=(1, 1),
+                          output_bps=16, output_color=rawpy.ColorSpace.XYZ, user_flip=0) / 65535
+if mode == "flipped":
+    xyz = xyz[::-1, ::-1]
+if mode == "trimmed":  # 40 px off the bottom and the right, more than registration searches
+    xyz = xyz[:-40, :-40]
+np.save(out, xyz)
+'''
+
+
+def _tool_plan(folder: Path, pipelines: str, *, patch_px: int = 8) -> Path:
+    (folder / "tool.py").write_text(TOOL)
+    plan = folder / "plan.toml"
+    plan.write_text(one_chart_plan(patch_px) + 'swatches = "none"\n' + pipelines)
+    return plan
+
+
+@pytest.mark.timeout(120)
+def test_placeholders_inside_arguments_reach_the_program_without_shell_quotes(tmp_path):
+    """Issue 39 #30: `--configdir={work_dir}/config` (and the darktable recipe's `{work_dir}/config`)
+    with a report folder whose name holds a space: the program gets the path itself (exec passes
+    arguments as they are; quotes were part of the path and made a stray `'…/config` tree in the
+    plan's folder); a `sh -c` script still gets it quoted (a shell parses it)."""
+    plans = tmp_path / "plans"
+    plans.mkdir()
+    plan = _tool_plan(plans, f'''
+[[pipeline]]
+name = "settings-folders"
+type = "command"
+command = "'{sys.executable}' tool.py plain --configdir={{work_dir}}/config {{work_dir}}/cache {{input}} {{output}}"
+output_suffix = ".npy"
+output = "xyz"
+
+[[pipeline]]
+name = "through-sh"
+type = "command"
+command = "sh -c \\"'{sys.executable}' tool.py plain {{work_dir}}/sh-config {{input}} {{output}}\\""
+output_suffix = ".npy"
+output = "xyz"
+''')
+    out = tmp_path / "out dir" / "report"
+    assert main(["validate", str(plan), "-o", str(out), "-q"]) == 0
+    assert sorted(p.name for p in plans.iterdir()) == ["plan.toml", "tool.py"]  # nothing stray
+
+
+@pytest.mark.timeout(120)
+def test_a_timed_out_shell_command_leaves_no_process_running(tmp_path):
+    """Issue 39 #30: at timeout_s the command's whole process group is killed, a shell's children
+    too (killing the shell alone left `sleep` running)."""
+    plan = _tool_plan(tmp_path, '''
+[[pipeline]]
+name = "hangs"
+type = "command"
+command = ": {input} {output}; sleep 60 & echo $! > child.pid; wait"
+shell = true
+timeout_s = 2
+''')
+    result = run_plan(load_plan(plan))
+    (cell,) = result.cells
+    assert cell.status == "error" and "no result within 2 s" in cell.failures[0]
+    child = int((tmp_path / "child.pid").read_text())
+    deadline = time.monotonic() + 5
+    while _running(child) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    try:
+        assert not _running(child), "the shell's child outlived the timeout"
+    finally:
+        if _running(child):
+            os.kill(child, signal.SIGKILL)
+
+
+def _running(pid: int) -> bool:
+    """Whether a process exists and is not a zombie (/proc/PID/stat's state)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state not in ("Z", "X")
+
+
+@pytest.mark.timeout(60)
+def test_an_impossible_input_min_bytes_is_refused_with_the_valid_range(tmp_path):
+    """Issue 39 #30: input_min_bytes = 2**62 said "MemoryError: " at the first cell."""
+    with pytest.raises(ConfigError, match=r"input_min_bytes = 4611686018427387904; give a whole number of bytes "
+                                          r"in 0\.\.1073741824"):
+        plan_from_dict({"validate": {}, "pipeline": [{"type": "command", "command": "x {input} {output}",
+                                                      "input_min_bytes": 2 ** 62}]}, base_dir=tmp_path)
+
+
+@pytest.mark.timeout(120)
+def test_a_misregistered_tool_image_is_called_misregistered_with_what_was_measured(tmp_path):
+    """Issue 39 #30: a tool's image flipped, or trimmed by more than registration searches, was
+    reported as "black at the white reference". The flipped image's luminance correlates with the
+    RAW's at r < 0.75 (numpy's corrcoef on the same pixels; a registered one > 0.9)."""
+    plan = _tool_plan(tmp_path, "".join(f'''
+[[pipeline]]
+name = "{mode}"
+type = "command"
+command = "'{sys.executable}' tool.py {mode} {{input}} {{output}}"
+output_suffix = ".npy"
+output = "xyz"
+''' for mode in ("plain", "flipped", "trimmed")), patch_px=12)
+    result = run_plan(load_plan(plan))
+    assert result.cell(pipeline="plain").status == "pass"
+    flipped, trimmed = result.cell(pipeline="flipped"), result.cell(pipeline="trimmed")
+    assert flipped.status == trimmed.status == "error"
+    assert "misregistered" in flipped.failures[0] and "r = " in flipped.failures[0]
+    assert "cannot register" in trimmed.failures[0] and "crop" in trimmed.failures[0]
+    assert not any("black" in cell.failures[0] for cell in (flipped, trimmed))
