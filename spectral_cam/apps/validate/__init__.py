@@ -39,7 +39,7 @@ References
 from __future__ import annotations
 
 from ...radiance_targets import REFLECTANCE_SETS, reflectance_set
-from .pipelines import PIPELINES, Pipeline, pipeline_type
+from .pipelines import PIPELINES, CellContext, Pipeline, pipeline_type
 from .plan import ExposureSpec, Plan, Thresholds, load_plan, plan_from_dict
 from .run import (CellResult, ValidationResult, angular_error_deg, calibration_sample, evaluate_patches,
                   gamut_clipped, lab_difference_split, rendered_chart, run_plan, tone_slope)
@@ -49,7 +49,7 @@ from .selfcheck import SELF_CHECKS, CheckResult, format_checks, self_checks, wri
 __all__ = [
     "load_plan", "plan_from_dict", "run_plan", "self_checks", "format_checks", "write_checks_csv",
     "Plan", "Thresholds", "ExposureSpec", "CellResult", "ValidationResult", "CheckResult",
-    "PIPELINES", "Pipeline", "pipeline_type", "SELF_CHECKS",
+    "PIPELINES", "Pipeline", "CellContext", "pipeline_type", "SELF_CHECKS",
     "evaluate_patches", "angular_error_deg", "rendered_chart", "reflectance_set", "REFLECTANCE_SETS",
     "calibration_sample", "compare_pipelines", "pivot", "lab_difference_split", "gamut_clipped", "tone_slope",
 ]

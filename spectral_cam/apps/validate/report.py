@@ -3,7 +3,8 @@
 :func:`write_report` writes, into a report folder,
 
 - ``report.html``: one page, no scripts, images inline as PNG data: URLs
-  (:func:`spectral_cam.viz.png_data_uri`): the pass/fail summary, ΔE2000 heatmaps
+  (:func:`spectral_cam.viz.png_data_uri`): the verdict, then the answer — the pivot (mean
+  ΔE2000, pipeline × illuminant) and the comparisons —, the method, the per-cell table, ΔE2000 heatmaps
   (illuminant × camera, one panel per pipeline, for every reflectance set and exposure), and
   per cell the patch swatches — ground truth and pipeline side by side — with each patch's
   ΔE2000;
@@ -503,6 +504,8 @@ def render_html(result, *, generated: str | None = None) -> str:
         '<p class="small">Versions: ' + ", ".join(f"{esc(k)} {esc(str(v))}" for k, v in result.versions.items())
         + ". Numbers: <a href=\"cells.csv\">cells.csv</a>, <a href=\"patches.csv\">patches.csv</a>; "
         "RAW files in <code>raw/</code>; the resolved plan in <a href=\"plan.json\">plan.json</a>.</p>",
+        # the answer first: the pivot and the comparisons; the method and the long per-cell table below
+        *_pivot_html(result), *_comparisons_html(result),
         "<h2>Method</h2><ul>",
         "<li><b>Ground truth</b>: CIE 1931 2° XYZ of each reflectance under the scene illuminant "
         "(colour-science integration, 1-nm CMFs, perfect diffuser Y = 1) → <b>Bradford</b> chromatic adaptation "
@@ -534,7 +537,7 @@ def render_html(result, *, generated: str | None = None) -> str:
         *(f"<li><b>{esc(p.name)}</b>: {esc(p.describe())}</li>" for p in plan.pipelines),
         *(f"<li>not run: {esc(note)}</li>" for note in plan.skipped_pipelines),
         "</ul>",
-        "<h2>Summary</h2>",
+        "<h2>Summary: every cell</h2>",
         "<table><tr><th>set</th><th>illuminant</th><th>camera</th><th>exposure</th><th>pipeline</th>"
         "<th>status</th><th>sample</th><th>ΔE mean</th><th>ΔE p95</th><th>ΔE max</th><th>WB error (°)</th>"
         "<th>SNR median</th><th>exposure (s)</th><th>ISO</th><th>time (s)</th><th>why</th></tr>",
@@ -561,7 +564,7 @@ def render_html(result, *, generated: str | None = None) -> str:
             where = f"{c.set_name} · {_short(c.illuminant)} · {c.camera} · {c.exposure} · {c.pipeline}"
             parts.append(f"<details><summary>{esc(where)}: {esc(c.failures[0])}</summary>"
                          f"<pre>{esc(c.traceback)}</pre></details>")
-    parts += _pivot_html(result) + _comparisons_html(result) + _metamerism_html(result) + _change_of_light_html(result)
+    parts += _metamerism_html(result) + _change_of_light_html(result)
     parts += _cct_html(result)
     cdf = _cdf_uri(result)
     if cdf:

@@ -111,3 +111,27 @@ def test_a_failing_callable_shows_where_it_failed(tmp_path):
     assert "in _inner" in cell.traceback and 'return value["missing"]' in cell.traceback
     page = render_html(result)
     assert "<h2>Errors</h2>" in page and "in _inner" in page
+
+
+def test_the_context_a_callable_gets_is_documented_field_by_field(tmp_path):
+    """Issue 39 #21: every field of the context a callable (or a command, as JSON) gets, and every
+    key of its patches, is named where users read: the README's validation section, docs/design.md
+    and the callable pipeline's docstring (it was only in a TOML comment)."""
+    import dataclasses
+    import sys
+    from pathlib import Path
+
+    from spectral_cam.apps.validate.pipelines import CallablePipeline, CellContext
+
+    run_plan(_plan(tmp_path, [("white_patch_balance", "linear_srgb")]))
+    context = sys.modules["test_isp_module"].seen[-1]
+    fields = [f.name for f in dataclasses.fields(CellContext)]
+    patch_keys = list(context.patches[0])
+    root = Path(__file__).resolve().parents[3]
+    readme = (root / "README.md").read_text(encoding="utf-8")
+    readme = readme[readme.index("## Validating a colour pipeline"):]
+    readme = readme[:readme.index("\n## ", 10)]
+    design = (root / "docs" / "design.md").read_text(encoding="utf-8")
+    for where, text in (("README.md", readme), ("docs/design.md", design), ("docstring", CallablePipeline.__doc__)):
+        missing = [name for name in fields + patch_keys if f"`{name}`" not in text]
+        assert not missing, (where, missing)

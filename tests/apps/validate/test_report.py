@@ -123,3 +123,12 @@ def test_the_report_and_cells_csv_name_the_colorchecker_data_the_truth_is_comput
 
     assert worst_delta_e(measured, truth("BabelColor Average")) < 0.03  # measured 0.013
     assert worst_delta_e(measured, truth("ISO 17321-1")) > 1.5  # measured 1.96
+
+
+@pytest.mark.timeout(120)
+def test_the_report_puts_the_pivot_first_and_the_long_per_cell_table_below(one_seed_report):
+    """Issue 39 #21: the answer (pivot, comparisons) comes before the method and the per-cell table."""
+    _, out = one_seed_report
+    page = (out / "report.html").read_text(encoding="utf-8")
+    order = [page.index(heading) for heading in ("<h2>Pivot", "<h2>Comparisons", "<h2>Method", "<h2>Summary")]
+    assert order == sorted(order)
