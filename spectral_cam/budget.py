@@ -67,11 +67,13 @@ MEASURED_MODEL = {"start_s": 0.57, "pipeline_s_per_mp": 0.96, "amon_s_per_mp": 8
 
 
 def measured_budget(cost: dict, pixels: float, spp: int, channels: int, depth_s: float,
-                    robust_passes: int = 1, calls: int = 1) -> dict:
+                    robust_passes: int = 1, calls: int = 1, sensor_bytes: float = 0.0) -> dict:
     """``time_s`` and ``memory_bytes`` of a job from its scene's measured cost
     (:func:`spectral_cam.render.plan.measure_cost`): start, depth probe, scene load, kernel
     compile, ``calls`` render calls (tiles × passes), the samples at the measured rate and the
-    pipeline per pixel; the probe's resident memory plus the frame's arrays."""
+    pipeline per pixel; the probe's resident memory plus the frame's arrays, plus ``sensor_bytes``
+    per pixel for a single-photon sensor's count frames or an event sensor's events
+    (:func:`spectral_cam.render.memory.sensor_bytes_per_pixel`)."""
     model = MEASURED_MODEL
     amon = robust_passes > 1
     per_mp = model["pipeline_s_per_mp"] + (model["amon_s_per_mp"] if amon else 0.0)
@@ -79,5 +81,5 @@ def measured_budget(cost: dict, pixels: float, spp: int, channels: int, depth_s:
               + cost["s_per_msample"] * pixels * spp / 1e6 + per_mp * pixels / 1e6)
     cubes = robust_passes + model["amon_extra_cubes"] if amon else 1
     memory = cost["resident_bytes"] + pixels * (model["bytes_per_pixel_channel"] * channels * cubes
-                                                + model["bytes_per_pixel"])
+                                                + model["bytes_per_pixel"] + sensor_bytes)
     return {"time_s": time_s, "memory_bytes": memory}

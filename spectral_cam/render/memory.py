@@ -18,7 +18,8 @@ from pathlib import Path
 
 from ..errors import ConfigError
 
-__all__ = ["estimate_render_bytes", "available_bytes", "check_render_memory"]
+__all__ = ["estimate_render_bytes", "available_bytes", "check_render_memory", "sensor_bytes_per_pixel",
+           "expected_events_per_pixel", "sensor_remedy"]
 
 #: The process before the frame: Python, NumPy, Mitsuba's JIT and scene, colour-science
 #: (measured 0.45–0.55 GB after a small render).
@@ -40,12 +41,112 @@ LAYERED_EXTRA_CUBES = 6
 LAYERED_DEPTH_BYTES_PER_PIXEL = 64.0
 
 
+#: Bytes a single-photon capture holds per jot besides its frames: rates, per-frame means and draws,
+#: the reconstruction and its RAW (measured 280–1180 B at 128 × 128, the larger with SciPy's first
+#: import); a SPAD with a dead time adds its survival table, 8 B per count level and its comparison.
+PHOTON_COUNTING_BYTES_PER_PIXEL = 320.0
+SPAD_BYTES_PER_PIXEL_PER_LEVEL = 16.0
+#: NumPy writes an array into an NPZ in buffered chunks of at most this (``numpy.lib.format.write_array``).
+NPZ_CHUNK_BYTES = 16.0 * 2 ** 20
+#: Bytes an event holds while the event model runs and returns (measured 61.1 for 2·10⁷ shot-noise and
+#: 61.4 for 2.5·10⁶ leak events: the per-pass index, time and polarity arrays, their concatenation, the
+#: time sort and the uint16 copies).
+BYTES_PER_EVENT = 64.0
+#: Bytes per pixel of the event model's working arrays (levels, thresholds, times: ~20 float64 planes),
+#: besides the frames' log intensities (8 B a pixel a frame).
+EVENT_WORK_BYTES_PER_PIXEL = 160.0
+#: The deepest swing of log light a full-depth flicker is taken to make before the config knows the rates:
+#: its trough meets the dark floor, here 10⁻³ of the mean light.
+FLICKER_FLOOR = 1e-3
+
+
+def _flicker_swing(light) -> float:
+    """ln(max w / min w) of the light's waveform (the floor :data:`FLICKER_FLOOR` for a full depth)."""
+    depth = float(light.flicker_depth)
+    low = max(1.0 - depth, FLICKER_FLOOR)
+    high = 1.0 + depth if light.flicker_waveform == "sine" else (1.0 - depth) + depth / float(light.flicker_duty)
+    return math.log(high / low)
+
+
+def expected_events_per_pixel(config, span_s: float | None = None, *, upper: bool = True) -> float:
+    """Events a pixel of an event sensor fires over ``span_s`` (default ``exposure.time_s``) from what the
+    config alone says: shot noise and leak at their rates, and a flickering light's crossings, 2⌈Δ/C⌉ a
+    period for its log swing Δ (C less 3σ of the threshold's mismatch); leak and flicker together at most
+    one a refractory period. ``upper``: the Poisson mean plus 5 standard deviations of a pixel's count.
+    Motion's events (the scene's own changes) need the rendered frames
+    (:func:`spectral_cam.sensor.events.expected_event_count`).
+
+    References
+    ----------
+    .. [1] Hu, Liu & Delbruck (2021), v2e (leak and shot-noise event rates); Gallego et al. (2022), §2.
+    """
+    sensor, light = config.sensor, config.illuminant
+    span = float(config.exposure.time_s) if span_s is None else float(span_s)
+    threshold = max(float(sensor.event_threshold) - 3.0 * float(sensor.event_threshold_sigma), 0.01)
+    crossings = float(sensor.event_leak_hz) * span
+    if light.flicker_hz and light.flicker_depth:
+        crossings += 2.0 * math.ceil(_flicker_swing(light) / threshold) * float(light.flicker_hz) * span
+    if sensor.event_refractory_s > 0:
+        crossings = min(crossings, span / float(sensor.event_refractory_s) + 1.0)
+    mean = crossings + float(sensor.event_shot_noise_hz) * span
+    return mean + 5.0 * math.sqrt(mean) if upper else mean
+
+
+def sensor_bytes_per_pixel(config) -> float:
+    """Bytes per pixel the sensor's own outputs hold beyond a CMOS frame's: a single-photon capture's
+    ``jot_frames`` count frames (1 B a jot a frame, and the packed bits written for one bit) with their
+    working arrays; an event capture's events (:func:`expected_events_per_pixel` ×
+    :data:`BYTES_PER_EVENT`) and its frames' log intensities. 0 for a CMOS sensor or a capture whose span
+    is metered."""
+    sensor = config.sensor
+    if sensor.kind in ("qis", "spad"):
+        frames = float(sensor.jot_frames)
+        per_pixel = frames * (1.0 + (0.125 if sensor.jot_bits == 1 else 0.0)) + PHOTON_COUNTING_BYTES_PER_PIXEL
+        if sensor.kind == "spad" and sensor.dead_time_s > 0 and sensor.jot_bits > 1:
+            per_pixel += SPAD_BYTES_PER_PIXEL_PER_LEVEL * (2 ** int(sensor.jot_bits) - 1)
+        return per_pixel
+    if sensor.kind == "event" and config.exposure.time_s != "auto":
+        return (expected_events_per_pixel(config) * BYTES_PER_EVENT + 8.0 * float(sensor.event_frames)
+                + EVENT_WORK_BYTES_PER_PIXEL)
+    return 0.0
+
+
+def sensor_remedy(config, pixels: float, room_bytes: float) -> str | None:
+    """What setting of the sensor fits ``room_bytes`` for its outputs over ``pixels`` pixels: the
+    ``jot_frames`` or the event capture's ``exposure.time_s``; None when nothing of it would."""
+    sensor = config.sensor
+    room = room_bytes / pixels
+    if sensor.kind in ("qis", "spad"):
+        frames = int((room - (sensor_bytes_per_pixel(config) - float(sensor.jot_frames)
+                              * (1.0 + (0.125 if sensor.jot_bits == 1 else 0.0))))
+                     / (1.0 + (0.125 if sensor.jot_bits == 1 else 0.0)))
+        return f"sensor.jot_frames = {frames} fits ({sensor.jot_frames} asked)" if frames >= 1 else None
+    if sensor.kind == "event" and config.exposure.time_s != "auto":
+        span = float(config.exposure.time_s)
+        rate = expected_events_per_pixel(config, upper=False) / span
+        fixed = 8.0 * float(sensor.event_frames) + EVENT_WORK_BYTES_PER_PIXEL
+        lo, hi = 0.0, span  # the longest span whose events fit (the count is monotone in it)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if expected_events_per_pixel(config, mid) * BYTES_PER_EVENT + fixed <= room:
+                lo = mid
+            else:
+                hi = mid
+        if lo <= 0:
+            return None
+        return (f"exposure.time_s = {lo:.3g} s fits (about {rate:.3g} events a pixel a second from "
+                f"event_shot_noise_hz, event_leak_hz and the light's flicker; or lower those)")
+    return None
+
+
 def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, layered: bool = False,
-                          robust_passes: int = 1) -> float:
+                          robust_passes: int = 1, sensor_bytes: float = 0.0) -> float:
     """Peak memory (bytes) of a render → expose → develop job on a ``width_px`` ×
     ``height_px`` frame whose radiance has ``channels`` float32 values per pixel (31 bands by
     default; 6 for ``render.bands = "camera"``); ``layered`` for ``lens.model = "layered"``;
-    ``robust_passes`` K > 1 for the adaptive median of means, which holds K pass images of a tile.
+    ``robust_passes`` K > 1 for the adaptive median of means, which holds K pass images of a tile;
+    ``sensor_bytes`` per pixel for a single-photon or event sensor's outputs
+    (:func:`sensor_bytes_per_pixel`).
 
     The frame renders in tiles of at most
     :data:`~spectral_cam.render.scene_dict.TILE_PIXELS` pixels, so Mitsuba's share is one
@@ -59,7 +160,7 @@ def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, 
     from .scene_dict import TILE_PIXELS
 
     pixels = float(width_px) * float(height_px)
-    per_pixel = 4.0 * channels + PIPELINE_BYTES_PER_PIXEL
+    per_pixel = 4.0 * channels + PIPELINE_BYTES_PER_PIXEL + float(sensor_bytes)
     if layered:
         per_pixel += LAYERED_EXTRA_CUBES * 4.0 * channels + LAYERED_DEPTH_BYTES_PER_PIXEL
     tile = min(pixels, TILE_PIXELS)
@@ -95,16 +196,20 @@ def available_bytes() -> float:
 
 
 def check_render_memory(width_px: int, height_px: int, *, channels: int = 31, layered: bool = False,
-                        what: str = "this frame", robust_passes: int = 1) -> None:
-    """Refuse a frame whose job would not fit in memory (:func:`estimate_render_bytes`).
+                        what: str = "this frame", robust_passes: int = 1, config=None) -> None:
+    """Refuse a frame whose job would not fit in memory (:func:`estimate_render_bytes`), with the
+    sensor's outputs (:func:`sensor_bytes_per_pixel`) where ``config`` is given.
 
     Raises
     ------
     ConfigError
         With the estimate, what is available and what to change.
     """
-    def need(width, height, channels=channels, layered=layered):
-        return estimate_render_bytes(width, height, channels, layered=layered, robust_passes=robust_passes)
+    sensor = sensor_bytes_per_pixel(config) if config is not None else 0.0
+
+    def need(width, height, channels=channels, layered=layered, sensor=sensor):
+        return estimate_render_bytes(width, height, channels, layered=layered, robust_passes=robust_passes,
+                                     sensor_bytes=sensor)
 
     have = available_bytes()
     if need(width_px, height_px) > have:
@@ -114,12 +219,19 @@ def check_render_memory(width_px: int, height_px: int, *, channels: int = 31, la
         while need(side + 64, side + 64) <= have:
             side += 64
         remedies = [f"lower sensor.width_px/height_px (about {side} × {side} px fits)"]
+        if sensor:
+            pixels = float(width_px) * float(height_px)
+            fitting = sensor_remedy(config, pixels, have - need(width_px, height_px, sensor=0.0))
+            if fitting:
+                remedies.insert(0, fitting)
         if layered:
             remedies.append(f"lens.model = \"thin\" (path-traced defocus: about "
                             f"{need(width_px, height_px, layered=False) / 1e9:.1f} GB)")
         if channels > 6:
             remedies.append(f"render.bands = \"camera\" (6 values a pixel instead of {channels}: about "
                             f"{need(width_px, height_px, 6) / 1e9:.1f} GB)")
+        outputs = (f" ({sensor * width_px * height_px / 1e9:.3g} GB of it the {config.sensor.kind} sensor's "
+                   f"{'count frames' if config.sensor.kind != 'event' else 'events'})") if sensor else ""
         raise ConfigError(
-            f"{what} ({width_px} × {height_px} px) needs about {need(width_px, height_px) / 1e9:.1f} GB of memory "
-            f"and {have / 1e9:.1f} GB are available; {', or '.join(remedies)}; or free memory")
+            f"{what} ({width_px} × {height_px} px) needs about {need(width_px, height_px) / 1e9:.1f} GB of memory"
+            f"{outputs} and {have / 1e9:.1f} GB are available; {', or '.join(remedies)}; or free memory")

@@ -136,6 +136,7 @@ class CapturePlan:
                      f"{lens.sensor_width_m * 1e3:.3g} × {lens.sensor_height_m * 1e3:.3g} mm "
                      f"({lens.width_px} × {lens.height_px} px, +{self.crop_margin_px} px crop margin"
                      + (f", +{self.layered_margin_px} px defocus margin" if self.layered_margin_px else "") + ")")
+        lines += self._view_lines()
         budget = self.budget
         spp = self.config.render.spp
         lines.append(f"render: {spp} spp ({'up to ' + str(self.config.render.max_spp) if spp == 'auto' else 'fixed'}), "
@@ -147,6 +148,34 @@ class CapturePlan:
             lines.append("outputs: " + ", ".join(f"{name} {size / 1e6:.3g} MB"
                                                  for name, size in budget["outputs_bytes"].items()))
         return "\n".join(lines)
+
+
+    def _view_lines(self) -> list[str]:
+        """The dry run's view and defocus (issue 39 #10: a 128 × 96 frame at the camera's pitch was
+        a 5.5° view with |CoC| ≤ 1.7 px, unsaid): the circle of confusion, in pixels, over the depth
+        probe's nearest and farthest finite depths, and the part of a named camera's sensor the
+        frame covers."""
+        lens, sensor, lines = self.lens, self.config.sensor, []
+        depth = None if self.depth_m is None else np.asarray(self.depth_m, dtype=float)
+        depth = None if depth is None else depth[np.isfinite(depth) & (depth > 0)]
+        if depth is not None and depth.size:
+            coc = np.asarray(lens.coc_diameter_px(depth), dtype=float)
+            lines.append(f"view: {lens.fov_x_deg:.3g}° × {lens.fov_y_deg:.3g}°; circle of confusion "
+                         f"{coc.min():.3g}–{coc.max():.3g} px over the depths {depth.min():.3g}–{depth.max():.3g} m "
+                         f"(focus {lens.focus_distance_m:.4g} m, f/{lens.f_number:.3g})")
+        else:
+            lines.append(f"view: {lens.fov_x_deg:.3g}° × {lens.fov_y_deg:.3g}° (no depth probe: no defocus)")
+        if "pixel_pitch_um" in sensor.model_figures:  # the camera's own pixels: a frame smaller than its sensor
+            from ..spectra import camera_figures
+
+            figures = camera_figures(sensor.model)
+            width_mm, height_mm = figures["sensor_width_mm"].value, figures["sensor_height_mm"].value
+            frame_w, frame_h = lens.sensor_width_m * 1e3, lens.sensor_height_m * 1e3
+            if frame_w < 0.99 * width_mm and frame_h < 0.99 * height_mm:
+                lines.append(f"sensor: a {frame_w:.3g} × {frame_h:.3g} mm crop of the {sensor.model}'s "
+                             f"{width_mm:g} × {height_mm:g} mm sensor (sensor.keep_field_of_view = true spreads "
+                             "the pixels over all of it)")
+        return lines
 
 
 #: The widest diagonal field a rectilinear lens covers well: a 12 mm lens on a 36 × 24 mm
@@ -344,7 +373,7 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     from .depth import render_depth
     from .focus import resolve_focus
     from .lights import resolve_light
-    from .memory import available_bytes, check_render_memory, estimate_render_bytes
+    from .memory import available_bytes, check_render_memory, estimate_render_bytes, sensor_bytes_per_pixel
     from .scene_dict import frame_tiles
     from .trace import check_tiling
     from .variants import choose_variant_record
@@ -378,7 +407,7 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     bands = parse_bands(config.render.spectral_bands)
     most = 6 if config.render.bands == "camera" else len(bands)
     check_render_memory(capture.width_px, capture.height_px, channels=most, layered=config.lens.model == "layered",
-                        robust_passes=groups)
+                        robust_passes=groups, config=config)  # with a QIS's count frames, an event sensor's events
     depth, depth_s = None, 0.0
     if with_depth or config.lens.model in ("auto", "layered"):
         t0 = time.perf_counter()
@@ -398,10 +427,12 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
         spp = config.render.max_spp if config.render.spp == "auto" else int(config.render.spp)
         subframes, decisions["motion"] = plan_subframes(config, capture, depth, spp)
 
+    sensor_bytes = sensor_bytes_per_pixel(config)
     memory = estimate_render_bytes(traced.width_px, traced.height_px, channels, layered=lens_model == "layered",
-                                   robust_passes=groups)
+                                   robust_passes=groups, sensor_bytes=sensor_bytes)
     if lens_model == "layered" and config.lens.model == "auto":  # the choice made, before its render starts
         check_render_memory(traced.width_px, traced.height_px, channels=channels, layered=True, robust_passes=groups,
+                            config=config,
                             what="this frame with the layered lens model that lens.model = \"auto\" chose")
     check_tiling(config, traced)  # after the margin, which can push the frame into tiles; before any radiance
 
@@ -424,7 +455,8 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     if measure:
         cost = measure_cost(resolved, traced, lens_model, variant, camera_film)
         calls = len(frame_tiles(traced.width_px, traced.height_px)) * max(groups, 1) * subframes
-        budget.update(measured_budget(cost, pixels, spp, channels, depth_s, robust_passes=groups, calls=calls))
+        budget.update(measured_budget(cost, pixels, spp, channels, depth_s, robust_passes=groups, calls=calls,
+                                      sensor_bytes=sensor_bytes))
         budget["probe"] = cost
     return CapturePlan(config=resolved, requested=requested, lens=frame, capture_lens=capture, lens_model=lens_model,
                        variant=variant, decisions=decisions, camera_film=camera_film, diffraction=diffract,

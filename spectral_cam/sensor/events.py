@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import SensorError
 
-__all__ = ["EventStream", "log_intensity", "simulate_events"]
+__all__ = ["EventStream", "log_intensity", "simulate_events", "expected_event_count", "check_event_memory"]
 
 
 @dataclass
@@ -180,6 +180,43 @@ def _segments(frames, times, config, origin_s: float):
             previous = level
 
 
+def expected_event_count(log_frames, times_s, config) -> float:
+    """Events the frames will make, bounded from above before any is made: each pixel's log intensity
+    travels Σ|L_{k+1} − L_k| between the frames, a crossing each C (less 3σ of the mismatch), plus the
+    leak, the flicker and the shot noise of the config
+    (:func:`spectral_cam.render.memory.expected_events_per_pixel`; leak, flicker and motion together at
+    most one event a refractory period)."""
+    from ..render.memory import expected_events_per_pixel
+
+    sensor = config.sensor
+    times = np.asarray(times_s, dtype=np.float64)
+    span = float(times[-1] - times[0])
+    threshold = max(float(sensor.event_threshold) - 3.0 * float(sensor.event_threshold_sigma), 0.01)
+    travel = np.zeros(np.shape(log_frames[0]))
+    for l0, l1 in zip(log_frames[:-1], log_frames[1:]):
+        travel += np.abs(np.asarray(l1, np.float64) - np.asarray(l0, np.float64))
+    moving = travel / threshold + 1.0
+    if sensor.event_refractory_s > 0:
+        moving = np.minimum(moving, span / float(sensor.event_refractory_s) + 1.0)
+    return float(moving.sum()) + travel.size * expected_events_per_pixel(config, span)
+
+
+def check_event_memory(log_frames, times_s, config) -> None:
+    """Refuse, before any event is made, frames whose events would not fit in memory
+    (:func:`expected_event_count` × :data:`spectral_cam.render.memory.BYTES_PER_EVENT`)."""
+    from ..errors import ConfigError
+    from ..render.memory import BYTES_PER_EVENT, available_bytes
+
+    count = expected_event_count(log_frames, times_s, config)
+    have = available_bytes()
+    if count * BYTES_PER_EVENT > have:
+        span = float(times_s[-1] - times_s[0])
+        fits = span * have / (count * BYTES_PER_EVENT)
+        raise ConfigError(f"the event capture would make up to {count:.3g} events ({count * BYTES_PER_EVENT / 1e9:.3g} "
+                          f"GB) and {have / 1e9:.3g} GB are available; a span (exposure.time_s) of about {fits:.3g} s "
+                          f"fits, or lower sensor.event_shot_noise_hz/event_leak_hz, the motion or the frame size")
+
+
 def _thresholds(sensor, shape, rng) -> tuple[np.ndarray, np.ndarray]:
     c = float(sensor.event_threshold)
     sigma = float(sensor.event_threshold_sigma)
@@ -226,6 +263,7 @@ def simulate_events(log_frames, times_s, config, *, seed: int | None = None,
     c_on, c_off = _thresholds(sensor, shape, rng)
     refractory, leak = float(sensor.event_refractory_s), float(sensor.event_leak_hz)
     origin = float(config.exposure.start_s) if flicker_origin_s is None else float(flicker_origin_s)
+    check_event_memory(frames, times, config)
     segments = _segments(frames, times, config, origin)
     first = next(segments)
     reference = first[0].copy()

@@ -235,7 +235,8 @@ class PhotonCountingCapture:
                   "layout": "bits: numpy.packbits(counts.astype(bool), axis=-1); unpack with "
                             "numpy.unpackbits(bits, axis=-1, count=shape[1])" if self.bits == 1 else "counts: uint8",
                   "meta": self.meta}
-        arrays = {"bits": np.packbits(self.counts.astype(bool), axis=-1)} if self.bits == 1 else {"counts": self.counts}
+        # one-bit counts are 0 or 1 already: packed as they are (a bool copy would double the frames' memory)
+        arrays = {"bits": np.packbits(self.counts, axis=-1)} if self.bits == 1 else {"counts": self.counts}
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as handle:
                 np.savez_compressed(handle, meta=np.array(json.dumps(record, default=float)), **arrays)
