@@ -107,23 +107,63 @@ def rolling_row_weights(config: SceneConfig, rows: int, first: int, last: int, i
 
 
 def plan_subframes(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray | None, spp: int) -> tuple[int, dict]:
-    """(K, record): the number of sub-frames and the decision record for meta.json."""
+    """(K, record): the number of sub-frames and the decision record for meta.json.
+
+    ``motion.subframes = "auto"``: one sub-frame per :data:`PX_PER_SUBFRAME` px of motion (at most
+    :data:`MAX_AUTO_SUBFRAMES`); under a rolling shutter at least :data:`MIN_SUBFRAMES_PER_ROW` (and the
+    motion's count) in each row's window T, so K ≥ that × S/T over the readout span S — the readout sets
+    K, whatever the motion cap. K is rounded up to a divisor of ``spp`` (equal samples a sub-frame); a
+    global shutter whose motion asks more than ``spp`` gets ``spp`` (and says so), a rolling shutter that
+    needs more than ``spp`` is refused with what it needs. The record states the sub-frames each row's
+    window holds, K·T/S, as they are.
+
+    Raises
+    ------
+    ConfigError
+        A rolling shutter whose readout needs more sub-frames than ``render.spp`` (or 4096) allows.
+    """
+    from ..errors import ConfigError
+
     blur = motion_blur_px(config, lens, depth_m)
     asked = config.motion.subframes
+    exposure = float(config.exposure.time_s)
+    span = exposure_span_s(config, lens.height_px)
     per_window = max(1, math.ceil(blur / PX_PER_SUBFRAME))
-    if is_rolling(config):  # enough in every row's own window, which is T of the span S
-        per_window = max(per_window, MIN_SUBFRAMES_PER_ROW)
-        per_window = math.ceil(per_window * exposure_span_s(config, lens.height_px) / float(config.exposure.time_s))
-    wanted = min(per_window, MAX_AUTO_SUBFRAMES) if asked == "auto" else int(asked)
+    if asked == "auto" and is_rolling(config):  # enough in every row's own window, which is T of the span S
+        needed = math.ceil(max(min(per_window, MAX_AUTO_SUBFRAMES), MIN_SUBFRAMES_PER_ROW) * span / exposure
+                           - 1e-9)
+        if needed > min(spp, 4096):
+            spp_key = "render.max_spp" if config.render.spp == "auto" else "render.spp"
+            raise ConfigError(
+                f"the rolling shutter's readout spans {span * 1e3:.4g} ms (sensor.row_time_s = "
+                f"{config.sensor.row_time_s:g} s over {lens.height_px} rows) around a {exposure * 1e3:.4g} ms "
+                f"exposure: {MIN_SUBFRAMES_PER_ROW} sub-frames in each row's window need {needed} over the span, and "
+                f"{spp_key} = {spp} allows at most {spp} (one sample each); "
+                + (f"give {spp_key} ≥ {needed}, " if needed <= 4096 else "")
+                + f"or a longer exposure.time_s, a shorter sensor.row_time_s, fewer rows, or motion.subframes "
+                  f"(fewer, stated as such in meta.json)")
+        wanted = needed
+    else:
+        wanted = min(per_window, MAX_AUTO_SUBFRAMES) if asked == "auto" else int(asked)
+    capped = wanted > spp
     wanted = min(wanted, spp)
     count = next(k for k in range(wanted, spp + 1) if spp % k == 0)  # equal samples per slice
-    reason = (f"{blur:.2f} px of motion, one sub-frame per {PX_PER_SUBFRAME} px" if asked == "auto"
-              else "motion.subframes")
-    if asked == "auto" and is_rolling(config):
-        reason += (f", at least {MIN_SUBFRAMES_PER_ROW} in each row's window of the rolling shutter's "
-                   f"{exposure_span_s(config, lens.height_px) * 1e3:.3g} ms span")
-    return count, {"choice": count, "reason": f"{reason}, rounded up to a divisor of {spp} spp",
-                   "motion_px": blur, "spp_per_subframe": spp // count}
+    if asked == "auto":
+        reason = f"{blur:.2f} px of motion, one sub-frame per {PX_PER_SUBFRAME} px"
+    else:
+        reason = "motion.subframes"
+    if capped:
+        reason += f", capped at render.spp = {spp} (one sample each: {blur / count:.3g} px a sub-frame)"
+    record = {"choice": count, "motion_px": blur, "spp_per_subframe": spp // count}
+    if is_rolling(config):
+        in_window = count * exposure / span
+        reason += (f", {count} over the rolling shutter's {span * 1e3:.3g} ms span: {in_window:.3g} in each row's "
+                   f"{exposure * 1e3:.3g} ms window")
+        if asked == "auto":
+            reason += f" (at least {MIN_SUBFRAMES_PER_ROW})"
+        record["subframes_per_row_window"] = in_window
+    record["reason"] = f"{reason}, rounded up to a divisor of {spp} spp"
+    return count, {"choice": record.pop("choice"), "reason": record.pop("reason"), **record}
 
 
 def subframe_transform(mi, config: SceneConfig, index: int, count: int, span_s: float | None = None):
