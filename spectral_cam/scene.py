@@ -459,12 +459,17 @@ class LensSection:
 
 @dataclass(frozen=True)
 class SensorSection:
-    """The image sensor (EMVA 1288 linear model). Zero switches a noise term off."""
+    """The image sensor (EMVA 1288 linear model). Zero switches a noise term off. A scene that
+    names ``model`` gets that camera's published full well, read noise, bit depth, pitch and
+    base ISO for the keys it leaves unset (:func:`spectral_cam.spectra.with_camera_figures`);
+    ``keep_field_of_view`` spreads ``width_px`` × ``height_px`` over the camera's sensor size."""
 
     model: str = "nikon_d850"
     width_px: int = 480
     height_px: int = 320
     pixel_pitch_um: float = 6.0
+    keep_field_of_view: bool = False
+    model_figures: tuple[str, ...] = ()
     cfa: str = "RGGB"
     peak_qe: float = 0.6
     full_well_e: float = 20000.0
@@ -506,6 +511,13 @@ class SensorSection:
             _fail("sensor.crop_margin_px", margin,
                   "must be an even whole number of pixels in 0..256 (even keeps the CFA phase at the crop)")
         _within("sensor.pixel_pitch_um", self.pixel_pitch_um)
+        if not isinstance(self.keep_field_of_view, bool):
+            _fail("sensor.keep_field_of_view", self.keep_field_of_view, "must be true or false")
+        if isinstance(self.model_figures, list):
+            object.__setattr__(self, "model_figures", tuple(self.model_figures))
+        if not set(self.model_figures) <= set(spectra.SENSOR_FIGURE_KEYS.values()):
+            _fail("sensor.model_figures", list(self.model_figures), "the keys the named model set (written by "
+                  f"spectral_cam), among {', '.join(spectra.SENSOR_FIGURE_KEYS.values())}")
         if self.model != "ideal":
             spectra.validate_camera(self.model)
         if self.cfa not in CFA_PATTERNS:
@@ -889,6 +901,7 @@ def scene_from_dict(
                 f"override {dotted!r}: use section.key with a section among {', '.join(_SECTIONS)}"
             )
         merged.setdefault(section, {})[key] = value
+    merged["sensor"] = _sensor_table(merged.get("sensor", {}), data, overrides)
     sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS if name != "lens"}
     # the prescription first: it sees what the user gave, not a default filled in for an XML camera
     lens_table = _lens_for_prescription(dict(merged.get("lens", {})), base_dir)
@@ -907,6 +920,28 @@ def scene_from_dict(
         if sections["render"].spp == "auto":
             _fail("render.spp", "auto", "motion blur splits the samples between sub-frames; give render.spp")
     return SceneConfig(**sections)
+
+
+def _sensor_table(table: Mapping[str, Any], data: Mapping[str, Any], overrides: Mapping[str, Any] | None) -> dict:
+    """The ``[sensor]`` table with a named camera's figures for the keys left unset (issue 39 #9:
+    a D850 and an α7 III got the same full well). A copy (:meth:`SceneConfig.replace`) holds the
+    figures its first model filled in, and the pitch its frame derived: a new model or frame size
+    fills and derives them again, unless the overrides set them."""
+    given = {str(key).partition(".")[2] for key in (overrides or {}) if str(key).startswith("sensor.")}
+    table = dict(table)
+    if isinstance(data, _CheckedDict):
+        from_model = set(table.get("model_figures", ())) - given
+        if table.get("model") != data.get("sensor", {}).get("model"):
+            if not from_model:  # the first named no camera: its generic figures give way too
+                from_model = {key for key in spectra.SENSOR_FIGURE_KEYS.values()
+                              if key not in given and table.get(key) == getattr(SensorSection, key)}
+            for key in from_model:  # the first camera's figures: the new camera's take their place
+                table.pop(key, None)
+            from_model = set()
+        table["model_figures"] = [key for key in table.get("model_figures", ()) if key in from_model]
+        if table.get("keep_field_of_view") is True and "pixel_pitch_um" not in given:
+            table.pop("pixel_pitch_um", None)
+    return spectra.with_camera_figures(table)
 
 
 def _lens_for_prescription(lens: dict[str, Any], base_dir: Path) -> dict[str, Any]:

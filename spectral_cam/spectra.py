@@ -17,7 +17,9 @@ Sources
 - ColorChecker reflectances: BabelColor average of 30 charts (colour-science
   ``SDS_COLOURCHECKERS["BabelColor Average"]``).
 - Camera sensitivities: the 17 measured cameras shipped in ``spectral_cam/data/cameras``
-  (pbrt-v4 / PhysLight data, see the README there) and colour-science's two NPL cameras.
+  (pbrt-v4 / PhysLight data, see the README there) and colour-science's two NPL cameras; their
+  sensors' published figures (full well, read noise, bit depth, pitch, size, base ISO) with a
+  source each, in ``sensor_figures.csv`` there (:func:`camera_figures`).
 
 References
 ----------
@@ -60,6 +62,11 @@ __all__ = [
     "colorchecker_reflectances",
     "camera_sensitivities",
     "camera_names",
+    "CameraFigure",
+    "camera_figures",
+    "with_camera_figures",
+    "figure_record",
+    "SENSOR_FIGURE_KEYS",
     "transmission",
     "ir_cut_filter",
     "load_spectrum_csv",
@@ -452,7 +459,7 @@ def _camera_sources() -> dict[str, object]:
     sources: dict[str, object] = {}
     folder = resources.files("spectral_cam") / "data" / "cameras"
     for entry in folder.iterdir():
-        if entry.name.endswith(".csv"):
+        if entry.name.endswith(".csv") and entry.name != FIGURES_FILE:
             sources[entry.name[:-4]] = entry
     for key in COLOUR_CAMERA_KEYS:
         sources[_slug(key)] = key
@@ -509,6 +516,144 @@ def validate_camera(name: str) -> str:
             f"unknown camera {name!r}; valid: 'ideal' or one of {', '.join(camera_names())}"
         )
     return slug
+
+
+#: The table of each camera's sensor figures, beside the curves (one row per camera and figure,
+#: with its unit and source).
+FIGURES_FILE = "sensor_figures.csv"
+
+#: The figures a named ``sensor.model`` sets when the scene leaves them unset: table figure ->
+#: ``[sensor]`` key.
+SENSOR_FIGURE_KEYS = {"full_well_e": "full_well_e", "read_noise_e": "read_noise_e", "bit_depth": "bit_depth",
+                      "pixel_pitch_um": "pixel_pitch_um", "base_iso": "base_iso"}
+
+
+@dataclass(frozen=True)
+class CameraFigure:
+    """One published (or assumed) figure of a camera's sensor: value, unit, and where it comes
+    from (``source`` starts with ``"assumed:"`` where no published figure was found, saying why
+    the value was chosen)."""
+
+    value: float
+    unit: str
+    source: str
+
+
+@functools.lru_cache(maxsize=1)
+def _figure_table() -> dict[str, dict[str, CameraFigure]]:
+    folder = resources.files("spectral_cam") / "data" / "cameras"
+    table: dict[str, dict[str, CameraFigure]] = {}
+    with (folder / FIGURES_FILE).open(encoding="utf-8") as handle:
+        for row in csv.DictReader(handle):
+            value = float(row["value"])
+            table.setdefault(row["camera"], {})[row["figure"]] = CameraFigure(
+                int(value) if row["figure"] in ("bit_depth", "width_px", "height_px") else value,
+                row["unit"], row["source"])
+    return table
+
+
+def camera_figures(name: str) -> dict[str, CameraFigure]:
+    """The published figures of a measured camera's sensor (``spectral_cam/data/cameras/
+    sensor_figures.csv``): ``full_well_e`` (e⁻ at base ISO), ``read_noise_e`` (e⁻ at base ISO),
+    ``bit_depth``, ``pixel_pitch_um`` (µm, the sensor's width over its columns), ``width_px``,
+    ``height_px`` (effective pixels), ``sensor_width_mm``, ``sensor_height_mm`` and
+    ``base_iso``, each a :class:`CameraFigure` with its source.
+
+    Raises
+    ------
+    ConfigError
+        An unknown camera (the message lists :func:`camera_names`), or ``"ideal"``, which is no
+        camera and has no figures.
+
+    Examples
+    --------
+    >>> camera_figures("Nikon D850")["base_iso"].value
+    64.0
+    """
+    slug = validate_camera(name)
+    return dict(_figure_table()[slug])
+
+
+def with_camera_figures(table: dict) -> dict:
+    """A ``[sensor]`` table with its named camera's figures filled in for the keys it leaves
+    unset (:data:`SENSOR_FIGURE_KEYS`; explicit keys win), and with ``keep_field_of_view`` the
+    pitch that spreads ``width_px`` × ``height_px`` over the camera's published sensor (the
+    largest that fits both sides, so the frame is the biggest of its aspect ratio on the
+    sensor, as a camera's aspect modes are). A table that names no model (or ``"ideal"``) keeps
+    the generic defaults (:func:`figure_record` says afterwards which figure came from where).
+
+    Raises
+    ------
+    ConfigError
+        ``keep_field_of_view`` with an ``"ideal"`` model (no published size) or with a
+        ``pixel_pitch_um`` that disagrees with the derived one.
+    """
+    model = table.get("model")
+    if not isinstance(model, str) or model == "ideal":
+        if table.get("keep_field_of_view") is True:
+            raise ConfigError("sensor.keep_field_of_view = true needs a camera's published sensor size: name "
+                              f"sensor.model (one of {', '.join(camera_names())}); 'ideal' has none")
+        return table
+    figures = camera_figures(model)
+    filled = {key: figures[figure].value for figure, key in SENSOR_FIGURE_KEYS.items() if key not in table}
+    out = dict(table, **filled)
+    # which keys the camera set, kept by a resolved scene.toml (where every key is written out)
+    earlier = table.get("model_figures", ())
+    earlier = set(earlier) if isinstance(earlier, (list, tuple)) else set()
+    out["model_figures"] = tuple(key for key in SENSOR_FIGURE_KEYS.values() if key in earlier | set(filled))
+    if table.get("keep_field_of_view") is True:
+        pitch = _pitch_keeping_view(figures, out)
+        given = table.get("pixel_pitch_um")
+        number = isinstance(given, (int, float)) and not isinstance(given, bool)
+        if number and abs(given - pitch.value) > 1e-6 * pitch.value:
+            raise ConfigError(f"sensor.pixel_pitch_um = {given!r} with sensor.keep_field_of_view = true: the pitch is "
+                              f"then the camera's sensor over the pixels ({pitch.value:.6g} µm); set one of them")
+        out["pixel_pitch_um"] = pitch.value
+    return out
+
+
+def _pitch_keeping_view(figures: dict[str, CameraFigure], table: dict) -> CameraFigure:
+    """The pitch (µm) that puts ``width_px`` × ``height_px`` on the camera's published sensor."""
+    from .scene import SensorSection  # the default frame when the table leaves it unset
+
+    width, height = table.get("width_px", SensorSection.width_px), table.get("height_px", SensorSection.height_px)
+    if not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in (width, height)):
+        return figures["pixel_pitch_um"]  # SensorSection refuses the size itself
+    size_w, size_h = figures["sensor_width_mm"].value, figures["sensor_height_mm"].value
+    pitch = min(size_w / width, size_h / height) * 1e3  # the widest frame of this aspect on the sensor
+    return CameraFigure(pitch, "um", f"keep_field_of_view: the {size_w:g} × {size_h:g} mm sensor over "
+                                     f"{width} × {height} px ({figures['sensor_width_mm'].source})")
+
+
+def figure_record(sensor) -> dict:
+    """Where each of a sensor's figures came from (meta.json ``sensor_figures``): for every
+    :data:`SENSOR_FIGURE_KEYS` key its value and ``"camera table (<model>): <source>"`` when the
+    named camera set it (``sensor.model_figures``), ``"keep_field_of_view: ..."`` for a pitch
+    derived from the camera's size, ``"default"`` for the generic default of a sensor that names
+    no camera, else ``"scene"``."""
+    from .scene import SensorSection
+
+    figures = {} if sensor.model == "ideal" else camera_figures(sensor.model)
+    view = (_pitch_keeping_view(figures, {"width_px": sensor.width_px, "height_px": sensor.height_px})
+            if figures and getattr(sensor, "keep_field_of_view", False) else None)
+    from_model = set(getattr(sensor, "model_figures", ()))
+    record = {}
+    for figure, key in SENSOR_FIGURE_KEYS.items():
+        value = getattr(sensor, key)
+        if view is not None and key == "pixel_pitch_um" and _same(value, view.value):
+            origin = view.source
+        elif key in from_model and _same(value, figures[figure].value):
+            origin = f"camera table ({sensor.model}): {figures[figure].source}"
+        elif not from_model and value == getattr(SensorSection, key):
+            origin = "default" + (" (generic: name sensor.model for the camera's own)" if figures else "")
+        else:
+            origin = "scene"
+        record[key] = {"value": value, "from": origin}
+    return record
+
+
+def _same(a: float, b: float) -> bool:
+    return abs(float(a) - float(b)) <= 1e-9 * max(abs(float(b)), 1e-300)
 
 
 # ----------------------------------------------------------------------------- filters

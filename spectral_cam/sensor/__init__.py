@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import SensorError
 from ..isp.tone import profile_tone_curve
 from ..raw.image import RawImage
+from ..spectra import figure_record
 from .dng_colour import (
     _colour_matrix,
     _fitted_corrections,
@@ -295,6 +296,7 @@ def _exposure_record(config, model, radiance, *, gain: float, exposure_s: float,
         "input": "camera channels (photon-weighted film)" if model.camera_channels else
                  f"{len(radiance.wavelengths_nm)} spectral bands",
         "bit_depth": sensor.bit_depth,
+        "sensor_figures": figure_record(sensor),  # which came from the named camera's table (issue 39 #9)
         "working_f_number": model.working_f_number,
         "pixel_area_m2": model.pixel_area_m2,
         "vignetting": bool(sensor.vignetting),

@@ -42,7 +42,7 @@ from ...records import exact_number, write_csv
 from ...viz import figure, png_data_uri
 
 __all__ = ["CELL_COLUMNS", "PATCH_COLUMNS", "reference_data", "write_report", "write_cells_csv", "write_patches_csv",
-           "heatmap_figure", "swatches_figure", "render_html"]
+           "heatmap_figure", "swatches_figure", "cct_figure", "render_html"]
 
 CELL_COLUMNS = ("set", "illuminant", "camera", "exposure", "pipeline", "status", "failures", "warnings", "calibration",
                 "reference_data", "n_patches", "seeds", "delta_e_mean_ci95",
@@ -438,20 +438,33 @@ def _cct_html(result) -> list[str]:
     sweep = cct_sweep(result)
     if sweep is None:
         return []
-    ccts, means = sweep
-    fig = figure(6.4, 3.6, dpi=90)
-    ax = fig.subplots()
-    for name, values in means.items():
-        ax.plot(ccts, values, marker="o", label=name)
-    ax.set_xscale("log")
-    ax.set_xlabel("illuminant CCT (K, Robertson 1968)")
-    ax.set_ylabel("mean ΔE2000")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
+    fig, missing = cct_figure(*sweep)
+    left_out = (f" Not drawn (no cell scored): {html.escape(', '.join(missing))}." if missing else "")
     return ["<h2>ΔE2000 across colour temperature</h2>",
             f'<figure><img alt="mean ΔE2000 against illuminant CCT" src="{png_data_uri(fig, dpi=90)}">'
             '<figcaption class="small">Each illuminant at its correlated colour temperature; means over sets, '
-            "cameras and exposures.</figcaption></figure>"]
+            f"cameras and exposures.{left_out}</figcaption></figure>"]
+
+
+def cct_figure(ccts: Sequence[float], means: dict[str, Sequence[float]]):
+    """Mean ΔE2000 against CCT (K, log axis ticked at the illuminants' CCTs in plain kelvin), one
+    line per pipeline that scored any cell; returns (figure, names of pipelines left out)."""
+    from matplotlib.ticker import NullFormatter
+
+    fig = figure(6.4, 3.6, dpi=90)
+    ax = fig.subplots()
+    drawn = {name: values for name, values in means.items() if np.isfinite(np.asarray(values, float)).any()}
+    for index, (name, values) in enumerate(drawn.items()):
+        ax.plot(ccts, values, marker="osD^vP*X"[index % 8], label=name)
+    ax.set_xscale("log")
+    ax.set_xticks(list(ccts), [f"{c:.0f}" for c in ccts], fontsize=7, rotation=30)
+    ax.xaxis.set_minor_formatter(NullFormatter())  # no "3×10³" between the illuminants' own ticks
+    ax.set_xlabel("illuminant CCT (K, Robertson 1968)")
+    ax.set_ylabel("mean ΔE2000")
+    ax.grid(alpha=0.3, which="both")
+    if drawn:
+        ax.legend(fontsize=7)
+    return fig, [name for name in means if name not in drawn]
 
 
 def _interval(cell) -> str:
