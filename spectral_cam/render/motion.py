@@ -140,8 +140,8 @@ def plan_subframes(config: SceneConfig, lens: ThinLens, depth_m: np.ndarray | No
                 f"exposure: {MIN_SUBFRAMES_PER_ROW} sub-frames in each row's window need {needed} over the span, and "
                 f"{spp_key} = {spp} allows at most {spp} (one sample each); "
                 + (f"give {spp_key} ≥ {needed}, " if needed <= 4096 else "")
-                + f"or a longer exposure.time_s, a shorter sensor.row_time_s, fewer rows, or motion.subframes "
-                  f"(fewer, stated as such in meta.json)")
+                + "or a longer exposure.time_s, a shorter sensor.row_time_s, fewer rows, or motion.subframes "
+                  "(fewer, stated as such in meta.json)")
         wanted = needed
     else:
         wanted = min(per_window, MAX_AUTO_SUBFRAMES) if asked == "auto" else int(asked)
