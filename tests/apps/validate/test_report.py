@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from spectral_cam.apps.validate import plan_from_dict, run_plan
+from tests.apps.validate.conftest import EXAMPLE_TIMEOUT_S
 
 
-@pytest.mark.timeout(120)
+@pytest.mark.timeout(EXAMPLE_TIMEOUT_S)
 def test_headless_chromium_loads_the_report_without_console_errors(example, chromium, tmp_path):
     # the probe sees errors where there are some...
     broken = tmp_path / "broken.html"

@@ -19,20 +19,23 @@ from spectral_cam.apps.validate import (
 from spectral_cam.isp import ISPConfig, develop
 from spectral_cam.presets import colorchecker_patches
 from spectral_cam.sensor import colour_calibration, expose
+from tests.apps.validate.conftest import EXAMPLE_CPU_BUDGET_S, EXAMPLE_TIMEOUT_S
 
 
-@pytest.mark.timeout(120)
+@pytest.mark.timeout(EXAMPLE_TIMEOUT_S)
 def test_example_plan_runs_fast_and_writes_html_and_csv(example, read_csv, record_property):
-    result, out, seconds = example
+    result, out, timing = example
     plan = result.plan
-    record_property("seconds", seconds)
-    assert len(plan.illuminants) == 2 and len(plan.cameras) == 2
-    assert {p.kind for p in plan.pipelines} == {"ours", "rawpy", "command"}  # + dcraw, RawTherapee, darktable
-    assert seconds < 90.0  # measured 40 s for its 80 cells × 2 seeds on 2 cores
+    record_property("seconds", timing["wall_s"])
+    record_property("cpu_seconds", timing["cpu_s"])
+    assert len(plan.illuminants) == 2 and len(plan.cameras) == 1
+    assert {p.kind for p in plan.pipelines} == {"ours", "rawpy", "command"}  # + dcraw, RawTherapee
+    # CPU time, not wall time: the budget holds on a busy machine (see conftest.EXAMPLE_CPU_BUDGET_S)
+    assert timing["cpu_s"] < EXAMPLE_CPU_BUDGET_S
     for name in ("report.html", "cells.csv", "patches.csv", "plan.json"):
         assert (out / name).stat().st_size > 0
     cells = read_csv(out / "cells.csv")
-    expected = len(plan.reflectance_sets) * 2 * 2 * len(plan.exposures) * len(plan.pipelines)
+    expected = len(plan.reflectance_sets) * 2 * 1 * len(plan.exposures) * len(plan.pipelines)
     assert len(cells) == len(result.cells) == expected
     # one RAW per cell and seed, shared by pipelines
     assert len(list((out / "raw").glob("*.dng"))) == expected // len(plan.pipelines) * plan.seeds

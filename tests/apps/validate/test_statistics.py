@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from spectral_cam.apps.validate import compare_pipelines, pivot, plan_from_dict, run_plan
+from tests.apps.validate.conftest import EXAMPLE_TIMEOUT_S
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -181,6 +182,7 @@ def test_the_illuminant_metamerism_index_of_a_metameric_pair_is_its_difference_u
                                        (lab(a, "A"), lab(a, "A") + offset)) == pytest.approx(0.0, abs=1e-9)
 
 
+@pytest.mark.timeout(EXAMPLE_TIMEOUT_S)
 def test_the_report_writes_each_pipelines_metamerism_for_a_change_of_light(example, read_csv):
     """metamerism.csv: every pipeline × camera × exposure × set that ran under D65 and another light
     has a row; a row recomputed from patches.csv with colour-science's sRGB → XYZ → Lab (D65) equals
