@@ -84,8 +84,10 @@ system). ``--scheduler inline`` runs the items one after another in this process
 image, relative to DIR), its seed, sampled parameters and every label's path
 (``<label>_file``): Hugging Face ``datasets.load_dataset("imagefolder", data_dir=DIR)`` reads it
 as it is. ``DIR/README.md`` is the dataset card (spec, counts, labels with units, layout, sources
-and licences). :class:`~.loader.SyntheticDataset` serves the items as NumPy arrays, a map-style
-dataset PyTorch's ``DataLoader`` takes as it is.
+and licences). :class:`~.loader.SyntheticDataset` serves the items as NumPy arrays in a form
+PyTorch's ``DataLoader`` batches with its default collate (``batch_size=4``, no ``collate_fn``;
+the records that do not batch, meta.json and the whole camera.json, through ``records(i)``),
+with :class:`~.loader.Crop` and :class:`~.loader.Resize` transforms that keep K consistent.
 
 Modules: :mod:`.spec` (the spec, distributions, sweeps, item plans), :mod:`.labels` (what an
 item writes: :data:`~.labels.LABELS`, the defocus map, clean camera RGB, blur against depth),
@@ -151,6 +153,7 @@ from .labels import (
 )
 from .run import (
                      MANIFEST_EVERY_S,
+                     DatasetInterrupted,
                      DatasetSummary,
                      ProgressBar,
                      default_workers,
@@ -162,7 +165,7 @@ from .run import (
                      render_item,
 )
 from .card import write_card, write_metadata
-from .loader import LOADABLE_LABELS, SyntheticDataset, read_item
+from .loader import FRAME_LABELS, LOADABLE_LABELS, Crop, Resize, SyntheticDataset, batchable, read_item
 from .sheets import CONTACT_SHEET_MAX, write_blur_chart, write_contact_sheet
 from .spec import (
                      DISTRIBUTIONS,
@@ -178,7 +181,11 @@ from .spec import (
 
 __all__ = [
     "LOADABLE_LABELS",
+    "FRAME_LABELS",
     "SyntheticDataset",
+    "batchable",
+    "Crop",
+    "Resize",
     "read_item",
     "write_card",
     "write_metadata",
@@ -186,7 +193,7 @@ __all__ = [
     "spec_from_dict", "load_spec",
     "LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "defocus_map_px", "clean_camera_rgb",
     "measure_scene_blur",
-    "DatasetSummary", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers", "plan_dataset",
+    "DatasetSummary", "DatasetInterrupted", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers", "plan_dataset",
     "PLANNED_SAMPLE",
     "ProgressBar", "MANIFEST_EVERY_S",
     "CONTACT_SHEET_MAX", "write_contact_sheet", "write_blur_chart",

@@ -10,9 +10,11 @@ import json
 import numpy as np
 import pytest
 
-from spectral_cam.apps.dataset import LOADABLE_LABELS, SyntheticDataset, generate_dataset, read_item, spec_from_dict
+from spectral_cam.apps.dataset import (LOADABLE_LABELS, Crop, Resize, SyntheticDataset, generate_dataset, read_item,
+                                       spec_from_dict)
 from spectral_cam.errors import RawFormatError
 
+from .collate_reference import default_collate
 from .reading import read_exr, read_manifest, read_png
 
 pytestmark = pytest.mark.timeout(300)
@@ -76,8 +78,13 @@ def test_the_loader_reads_each_label_as_the_files_hold_it(dataset):
         np.testing.assert_array_equal(item["shading"], read_exr(folder / "shading.exr")["S"])
         camera = json.loads((folder / "camera.json").read_text())
         np.testing.assert_array_equal(item["camera"]["K"], camera["K"])
-        assert item["illuminant"]["spd"] == data.params(index)["illuminant.spd"] == item["params"]["illuminant.spd"]
-        assert item["meta"]["dataset"]["id"] == data.rows[index]["id"]
+        assert item["camera"]["f_number"] == camera["f_number"]
+        illuminant = json.loads((folder / "illuminant.json").read_text())
+        np.testing.assert_array_equal(item["illuminant"]["camera_rgb"], illuminant["camera_rgb"])
+        records = data.records(index)
+        assert records["illuminant"]["spd"] == data.params(index)["illuminant.spd"] == item["params"]["illuminant.spd"]
+        assert records["meta"]["dataset"]["id"] == data.rows[index]["id"] == item["id"]
+        assert records["camera"]["conventions"] == camera["conventions"]
         assert item["image"].shape == (16, 24, 3) and item["depth"].dtype == np.float32
 
 
@@ -107,3 +114,95 @@ def test_hugging_face_imagefolder_reads_the_dataset(dataset, tmp_path):
     first = loaded[int(np.argmin(loaded["index"]))]
     np.testing.assert_array_equal(np.asarray(first["image"]), read_png(dataset / rows[0]["file_name"])[..., ::-1])
     assert first["depth_file"] == rows[0]["depth_file"]
+
+
+def test_items_batch_with_pytorchs_default_collate(dataset):
+    """Issue 39 #3 / issue 40 #1: ``DataLoader(SyntheticDataset(DIR), batch_size=4)`` failed in the
+    default collate (each item's meta and camera dicts differ in keys and sizes). Batched by
+    PyTorch's default_collate rules (tests/apps/dataset/collate_reference.py: the structure of
+    torch/utils/data/_utils/collate.py with NumPy's stack), every array's batch is the items'
+    arrays stacked, the numbers and strings one per item."""
+    data = SyntheticDataset(dataset)
+    items = [data[i] for i in range(len(data))]
+    batch = default_collate(items)
+    for key, value in items[0].items():
+        if isinstance(value, np.ndarray):
+            assert batch[key].shape == (3, *value.shape), key
+            np.testing.assert_array_equal(batch[key][1], items[1][key])
+    assert batch["raw"].dtype == np.int32  # the DNG's uint16, widened as torchvision widens 16-bit PNGs
+    np.testing.assert_array_equal(batch["raw"][2], read_item(dataset / "items" / items[2]["id"], ["raw"])["raw"])
+    assert batch["camera"]["K"].shape == (3, 3, 3) and batch["camera"]["f_number"].shape == (3,)
+    assert batch["illuminant"]["xy"].shape == (3, 2)
+    assert batch["params"]["illuminant.spd"] == [data.params(i)["illuminant.spd"] for i in range(3)]
+    assert list(batch["index"]) == [row["index"] for row in data.rows]
+    # read_item's records (meta.json, camera.json as written) are what the default collate refuses
+    with pytest.raises((TypeError, RuntimeError, KeyError)):
+        default_collate([read_item(dataset / "items" / row["id"]) for row in data.rows])
+
+
+def test_pytorch_dataloader_batches_the_dataset_where_torch_is_installed(dataset):
+    """The same with PyTorch itself (an optional extra: this runs where it is installed)."""
+    torch = pytest.importorskip("torch")
+    data = SyntheticDataset(dataset, labels=("image", "depth", "camera"))
+    batch = next(iter(torch.utils.data.DataLoader(data, batch_size=3)))
+    assert tuple(batch["image"].shape) == (3, 16, 24, 3) and tuple(batch["camera"]["K"].shape) == (3, 3, 3)
+    np.testing.assert_array_equal(batch["depth"][0].numpy(), data[0]["depth"])
+
+
+def test_a_corrupt_label_file_names_the_item_the_file_and_what_to_do(dataset, tmp_path):
+    """Issue 39 #26: a corrupt camera.json raised JSONDecodeError from ``data[i]``."""
+    import shutil
+
+    out = tmp_path / "copy"
+    shutil.copytree(dataset, out)
+    data = SyntheticDataset(out)
+    item_id = data.rows[1]["id"]
+    (out / "items" / item_id / "camera.json").write_text('{"K": [[1, 0')
+    with pytest.raises(RawFormatError) as caught:
+        data[1]
+    message = str(caught.value)
+    assert f"item {item_id}" in message and "camera.json" in message and "rerun the same" in message
+    assert "JSONDecodeError" in message  # what was wrong, after where
+    # the remedy it names works: the rerun finds the file's checksum changed and renders the item again
+    summary = generate_dataset(spec_from_dict(SPEC), out, n=3, scheduler="inline", progress=False)
+    assert (summary.rendered, summary.resumed) == (1, 2)
+    written = json.loads((dataset / "items" / item_id / "camera.json").read_text())
+    assert SyntheticDataset(out).records(1)["camera"]["K"].tolist() == written["K"]
+
+
+def _one_item(tmp_path, name: str, **sensor) -> dict:
+    """One item of a pinhole view of the depth targets (so depth and defocus are sharp-edged planes)."""
+    spec = {"dataset": {"seed": 5, "outputs": ["image", "depth", "defocus", "camera"]},
+            "scene": {"preset": "dof_targets", "depths_m": [1.0, 2.0, 4.0]},
+            "sensor": {"crop_margin_px": 0, **sensor}, "render": {"spp": 2},
+            "lens": {"focal_length_mm": 25.0, "f_number": 4.0, "focus_distance_m": 2.0}}
+    generate_dataset(spec_from_dict(spec), tmp_path / name, n=1, scheduler="inline", progress=False)
+    return SyntheticDataset(tmp_path / name)[0]
+
+
+def test_crop_and_resize_keep_the_intrinsics_and_pixel_labels_of_a_real_smaller_sensor(tmp_path):
+    """Issue 40 #1 check: K after a transform is the K the renderer writes for the sensor the
+    transformed frame stands for: a centre crop of a 48 × 32 frame is a 24 × 16 sensor of the
+    same pitch; halving it is a 24 × 16 sensor of twice the pitch (same field of view), whose
+    depth and defocus diameter (px) agree with the halved labels where the planes are (not at
+    the targets' edges, which one pixel of the coarse sensor straddles)."""
+    big = _one_item(tmp_path, "big", width_px=48, height_px=32, pixel_pitch_um=6.0)
+    same_pitch = _one_item(tmp_path, "crop", width_px=24, height_px=16, pixel_pitch_um=6.0)
+    coarse = _one_item(tmp_path, "coarse", width_px=24, height_px=16, pixel_pitch_um=12.0)
+
+    cropped = Crop(16, 24)(big)
+    np.testing.assert_allclose(cropped["camera"]["K"], same_pitch["camera"]["K"], rtol=1e-12, atol=1e-9)
+    assert cropped["camera"]["image_size"].tolist() == [24, 16] and cropped["image"].shape == (16, 24, 3)
+    resized = Resize(16, 24)(big)
+    np.testing.assert_allclose(resized["camera"]["K"], coarse["camera"]["K"], rtol=1e-12, atol=1e-9)
+    assert resized["camera"]["pixel_pitch_um"] == pytest.approx(12.0)
+    for key, tolerance in (("depth", 1e-4), ("defocus", 0.02)):  # the preset frames its targets by the view,
+        agree = np.isclose(resized[key], coarse[key], rtol=tolerance, atol=tolerance)  # so only the same view
+        assert agree.mean() > 0.9, (key, agree.mean())
+    with pytest.raises(ValueError, match="ellipse"):
+        Resize(16, 16)(big)
+    with pytest.raises(ValueError, match="larger than"):
+        Crop(40, 24)(big)
+    random = Crop(8, 8, position="random", seed=1)
+    corners = {tuple(random(big)["camera"]["K"][:2, 2]) for _ in range(20)}
+    assert len(corners) > 5  # the window moves; K's principal point follows it

@@ -73,13 +73,13 @@ def test_a_dataset_mixing_the_natural_presets_writes_every_label_and_resumes(clu
 
     items = SyntheticDataset(out)
     for index in range(len(items)):
-        item = items[index]
+        item, meta = items[index], items.records(index)["meta"]
         assert {"image", "depth", "camera", "illuminant", "illuminant_map", "light_shares", "segmentation", "flow",
                 "albedo", "shading"} <= set(item)
-        if item["meta"]["config"]["scene"]["preset"] != "dead_leaves":  # lit by the sun and the sky apart
-            assert [light["name"] for light in item["meta"]["illuminant_map"]["lights"]] == ["sky.sun", "sky.sky"]
+        if meta["config"]["scene"]["preset"] != "dead_leaves":  # lit by the sun and the sky apart
+            assert [light["name"] for light in meta["illuminant_map"]["lights"]] == ["sky.sun", "sky.sky"]
         assert item["albedo"].shape == item["image"].shape and item["segmentation"].shape == item["depth"].shape
-        if item["meta"]["config"]["scene"]["preset"] == "vegetation":
+        if meta["config"]["scene"]["preset"] == "vegetation":
             assert "health" in item
     loaded = datasets.load_dataset("imagefolder", data_dir=str(out), split="train", cache_dir=str(tmp_path / "hf"))
     assert len(loaded) == 4 and set(loaded["id"]) == {row["id"] for row in read_manifest(out)}

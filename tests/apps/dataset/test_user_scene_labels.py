@@ -57,8 +57,9 @@ def test_labels_hold_against_the_scene_file(room):
     light colour per lamp — LSMI's mix — leaves the back wall 3 % red from the floor's bounce), and
     each lamp's camera RGB is that of its spectrum in the file (A's blackbody and D65)."""
     _, out = room
-    for item in SyntheticDataset(out):
-        meta = item["meta"]
+    items = SyntheticDataset(out)
+    for index in range(len(items)):
+        item, meta = items[index], items.records(index)["meta"]
         table = {row["id"]: row["name"] for row in meta["segmentation"]["instances"]}
         assert set(table.values()) == {"floor", "back_wall", "side_wall", "window", "lamp", "box", "red_ball",
                                        "grey_cylinder", "blue_ball"}
