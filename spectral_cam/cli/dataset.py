@@ -43,8 +43,9 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``spectral-cam dataset``: exit 0 when every item is done, 1 when some failed (they are
-    listed in the manifest; finished items are kept)."""
-    from ..apps.dataset import generate_dataset, load_spec, plan_dataset
+    listed in the manifest; finished items are kept), 130 when interrupted (Ctrl-C, SIGTERM:
+    finished items are kept, and the message says how many and that the same command resumes)."""
+    from ..apps.dataset import DatasetInterrupted, generate_dataset, load_spec, plan_dataset
     from ..errors import ConfigError
     from ..progress import duration
 
@@ -56,9 +57,13 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.output:
         raise ConfigError("spectral-cam dataset needs -o DIR (the dataset folder), or --dry-run to see the plan")
-    summary = generate_dataset(spec, args.output, n=args.n, scheduler=args.scheduler, workers=args.workers,
-                               retries=args.retries, force=args.force, progress=not args.quiet,
-                               dashboard=args.dashboard)
+    try:
+        summary = generate_dataset(spec, args.output, n=args.n, scheduler=args.scheduler, workers=args.workers,
+                                   retries=args.retries, force=args.force, progress=not args.quiet,
+                                   dashboard=args.dashboard)
+    except DatasetInterrupted as stop:  # finished items are kept: not "no partial output was kept"
+        print(f"spectral-cam: interrupted: {stop.message}", file=sys.stderr)
+        return 130
     if not args.quiet:
         print(f"dataset {summary.output}: {summary.items} items, {summary.rendered} rendered, "
               f"{summary.resumed} resumed, {summary.failed} failed in {duration(summary.seconds)} "

@@ -536,15 +536,19 @@ def write_item(config: SceneConfig, target: str | Path, *, outputs: Sequence[str
     with staged_directory(target, force=True) as stage:
         item = Item(simulate(config), measure_blur=measure_blur)
         written: list[Path] = []
+        by_label: dict[str, list[str]] = {}  # what each output wrote: some write nothing for some scenes
         write_s = 0.0
         for name in outputs:
             t0 = time.perf_counter()
-            written += LABELS[name](item, stage)
+            files = LABELS[name](item, stage)
+            by_label[name] = [path.name for path in files]
+            written += files
             if name not in item.timings:
                 write_s += time.perf_counter() - t0
         timings = {**item.sim.timings_s, "write": write_s, **item.timings}
         timings["total"] = time.perf_counter() - started
         record = dict(dataset or {})
+        record["labels"] = by_label
         record["file_checks"] = {path.name: file_check(path) for path in written}
         meta = result_meta(item.sim, written, timings, dataset=record)
         meta.update({key: item.records.get(key) for entry in LABELS.values() for key in entry.options})

@@ -44,13 +44,13 @@ from .card import write_card, write_metadata
 from .sheets import write_blur_chart, write_contact_sheet
 from .spec import DatasetSpec, ItemPlan
 
-__all__ = ["DatasetSummary", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers",
+__all__ = ["DatasetSummary", "DatasetInterrupted", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers",
            "ProgressBar", "MANIFEST_EVERY_S", "open_executor", "plan_dataset", "PLANNED_SAMPLE"]
 
 #: Seconds between manifest rewrites during a run (it is always written at the end).
 MANIFEST_EVERY_S = 30.0
-_MANIFEST_KEYS = ("index", "id", "status", "resumed", "seed", "params", "files", "error", "attempts", "seconds",
-                  "exposure_s", "variant", "file_checks", "path")
+_MANIFEST_KEYS = ("index", "id", "status", "resumed", "seed", "params", "files", "labels", "error", "attempts",
+                  "seconds", "exposure_s", "variant", "file_checks", "path")
 
 
 # ----------------------------------------------------------------------------- one item
@@ -116,7 +116,8 @@ def render_item(task: Mapping[str, Any]) -> dict:
         meta = write_item(config, task["path"], outputs=task["outputs"], measure_blur=task.get("measure_blur", False),
                           dataset={**record, "outputs": list(task["outputs"])})
         row.update(status="done", files=meta["files"], error=None, exposure_s=meta["sensor"]["exposure_s"],
-                   variant=meta["render"]["variant"], file_checks=meta["dataset"]["file_checks"])
+                   variant=meta["render"]["variant"], file_checks=meta["dataset"]["file_checks"],
+                   labels=meta["dataset"]["labels"])
     except Exception as exc:  # a poison item: record it, never take the run down
         row.update(status="failed", files=[], error=f"{type(exc).__name__}: {exc}",
                    traceback=traceback.format_exc(limit=8))
@@ -208,7 +209,7 @@ def local_cluster(workers: int | None = None, *, dashboard: bool = False, **work
                                                         "MKL_NUM_THREADS": share, "OPENBLAS_NUM_THREADS": share}}
     if not dashboard:  # no pages: identity, worker, log and exception pages stay unserved
         settings.update({"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []})
-    with dask.config.set(settings):
+    with dask.config.set(settings), _interrupts_ignored():
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host=LOOPBACK,
                                dashboard_address=f"{LOOPBACK}:{8787 if dashboard else 0}",
                                worker_dashboard_address=None,
@@ -221,9 +222,85 @@ def local_cluster(workers: int | None = None, *, dashboard: bool = False, **work
             raise
     try:
         yield client
+    except BaseException:  # an interrupt: stop the workers mid-item, before anything tells them so
+        with _dask_quiet():
+            _kill_workers(cluster)
+            client.close()
+            cluster.close()
+        raise
+    client.close()
+    cluster.close()
+
+
+def _kill_workers(cluster) -> None:
+    """SIGKILL a local cluster's worker processes now, their nannies told not to restart them.
+
+    Closing the client first cancelled each running render (a warning from every worker) and
+    closing the scheduler first broke their heartbeats (a traceback from every worker); a worker
+    waited 4 s for a render to notice before its nanny killed it anyway. The items they were
+    rendering are lost either way (their staging folders are removed after); finished items are
+    on disk already.
+
+    References
+    ----------
+    .. [1] Dask.distributed, ``Nanny`` (``_on_worker_exit``: a nanny closing gracefully does not
+       restart its worker).
+    """
+    import signal
+
+    from distributed.core import Status
+
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        try:
+            pid = nanny.pid
+            nanny.status = Status.closing_gracefully
+            if pid:
+                os.kill(pid, signal.SIGKILL)
+        except (AttributeError, ValueError, TypeError, OSError):  # another distributed: it closes as it does
+            continue
+
+
+@contextlib.contextmanager
+def _interrupts_ignored() -> Iterator[None]:
+    """SIGINT ignored while a local cluster spawns its workers, which inherit the ignored
+    disposition: a Ctrl-C at the terminal (sent to the whole process group) then reaches only
+    this process, which keeps what is done and shuts the workers down. Without it each worker
+    printed its own KeyboardInterrupt traceback and Dask its cancellations. A Ctrl-C in these
+    seconds of start-up is lost (Python cannot defer an ignored signal). Main thread only.
+
+    References
+    ----------
+    .. [1] POSIX ``execve``: signals set to be ignored stay ignored in the new image; Python
+       installs its KeyboardInterrupt handler only where SIGINT is at its default.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
     finally:
-        client.close()
-        cluster.close()
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def _dask_quiet() -> Iterator[None]:
+    """Dask's own log lines silenced (workers "still alive ..., killing", and the tracebacks of
+    results in transfer when the scheduler closes, which its event loop logs through tornado)."""
+    import logging
+
+    loggers = [logging.getLogger(name) for name in ("distributed", "tornado", "asyncio")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)
 
 
 def default_workers() -> int:
@@ -407,14 +484,9 @@ def _plan_items(spec: DatasetSpec, total: int, per_point: int, output: Path, row
             rows[index] = {**base, "status": "failed", "resumed": False, "files": [], "error": plan.error}
             bar.rejected += 1
             continue
-        meta = None if force else _finished(items_dir / plan.id, spec.hash, spec.outputs, plan)
+        meta = None if force else _finished(items_dir / plan.id, spec.hash, spec.outputs, plan.seed, plan.params)
         if meta is not None:
-            rows[index] = {**base, "status": "done", "resumed": True,
-                           "files": [f"items/{plan.id}/{name}" for name in meta["files"]],
-                           "error": None, "exposure_s": meta.get("sensor", {}).get("exposure_s"),
-                           "seconds": meta.get("timings_s", {}).get("total"),
-                           "variant": meta.get("render", {}).get("variant"),
-                           "file_checks": meta["dataset"]["file_checks"]}
+            rows[index] = _done_row(base, meta, resumed=True)
             bar.resumed += 1
             continue
         # until a worker reports, the manifest (rewritten every MANIFEST_EVERY_S) says pending
@@ -422,7 +494,16 @@ def _plan_items(spec: DatasetSpec, total: int, per_point: int, output: Path, row
         yield item_task(spec, plan, output)
 
 
-def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], plan: ItemPlan) -> dict | None:
+def _done_row(base: Mapping[str, Any], meta: Mapping[str, Any], *, resumed: bool) -> dict:
+    """The manifest row of an item found complete on disk (from its meta.json)."""
+    item_id = base["id"]
+    return {**base, "status": "done", "resumed": resumed, "files": [f"items/{item_id}/{name}" for name in meta["files"]],
+            "error": None, "exposure_s": meta.get("sensor", {}).get("exposure_s"),
+            "seconds": meta.get("timings_s", {}).get("total"), "variant": meta.get("render", {}).get("variant"),
+            "file_checks": meta["dataset"]["file_checks"], "labels": meta["dataset"].get("labels")}
+
+
+def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], seed: int, params: Mapping) -> dict | None:
     """The item's meta when its folder is complete for this spec, this item's planned seed
     and parameters (a sweep re-plans items when ``-n`` changes), and these outputs, and every
     file still has the size and SHA-256 it was written with."""
@@ -431,7 +512,7 @@ def _finished(item_dir: Path, spec_hash: str, outputs: Sequence[str], plan: Item
         return None
     if meta["dataset"].get("spec_hash") != spec_hash or not set(outputs) <= set(meta["dataset"].get("outputs", [])):
         return None
-    if meta["dataset"].get("seed") != plan.seed or meta["dataset"].get("params") != json_ready(plan.params):
+    if meta["dataset"].get("seed") != seed or meta["dataset"].get("params") != json_ready(params):
         return None
     checks = meta["dataset"].get("file_checks")
     if not isinstance(checks, dict):
@@ -566,6 +647,10 @@ def generate_dataset(
     ConfigError
         For an invalid count, a folder holding another spec's dataset (without ``force``),
         or a folder another run is writing.
+    DatasetInterrupted
+        On Ctrl-C or SIGTERM (a ``KeyboardInterrupt``): the manifest, metadata.jsonl and the
+        card list the items done (a worker's item completed as the interrupt came counts), a
+        local cluster's staging folders are removed, and the same call resumes.
 
     Examples
     --------
@@ -611,22 +696,22 @@ def generate_dataset(
 
         rows: dict[int, dict] = {}
         bar = ProgressBar(total, enabled=progress)
-        bar.update()  # at once: planning a large dataset is itself work
-        planned = _plan_items(spec, total, per_point, output, rows, bar, force=force)
-        first = next(planned, None)  # plans (and skips finished items) up to the first to render
-        if first is not None:
-            _check_disk(first, total - sum(1 for r in rows.values() if r["status"] != "pending"), output)
         manifest = output / "manifest.jsonl"
         try:
-            if first is not None:
-                with _executor(executor, scheduler, workers, dashboard) as (pool, window, threads):
-                    tasks = ({**task, "render_threads": render_threads or threads}
-                             for task in itertools.chain([first], planned))
-                    _run_tasks(pool, item_function, tasks, rows, items_dir, window=window, retries=retries,
-                               bar=bar, summary=summary, manifest=manifest)
-        finally:
+            _run(spec, total, per_point, output, rows, bar, summary, manifest, force=force, executor=executor,
+                 scheduler=scheduler, workers=workers, dashboard=dashboard, render_threads=render_threads,
+                 item_function=item_function, retries=retries)
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what is done, say how to go on
+            if executor is None and scheduler in (None, "inline"):  # our workers are gone: their staging too
+                _remove_partials(items_dir)
+            bar.done += _settle_pending(rows, items_dir, spec)
+            bar.close()
             _write_manifest(manifest, rows)
-            summary.manifest = manifest
+            write_metadata(output, rows)
+            write_card(output, spec, rows, spec_hash=spec.hash)
+            raise DatasetInterrupted(output, done=sum(1 for r in rows.values() if r["status"] == "done"),
+                                     failed=sum(1 for r in rows.values() if r["status"] == "failed"),
+                                     total=total) from None
         summary.resumed = sum(1 for r in rows.values() if r.get("resumed"))
         if summary.resumed and summary.rendered:
             _warn_on_another_variant(rows, progress)
@@ -640,6 +725,66 @@ def generate_dataset(
             _write_summaries(output, sweeps=bool(spec.sweeps))
     summary.seconds = time.perf_counter() - started
     return summary
+
+
+def _run(spec, total, per_point, output, rows, bar, summary, manifest, *, force, executor, scheduler, workers,
+         dashboard, render_threads, item_function, retries) -> None:
+    """Plan, resume and render every item into ``rows``; the manifest is written however it ends."""
+    items_dir = output / "items"
+    bar.update()  # at once: planning a large dataset is itself work
+    planned = _plan_items(spec, total, per_point, output, rows, bar, force=force)
+    first = next(planned, None)  # plans (and skips finished items) up to the first to render
+    if first is not None:
+        _check_disk(first, total - sum(1 for r in rows.values() if r["status"] != "pending"), output)
+    try:
+        if first is not None:
+            with _executor(executor, scheduler, workers, dashboard) as (pool, window, threads):
+                tasks = ({**task, "render_threads": render_threads or threads}
+                         for task in itertools.chain([first], planned))
+                _run_tasks(pool, item_function, tasks, rows, items_dir, window=window, retries=retries,
+                           bar=bar, summary=summary, manifest=manifest, owned=executor is None)
+    finally:
+        _write_manifest(manifest, rows)
+        summary.manifest = manifest
+
+
+class DatasetInterrupted(KeyboardInterrupt):
+    """A dataset run stopped by Ctrl-C or SIGTERM. The finished items are kept (and listed in the
+    manifest, metadata.jsonl and the card); running the same command again resumes.
+
+    Attributes
+    ----------
+    output : Path
+        The dataset folder.
+    done, failed, total : int
+        Items done (complete on disk), failed, and in the dataset.
+    """
+
+    def __init__(self, output: Path, *, done: int, failed: int, total: int):
+        self.output, self.done, self.failed, self.total = output, done, failed, total
+        super().__init__(self.message)
+
+    @property
+    def message(self) -> str:
+        """``"11/12 items done; rerun the same command to resume"`` (with the failures, if any)."""
+        failed = f", {self.failed} failed" if self.failed else ""
+        return (f"{self.done}/{self.total} items done{failed}, kept in {self.output}; "
+                f"rerun the same command to resume")
+
+
+def _settle_pending(rows: dict, items_dir: Path, spec: DatasetSpec) -> int:
+    """After an interrupt: an item still "pending" whose folder a worker completed before the
+    run stopped (its result never came back) is done; the manifest says so, as a rerun would
+    find. Returns how many such items there were."""
+    settled = 0
+    for index, row in rows.items():
+        if row["status"] != "pending":
+            continue
+        meta = _finished(items_dir / row["id"], spec.hash, spec.outputs, row["seed"], row["params"])
+        if meta is not None:
+            rows[index] = _done_row(row, meta, resumed=False)
+            settled += 1
+    return settled
 
 
 #: Items whose capture plans stand for the whole dataset in ``--dry-run`` (each renders its depth probe).
@@ -689,7 +834,12 @@ def plan_dataset(spec: DatasetSpec, *, n: int | None = None, workers: int | None
                  + f", peak memory about {memory / 1e9:.2g} GB a worker"
                  + (f" ({memory * parallel / 1e9:.2g} GB in all)" if parallel else "")
                  + f", files about {files * total / 1e9:.3g} GB (labels beyond the render's files not counted); "
-                 f"from the plans of {len(plans)} item(s)" + (f", {len(errors)} invalid" if errors else ""))
+                 f"from the plans of {len(plans)} item(s)"
+                 + (f"; {len(errors)} of the first {len(plans) + len(errors)} items invalid (recorded as failed, "
+                    f"never rendered):" if errors else ""))
+    lines += [f"  invalid item {error}" for error in errors[:5]]
+    if len(errors) > 5:
+        lines.append(f"  ... {len(errors) - 5} more")
     return "\n".join(lines)
 
 
@@ -707,9 +857,12 @@ def _check_disk(task: Mapping[str, Any], items: int, output: Path) -> None:
                     "'radiance' (render.radiance_precision = 'half' halves it)")
 
 
-def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, bar, summary, manifest) -> None:
+def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, bar, summary, manifest,
+               owned: bool = False) -> None:
     """Keep ``window`` tasks in flight, drawing new ones from the (lazy) ``tasks`` iterator and
-    resubmitting those whose worker died (``retries`` times)."""
+    resubmitting those whose worker died (``retries`` times). On the way out the tasks in flight
+    are cancelled, except after an interrupt on an executor this run made (``owned``): closing it
+    stops them, and a cancelled running task only makes each worker log a warning."""
     tasks = iter(tasks)
     pending: collections.deque = collections.deque()  # resubmissions first
     attempts: collections.Counter = collections.Counter()
@@ -754,9 +907,15 @@ def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, 
             if time.perf_counter() - last_manifest > MANIFEST_EVERY_S:
                 _write_manifest(manifest, rows)
                 last_manifest = time.perf_counter()
-    finally:
+    except KeyboardInterrupt:
+        if not owned:
+            for future in in_flight:
+                future.cancel()
+        raise
+    except BaseException:
         for future in in_flight:
             future.cancel()
+        raise
 
 
 def _write_summaries(output: Path, *, sweeps: bool) -> None:

@@ -439,18 +439,91 @@ class DatasetSpec:
         overrides = dict(params)
         if "render.seed" not in params and "seed" not in self.fixed.get("render", {}):
             overrides["render.seed"] = seed
-        fixed = {section: dict(table) for section, table in self.fixed.items()}
-        fixed.setdefault("lens", {}).setdefault("model", "thin")
-        fixed.setdefault("render", {})["spectral_output"] = "radiance" in self.outputs
         item_id = f"{index:06d}"
         try:
-            config = scene_from_dict(fixed, overrides=overrides, base_dir=self.base_dir)
-            if "radiance" in self.outputs and config.render.bands == "camera":
-                raise ConfigError("render.bands = 'camera' renders no spectrum, so output 'radiance' cannot be "
-                                  "written; use render.bands = 'auto' or a band grid such as '400:700:10'")
+            config = self.scene(overrides)
         except ConfigError as exc:
             return ItemPlan(index, item_id, seed, params, None, f"ConfigError: {exc}")
         return ItemPlan(index, item_id, seed, params, config.to_dict())
+
+    def scene(self, overrides: Mapping[str, Any] | None = None) -> SceneConfig:
+        """The validated scene of the fixed values with ``overrides`` (``{"section.key": value}``)
+        on top, as an item renders it (a thin lens unless the spec names another model;
+        ``render.spectral_output`` following the ``radiance`` output).
+
+        Raises
+        ------
+        ConfigError
+            For an impossible value, saying what would be valid.
+        """
+        fixed = {section: dict(table) for section, table in self.fixed.items()}
+        fixed.setdefault("lens", {}).setdefault("model", "thin")
+        fixed.setdefault("render", {})["spectral_output"] = "radiance" in self.outputs
+        config = scene_from_dict(fixed, overrides=dict(overrides or {}), base_dir=self.base_dir)
+        if "radiance" in self.outputs and config.render.bands == "camera":
+            raise ConfigError("render.bands = 'camera' renders no spectrum, so output 'radiance' cannot be "
+                              "written; use render.bands = 'auto' or a band grid such as '400:700:10'")
+        return config
+
+    def check_values(self) -> None:
+        """Load every value a key can take through the scene's checks, before any item is planned:
+        each choice and sweep value, and the bounds of each (log-)uniform draw, on the fixed
+        values.
+
+        A value is refused only where the fixed values alone load and it fails beside each of
+        eight draws of the other drawn and swept keys (a fixed seed); a value that fails only
+        beside some draws of another key is left to the items' plans, which record each such
+        item as failed with the reason (and ``--dry-run`` lists them).
+
+        Raises
+        ------
+        ConfigError
+            Naming the key, the value (and which of the listed values it is) and the scene's reason.
+        """
+        try:
+            self.scene()
+        except ConfigError:
+            return  # the fixed values alone fail: every item says so, no value is to blame
+        for key, where, value in self._values_to_check():
+            rng = np.random.default_rng(0)
+            contexts = 8 if (set(self.distributions) | {s.key for s in self.sweeps}) - {key} else 1
+            errors = []
+            for _ in range(contexts):
+                errors.append(self._refusal({**self._draw_others(key, rng), key: value}))
+                if errors[-1] is None:
+                    break
+            else:
+                beside = " beside 8 draws of the other keys" if contexts > 1 else ""
+                raise ConfigError(f"{key}: {where} {json.dumps(json_ready(value))}, is refused by the scene "
+                                  f"checks{beside} ({errors[0]}); remove it or give a value the scene takes")
+
+    def _refusal(self, overrides: Mapping[str, Any]) -> str | None:
+        try:
+            self.scene(overrides)
+        except ConfigError as exc:
+            return str(exc)
+        return None
+
+    def _draw_others(self, key: str, rng: np.random.Generator) -> dict:
+        drawn = {k: d.sample(rng) for k, d in self.distributions.items() if k != key}
+        drawn.update({s.key: json_ready(s.values[int(rng.integers(len(s.values)))]) for s in self.sweeps
+                      if s.key != key})
+        return drawn
+
+    def _values_to_check(self):
+        for key, dist in sorted(self.distributions.items()):
+            if dist.kind == "choice":
+                for k, value in enumerate(dist.values):
+                    yield key, f"choice value {k + 1} of {len(dist.values)},", value
+                continue
+            for name, bound in (("low", dist.low), ("high", dist.high)):
+                value = list(bound) if isinstance(bound, tuple) else bound
+                if dist.whole:
+                    value = json_ready(np.asarray(np.ceil(value) if name == "low" else np.floor(value), dtype=int))
+                yield key, f"{dist.kind} {name} bound", value
+        for axis in self.sweeps:
+            for k, value in enumerate(axis.values):
+                yield axis.key, f"sweep value {k + 1} of {len(axis.values)},", value
 
 
 def spec_from_dict(
@@ -479,7 +552,8 @@ def spec_from_dict(
     Raises
     ------
     ConfigError
-        For an unknown section, key, output or distribution, or a malformed sweep.
+        For an unknown section, key, output or distribution, a malformed sweep, or a choice,
+        sweep value or bound the scene cannot render (:meth:`DatasetSpec.check_values`).
 
     Examples
     --------
@@ -572,8 +646,10 @@ def spec_from_dict(
     if count is not None and (not isinstance(count, int) or isinstance(count, bool) or count < 1):
         raise ConfigError(f"dataset.n = {count!r}: must be a whole number >= 1")
     ordered = tuple(name for name in LABELS if name in outputs)
-    return DatasetSpec(fixed=fixed, distributions=distributions, sweeps=tuple(axes), outputs=ordered,
+    spec = DatasetSpec(fixed=fixed, distributions=distributions, sweeps=tuple(axes), outputs=ordered,
                        seed=seed, count=count, base_dir=str(base_dir), source=source)
+    spec.check_values()
+    return spec
 
 
 def _resolve_paths_table(table: Mapping[str, Any], base_dir: Path) -> dict:

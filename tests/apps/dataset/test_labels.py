@@ -71,6 +71,7 @@ def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
     meta = write_item(config, tmp_path / "item", outputs=["raw", "defocus"], dataset={"id": "x"})
     assert {p.name for p in (tmp_path / "item").iterdir()} == {"raw.dng", "defocus.exr", "meta.json"}
     checks = meta["dataset"].pop("file_checks")
+    assert meta["dataset"].pop("labels") == {"raw": ["raw.dng"], "defocus": ["defocus.exr"]}  # each output's files
     assert meta["files"] == ["defocus.exr", "raw.dng", "meta.json"] and meta["dataset"] == {"id": "x"}
     assert {name: check["bytes"] for name, check in checks.items()} == {
         name: (tmp_path / "item" / name).stat().st_size for name in ("defocus.exr", "raw.dng")}
@@ -139,3 +140,23 @@ def test_segmentation_names_colorchecker_patches_by_their_reflectance(make_scene
     assert table["patch_00"]["reflectance"] == "ColorChecker 'dark skin' (BabelColor average)"
     assert table["patch_18"]["reflectance"].startswith("ColorChecker 'white 9.5")
     assert all(table[f"patch_{k:02d}"]["pixels"] > 0 for k in range(24))
+
+
+@pytest.mark.timeout(300)
+def test_the_card_lists_only_the_labels_the_items_wrote(tmp_path):
+    """Issue 39 #31: ``outputs = ["health"]`` on a ColorChecker writes no file, yet the card listed
+    it. The card's label table is what the item folders hold; an output no item could write is
+    named apart with what it needs."""
+    from spectral_cam.apps.dataset import generate_dataset, spec_from_dict
+
+    spec = spec_from_dict({"dataset": {"outputs": ["image", "depth", "health"]}, "scene": {"preset": "colorchecker"},
+                           "sensor": {"width_px": 24, "height_px": 16}, "render": {"spp": 2}})
+    generate_dataset(spec, tmp_path / "out", n=1, scheduler="inline", progress=False)
+    held = {p.name for p in (tmp_path / "out" / "items" / "000000").iterdir()}
+    assert "health.exr" not in held and {"image.png", "depth.exr"} <= held
+    card = (tmp_path / "out" / "README.md").read_text()
+    table = card.split("## Labels")[1].split("Asked for but written by no item")[0]
+    assert "| `image` |" in table and "| `depth` |" in table and "`health`" not in table
+    assert "Asked for but written by no item" in card and "- `health`: health.exr" in card
+    row = json.loads((tmp_path / "out" / "manifest.jsonl").read_text().splitlines()[0])
+    assert row["labels"]["health"] == [] and row["labels"]["depth"] == ["depth.exr"]

@@ -129,33 +129,35 @@ def test_killed_worker_is_retried(cluster, spec_file):
 def test_poison_items_fail_and_the_rest_complete(cluster, tmp_path):
     (tmp_path / "broken.xml").write_text("<scene version='3.0.0'><shape type='no_such_plugin'/></scene>")
     spec_path = tmp_path / "poison.toml"
+    # 0.05 m is a possible focus at 25 mm, not at 100 mm: the spec loads (no value is impossible
+    # everywhere, issue 39 #14) and only the item drawing both is rejected
     spec_path.write_text("""
 [dataset]
 outputs = ["raw", "image", "depth", "defocus"]
 [dataset.sweep]
 "scene.mitsuba_xml" = ["", "broken.xml"]
-"lens.focus_distance_m" = [0.01, 2.0]
+"lens.focal_length_mm" = [25.0, 100.0]
+"lens.focus_distance_m" = [0.05, 2.0]
 [sensor]
 width_px = 24
 height_px = 16
 [render]
 spp = 2
-[lens]
-focal_length_mm = 25.0
 """)
     out = tmp_path / "poison"
     summary = generate_dataset(load_spec(spec_path), out, executor=cluster.executor, progress=False)
     rows = read_manifest(out)
-    assert [(r["params"]["scene.mitsuba_xml"], r["params"]["lens.focus_distance_m"]) for r in rows] == [
-        ("", 0.01), ("", 2.0), ("broken.xml", 0.01), ("broken.xml", 2.0)]
-    assert [r["status"] for r in rows] == ["failed", "done", "failed", "failed"]
-    assert (summary.rendered, summary.failed) == (1, 3)
-    for index in (0, 2):  # impossible values: rejected before rendering, with what would be valid
+    assert [tuple(r["params"].values()) for r in rows] == [
+        (xml, f, d) for xml in ("", "broken.xml") for f in (25.0, 100.0) for d in (0.05, 2.0)]
+    assert [r["status"] for r in rows] == ["done", "done", "failed", "done"] + ["failed"] * 4
+    assert (summary.rendered, summary.failed) == (3, 5)
+    for index in (2, 6):  # impossible values: rejected before rendering, with what would be valid
         assert "lens.focus_distance_m" in rows[index]["error"] and "focal length" in rows[index]["error"]
         assert rows[index]["attempts"] == 0
-    assert rows[3]["error"].startswith("RenderError") and rows[3]["attempts"] == 1
+    for index in (4, 5, 7):
+        assert rows[index]["error"].startswith("RenderError") and rows[index]["attempts"] == 1
+        assert not (out / "items" / rows[index]["id"]).exists()
     assert rows[1]["error"] is None and (out / "items" / "000001" / "raw.dng").is_file()
-    assert not (out / "items" / "000003").exists()
 
 
 @pytest.mark.timeout(300)

@@ -105,7 +105,7 @@ def test_whole_number_uniform_draws_every_value_including_both_ends_equally_ofte
     from scipy import stats
 
     spec = spec_from_dict({"sensor": {"width_px": {"uniform": [4, 10]},
-                                      "height_px": {"log_uniform": [1, 8]}}})
+                                      "height_px": {"log_uniform": [2, 16]}}})
     rng = np.random.default_rng(39)
     width, height = spec.distributions["sensor.width_px"], spec.distributions["sensor.height_px"]
     draws = [width.sample(rng) for _ in range(7000)]
@@ -114,10 +114,57 @@ def test_whole_number_uniform_draws_every_value_including_both_ends_equally_ofte
     assert counts.sum() == 7000 and counts.min() > 0
     assert stats.chisquare(counts).pvalue > 1e-3, counts  # rounding gave ~500 at each end: p ~ 1e-80
     # log-uniform over whole numbers: each k with its rounding cell's log-width ln((k + ½)/(k − ½))
-    k = np.arange(1, 9)
+    k = np.arange(2, 17)
     expected = np.log((k + 0.5) / (k - 0.5))
-    counts = np.bincount([height.sample(rng) for _ in range(7000)], minlength=9)[1:]
+    counts = np.bincount([height.sample(rng) for _ in range(7000)], minlength=17)[2:]
     assert stats.chisquare(counts, 7000 * expected / expected.sum()).pvalue > 1e-3, counts
     # bounds holding no whole number are refused at load
     with pytest.raises(ConfigError, match="holds none"):
         spec_from_dict({"sensor": {"width_px": {"uniform": [4.2, 4.8]}}})
+
+
+def test_every_choice_and_bound_is_checked_by_the_scene_at_load():
+    """Issue 39 #14: ``light = {choice = ["sun", "overcast"]}`` loaded, and the dry run said
+    "1 invalid" without the item or the reason. Each value now goes through the scene's own
+    checks at load: the error names the key, the value, which entry it is and the scene's reason
+    (the list of valid lights, as ``scene_from_dict`` gives it for that value alone)."""
+    from spectral_cam.scene import scene_from_dict
+
+    with pytest.raises(ConfigError) as direct:
+        scene_from_dict({"scene": {"preset": "tabletop", "light": "sun"}})
+    with pytest.raises(ConfigError) as caught:
+        spec_from_dict({"scene": {"preset": "tabletop", "light": {"choice": ["sun", "overcast"]}}})
+    message = str(caught.value)
+    assert message.startswith("scene.light: choice value 1 of 2, \"sun\"") and str(direct.value) in message
+    for data, expect in (
+            ({"sensor": {"model": {"choice": ["nikon_d850", "nikon_d851"]}}}, "choice value 2 of 2, \"nikon_d851\""),
+            ({"exposure": {"iso": {"choice": [100, "x"]}}}, "exposure.iso: choice value 2 of 2, \"x\""),
+            ({"lens": {"f_number": {"uniform": [0.1, 2.0]}}}, "lens.f_number: uniform low bound 0.1"),
+            ({"lens": {"f_number": 2.0}}, None)):
+        if expect is None:
+            spec_from_dict(data, sweeps=["lens.focus_distance_m=[1.0, 2.0]"])
+            with pytest.raises(ConfigError, match="sweep value 2 of 2, -1.0"):
+                spec_from_dict(data, sweeps=["lens.focus_distance_m=[1.0, -1.0]"])
+            continue
+        with pytest.raises(ConfigError, match=expect):
+            spec_from_dict(data)
+    # a value impossible only beside some draws of another key is the items' to report, not the spec's
+    spec = spec_from_dict({"lens": {"focal_length_mm": {"choice": [25.0, 100.0]},
+                                    "focus_distance_m": {"uniform": [0.05, 0.2]}}})
+    errors = [spec.plan_item(i).error for i in range(8)]
+    assert any(e and "focuses only beyond its focal length" in e for e in errors) and errors.count(None) >= 1
+
+
+@pytest.mark.timeout(300)
+def test_the_dry_run_names_each_invalid_item_and_its_reason():
+    from spectral_cam.apps.dataset import plan_dataset
+
+    spec = spec_from_dict({"sensor": {"width_px": 24, "height_px": 16}, "render": {"spp": 2},
+                           "lens": {"focal_length_mm": {"choice": [25.0, 100.0], "weights": [1, 3]},
+                                    "focus_distance_m": {"uniform": [0.05, 0.15]}}})
+    plans = [spec.plan_item(i) for i in range(40)]
+    third_valid = [p.index for p in plans if not p.error][2]  # the dry run plans up to the third valid item
+    invalid = [p for p in plans[:third_valid] if p.error]
+    text = plan_dataset(spec, n=40, scheduler="inline")
+    assert invalid and f"invalid item {invalid[0].id}: ConfigError: lens.focus_distance_m = " in text
+    assert "focuses only beyond its focal length" in text

@@ -1,0 +1,75 @@
+"""Issue 39 #19: Ctrl-C during ``spectral-cam dataset`` printed Dask's CancelledError tracebacks
+and "killing" warnings from every worker, then "no partial output was kept" although the finished
+items were kept. The terminal's Ctrl-C (SIGINT to the whole process group) now ends the run in
+one line that says how many items are done and that the same command resumes; the manifest
+agrees with the item folders on disk, no staging folder is left, and rerunning resumes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from .reading import read_manifest
+
+SPEC = """
+[scene]
+preset = "colorchecker"
+[sensor]
+width_px = 24
+height_px = 16
+[render]
+spp = 2
+[lens]
+f_number = { uniform = [2.0, 8.0] }
+"""
+
+
+def _dataset(spec: Path, out: Path) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "dataset", str(spec), "-n", "8", "-o", str(out),
+                             "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)  # its own process group, as a terminal's job
+
+
+def _complete(out: Path) -> list[str]:
+    items = out / "items"
+    return sorted(p.name for p in items.iterdir() if p.name.isdigit()) if items.is_dir() else []
+
+
+@pytest.mark.timeout(600)
+def test_ctrl_c_keeps_the_finished_items_says_so_and_the_same_command_resumes(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "out"
+    run = _dataset(spec, out)
+    deadline = time.monotonic() + 400
+    while len(_complete(out)) < 2 and run.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert run.poll() is None, "the dataset finished before it could be interrupted: " + run.communicate()[1]
+    os.killpg(run.pid, signal.SIGINT)  # what Ctrl-C at a terminal sends: every process of the job
+    _, err = run.communicate(timeout=60)
+    assert run.returncode == 130, err
+
+    kept = _complete(out)
+    rows = read_manifest(out)
+    done = [row["id"] for row in rows if row["status"] == "done"]
+    assert done == kept and len(kept) >= 2  # every complete folder counted, no half-written one counted
+    last = err.strip().splitlines()[-1]
+    assert last == f"spectral-cam: interrupted: {len(kept)}/8 items done, kept in {out}; rerun the same command to resume"
+    for noise in ("Traceback", "CancelledError", "killing", "no partial output was kept", "WARNING", "ERROR"):
+        assert noise not in err, err
+    assert not [p.name for p in (out / "items").iterdir() if p.name.startswith(".")]
+    assert (out / "README.md").is_file() and f"{len(kept)} items rendered" in (out / "README.md").read_text()
+
+    before = {name: (out / "items" / name / "raw.dng").stat().st_mtime_ns for name in kept}
+    again = _dataset(spec, out)
+    _, err = again.communicate(timeout=400)
+    assert again.returncode == 0, err
+    assert f"8 items, {8 - len(kept)} rendered, {len(kept)} resumed, 0 failed" in err
+    assert before == {name: (out / "items" / name / "raw.dng").stat().st_mtime_ns for name in kept}
+    assert [row["status"] for row in read_manifest(out)] == ["done"] * 8
