@@ -173,6 +173,37 @@ def write_contact_sheet(output: str | Path, path: str | Path | None = None, *,
     return save_png(fig, path, dpi=110)
 
 
+_LINES = ("-", "--", ":", "-.")
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+
+
+def _series_styles(params: Sequence[Mapping[str, Any]], keys: Sequence[str]) -> tuple[list, list]:
+    """A colour per value of the first sweep key and a line style and marker per value of the
+    second (per series without keys), so that series stay apart in grey print and where
+    their curves overlap."""
+    import matplotlib
+
+    def ranks(key):
+        values = [_format(p.get(key)) for p in params]
+        order = list(dict.fromkeys(values))
+        return [order.index(v) for v in values]
+
+    by_colour = ranks(keys[0]) if keys else list(range(len(params)))
+    by_style = ranks(keys[1]) if len(keys) > 1 else (list(range(len(params))) if not keys else by_colour)
+    count = max(by_colour) + 1
+    palette = matplotlib.colormaps["tab10"] if count <= 10 else matplotlib.colormaps["viridis"]
+    colours = [palette(i) if count <= 10 else palette(0.9 * i / max(count - 1, 1)) for i in by_colour]
+    return colours, [(_LINES[i % len(_LINES)], _MARKERS[i % len(_MARKERS)]) for i in by_style]
+
+
+def _diffraction_in_both(meta: Mapping[str, Any]) -> bool:
+    """Whether the item and its all-in-focus twin were both rendered with the Airy PSF."""
+    def applied(decisions):
+        return ((decisions or {}).get("diffraction") or {}).get("choice") not in (None, "skipped")
+
+    return applied(meta.get("model_decisions")) and applied((meta.get("all_in_focus") or {}).get("model_decisions"))
+
+
 def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
                      csv_path: str | Path | None = None) -> Path | None:
     """Measured blur against depth beside the thin-lens prediction, one series per item.
@@ -221,20 +252,23 @@ def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
     if not series:
         return None
     table = []
-    unmeasured = 0
-    fig = figure(7.5, 4.8)
+    unmeasured, airy_px = 0, []
+    fig = figure(8.0, 6.4)
     ax = fig.subplots()
-    colours = matplotlib.colormaps["viridis"](np.linspace(0.0, 0.9, len(series)))
-    for (row, meta), colour in zip(series, colours):
+    colours, styles = _series_styles([row.get("params") or {} for row, _ in series], keys)
+    for (row, meta), colour, (line, marker) in zip(series, colours, styles):
         config = scene_from_dict(meta["config"])
         lens = ThinLens.from_config(config.lens, config.sensor)
+        if _diffraction_in_both(meta):
+            airy_px.append(float(lens.airy_diameter_m(550.0)) / lens.pixel_pitch_m)
         depths = [b["depth_m"] for b in meta["blur"]]
         z = np.geomspace(min(depths) * 0.8, max(depths) * 1.25, 200)
         label = _label(row.get("params") or {}, keys).replace("\n", ", ") or f"#{row['id']}"
-        ax.plot(z, lens.coc_diameter_px(z), color=colour, lw=1.2, label=f"{label} (thin lens)")
+        ax.plot(z, lens.coc_diameter_px(z), color=colour, ls=line, lw=1.2)
+        ax.plot([], [], color=colour, ls=line, marker=marker, mfc="none", label=label)
         measured = [(b["depth_m"], b["measured_coc_px"]) for b in meta["blur"] if b["measured_coc_px"] is not None]
         if measured:
-            ax.plot(*zip(*measured), "o", color=colour, ms=5, mfc="none")
+            ax.plot(*zip(*measured), marker, color=colour, ms=5.5, mfc="none", mew=1.2)
         missing = [(b["depth_m"], b["predicted_coc_px"]) for b in meta["blur"] if b["measured_coc_px"] is None]
         if missing:  # shown where the prediction is, with the reason in the CSV
             ax.plot(*zip(*missing), "x", color=colour, ms=6)
@@ -244,7 +278,16 @@ def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
                           "depth_m": b["depth_m"], "predicted_coc_px": b["predicted_coc_px"],
                           "measured_coc_px": b["measured_coc_px"], "pixels": b["pixels"],
                           "note": b.get("note") or ""})
-    ax.plot([], [], "o", color="grey", mfc="none", label="measured (rendered image vs. all-in-focus)")
+    ax.plot([], [], "-", color="grey", label="line: thin-lens |CoC|(z)")
+    ax.plot([], [], "o", color="grey", mfc="none", label="hollow marker: measured (image vs. all-in-focus)")
+    if airy_px:
+        # the pinhole twin is rendered with the same Airy PSF, so the fit sees defocus alone; say so
+        # where diffraction is large, or a reader takes a small-blur excess for it (issue 39 #20)
+        ax.plot([], [], " ", label=f"diffraction (Airy ≤ {max(airy_px):.1f} px at 550 nm) is in both images: "
+                                   "not in the measured blur")
+    if any(b["measured_coc_px"] is not None and b["predicted_coc_px"] < 3.0 for _, meta in series for b in meta["blur"]):
+        ax.plot([], [], " ", label="blurs of a few px read high alike at every f-number (a disc fitted on the "
+                                   "pixel grid: metrics.blur)")
     if unmeasured:
         ax.plot([], [], "x", color="grey", label=f"not measured ({unmeasured}: the reason is in the CSV's note)")
     ax.set_xscale("log")
@@ -252,10 +295,17 @@ def write_blur_chart(output: str | Path, *, png: str | Path | None = None,
     ax.xaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
     ax.tick_params(axis="x", which="minor", labelsize=7)
     ax.set_xlabel("depth z (m)")
+    # log: a 0.5 px blur at f/16 and a 50 px one at f/1.4 on one chart (the prediction's zero at the
+    # focus distance drops below the axis)
+    ax.set_yscale("log")
+    shown = [b[k] for _, meta in series for b in meta["blur"] for k in ("measured_coc_px", "predicted_coc_px")
+             if b[k] is not None and b[k] > 0]
+    ax.set_ylim(bottom=0.5 * min(shown, default=1.0))
+    ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
     ax.set_ylabel("blur diameter |CoC| (pixels)")
     ax.set_title("Measured defocus blur vs. thin-lens prediction")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=6.5, ncol=2 if len(series) > 6 else 1)
+    ax.legend(fontsize=6.5, ncol=2 if len(series) > 4 else 1, loc="upper center", bbox_to_anchor=(0.5, -0.12))
     save_png(fig, png, dpi=120)
     write_csv(table, csv_path, list(table[0]), number=exact_number)
     return png
