@@ -42,6 +42,8 @@ __all__ = [
     "dng_camera_to_xyz_d65",
     "dng_profile_camera_to_xyz_d65",
     "calibration_weight",
+    "triple_calibration_weights",
+    "triple_profile",
     "camera_to_xyz",
     "camera_to_linear_srgb",
     "xyz_to_linear_srgb",
@@ -150,6 +152,88 @@ def interpolate_color_matrix(color_matrix_d65, color_matrix_a, neutral, *, itera
     weight = calibration_weight(color_matrix_d65, color_matrix_a, neutral, iterations=iterations)
     return weight * np.asarray(color_matrix_d65, float).reshape(3, 3) \
         + (1 - weight) * np.asarray(color_matrix_a, float).reshape(3, 3)
+
+
+def _temperature_tint_point(xy) -> np.ndarray:
+    """A white's place in the DNG SDK's triple-illuminant space: (correlated colour temperature as
+    min(1500/T, 1), Duv × 15) — Adobe's tint is −3000·Duv, scaled by 1/200 (colour-science's
+    Robertson 1968 CCT and Duv)."""
+    import colour
+
+    cct, duv = colour.temperature.uv_to_CCT(colour.xy_to_UCS_uv(np.asarray(xy, dtype=np.float64)),
+                                            method="Robertson 1968")
+    return np.array([min(1500.0 / cct, 1.0) if cct > 0 else 1.0, 15.0 * duv])
+
+
+def triple_calibration_weights(white_xy, light_xys) -> np.ndarray:
+    """Weights of three calibrations for a scene white (DNG 1.6 "three calibrations"): inverse squared
+    distance to each calibration light in (min(1500/T, 1), tint/200), normalised, smoothed by the
+    smoothstep 3w² − 2w³, weights under 0.02 dropped (the rest rescaled from 0.02…1 to 0…1) and
+    normalised again. A white at a calibration light's own chromaticity takes that calibration alone.
+
+    Parameters
+    ----------
+    white_xy : array_like
+        (2,) CIE 1931 xy of the scene white.
+    light_xys : array_like
+        (3, 2) xy of the three calibration lights, in slot order.
+
+    Returns
+    -------
+    numpy.ndarray
+        (3,) weights summing to 1.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (interpolation with three calibrations);
+       DNG SDK 1.7 ``CalculateTripleIlluminantWeights`` (dng_xy_coord.cpp).
+    .. [2] Robertson, A. R. (1968). Computation of correlated color temperature and distribution
+       temperature. JOSA 58(11), 1528–1535.
+    """
+    point = _temperature_tint_point(white_xy)
+    distances = np.array([np.sum((point - _temperature_tint_point(xy)) ** 2) for xy in np.asarray(light_xys)])
+    weights = 1.0 / (distances + 1e-8)
+    weights /= weights.sum()
+    weights = weights * weights * (3.0 - 2.0 * weights)  # smoothstep
+    weights = np.clip((weights - 0.02) / 0.98, 0.0, 1.0)
+    return weights / weights.sum()
+
+
+def _xy_of(xyz) -> np.ndarray:
+    xyz = np.asarray(xyz, dtype=np.float64)
+    return xyz[:2] / xyz.sum()
+
+
+#: CIE 1931 xy of the DNG's D65 and Standard A calibration lights (CIE 15:2004 Table T.3).
+_XY_D65, _XY_A = np.array([0.31272, 0.32903]), np.array([0.44757, 0.40745])
+
+
+def triple_profile(raw, neutral, *, iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
+    """(weights, scene white xy) of a RAW's three calibrations (D65, Standard A, ``raw.calibration_3``)
+    for a camera neutral: the white's xy and the weighted colour matrix depend on each other, so both
+    are iterated from D50 as the DNG SDK does (``NeutralToXY``).
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6; DNG SDK 1.7 ``dng_color_spec::NeutralToXY``.
+    """
+    third = raw.calibration_3
+    matrices = [np.asarray(m, dtype=np.float64)[:3] for m in (raw.color_matrix, raw.color_matrix_2, third.color_matrix)]
+    lights = np.array([_XY_D65, _XY_A, np.asarray(third.white_xy, dtype=np.float64)])
+    n = np.asarray(neutral, dtype=np.float64)[:3]
+    xy = np.array([0.34567, 0.35850])  # D50, the SDK's start
+    weights = triple_calibration_weights(xy, lights)
+    for _ in range(iterations):
+        weights = triple_calibration_weights(xy, lights)
+        xyz = np.linalg.solve(sum(w * m for w, m in zip(weights, matrices)), n)
+        if not np.all(np.isfinite(xyz)) or xyz.sum() <= 0:
+            raise ConfigError("the DNG's three colour matrices map the neutral to no physical white")
+        new = _xy_of(xyz)
+        if np.abs(new - xy).sum() < 1e-7:
+            xy = new
+            break
+        xy = new
+    return triple_calibration_weights(xy, lights), xy
 
 
 def dng_camera_to_xyz_d65(color_matrix, neutral, *, color_matrix_2=None, adaptation: str = "Bradford") -> np.ndarray:
@@ -366,6 +450,11 @@ def _dng(raw, gains, supplied):
                           + (f"this RAW's is unusable: {wrong}" if wrong else "this RAW has none")
                           + " (use 'fitted' with a supplied matrix, or 'none')")
     second = getattr(raw, "color_matrix_2", None)
+    if second is not None and getattr(raw, "calibration_3", None) is not None:  # DNG 1.6: three calibrations
+        weights, _ = triple_profile(raw, 1.0 / np.asarray(gains)[:3])
+        blended = sum(w * np.asarray(m, dtype=np.float64)[:3]
+                      for w, m in zip(weights, (raw.color_matrix, second, raw.calibration_3.color_matrix)))
+        return dng_camera_to_xyz_d65(blended, 1.0 / np.asarray(gains)[:3])
     # an RGBW RAW's fourth plane (white) is developed as luminance: the colour rows are R, G, B
     return dng_camera_to_xyz_d65(np.asarray(raw.color_matrix)[:3], 1.0 / np.asarray(gains)[:3],
                                  color_matrix_2=None if second is None else np.asarray(second)[:3])
@@ -404,7 +493,17 @@ def dng_profile_camera_to_xyz_d65(raw, neutral):
                           + " (valid: 'dng', 'fitted', 'none')")
     forward = _usable_forward(forward, "forward_matrix (the D65 calibration's ForwardMatrix)")
     neutral = np.asarray(neutral, dtype=np.float64)[:3]
-    if raw.forward_matrix_2 is not None and raw.color_matrix is not None and raw.color_matrix_2 is not None:
+    third = getattr(raw, "calibration_3", None)
+    if third is not None and third.forward_matrix is not None and raw.forward_matrix_2 is not None \
+            and raw.color_matrix is not None and raw.color_matrix_2 is not None:
+        # DNG 1.6: the three calibrations weighted by the white's distance from each light
+        weights, _ = triple_profile(raw, neutral)
+        seconds = (_usable_forward(raw.forward_matrix_2, "forward_matrix_2 (the Standard A calibration's "
+                                   "ForwardMatrix)"), _usable_forward(third.forward_matrix, "calibration_3's ForwardMatrix"))
+        forward = weights[0] * forward + weights[1] * seconds[0] + weights[2] * seconds[1]
+        maps = (hue_sat, getattr(raw, "hue_sat_map_2", None), third.hue_sat_map)
+        hue_sat = None if any(m is None for m in maps) else maps[0].weighted(maps, weights)
+    elif raw.forward_matrix_2 is not None and raw.color_matrix is not None and raw.color_matrix_2 is not None:
         weight = calibration_weight(np.asarray(raw.color_matrix)[:3], np.asarray(raw.color_matrix_2)[:3], neutral)
         second = _usable_forward(raw.forward_matrix_2, "forward_matrix_2 (the Standard A calibration's ForwardMatrix)")
         forward = weight * forward + (1 - weight) * second

@@ -83,6 +83,13 @@ class HueSatMap:
         """The table flattened in the DNG's order (value, hue, saturation, then the 3 numbers)."""
         return self.table.astype(np.float32).ravel()
 
+    @staticmethod
+    def weighted(maps, weights) -> "HueSatMap":
+        """Σ weightᵢ · mapᵢ (a DNG 1.6 reader's blend of three calibrations' maps)."""
+        if len({m.table.shape for m in maps}) != 1:
+            raise ConfigError("ProfileHueSatMapData1, 2 and 3 must share ProfileHueSatMapDims")
+        return HueSatMap(sum(float(w) * m.table for w, m in zip(weights, maps)))
+
     def blend(self, other: "HueSatMap", weight: float) -> "HueSatMap":
         """weight · self + (1 − weight) · other (the DNG's interpolation of map 1 and map 2)."""
         if other.table.shape != self.table.shape:

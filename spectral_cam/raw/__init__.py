@@ -7,7 +7,7 @@ References
 """
 
 from .dng import DNG_TAGS, write_dcp, write_dng
-from .image import RawImage
+from .image import Calibration, RawImage
 from .read import read_raw
 
-__all__ = ["RawImage", "write_dng", "write_dcp", "read_raw", "DNG_TAGS"]
+__all__ = ["RawImage", "Calibration", "write_dng", "write_dcp", "read_raw", "DNG_TAGS"]

@@ -51,6 +51,11 @@ DNG_TAGS = {
     "ProfileHueSatMapDims": 50937,
     "ProfileHueSatMapData1": 50938,
     "ProfileHueSatMapData2": 50939,
+    "CalibrationIlluminant3": 52529,
+    "ColorMatrix3": 52531,
+    "ForwardMatrix3": 52532,
+    "IlluminantData3": 52535,
+    "ProfileHueSatMapData3": 52537,
     "NoiseProfile": 51041,
     "BaselineExposure": 50730,
     "ProfileToneCurve": 50940,
@@ -91,6 +96,8 @@ ILLUMINANT_D65 = 21
 
 
 ILLUMINANT_A = 17
+#: EXIF LightSource "other light source": a DNG 1.6 calibration whose light IlluminantData describes.
+ILLUMINANT_OTHER = 255
 _TIFF_BYTE, _TIFF_ASCII, _TIFF_SHORT, _TIFF_LONG, _TIFF_RATIONAL, _TIFF_SRATIONAL, _TIFF_DOUBLE = 1, 2, 3, 4, 5, 10, 12
 _TIFF_FLOAT = 11
 
@@ -161,6 +168,43 @@ def _colour_tags(raw: RawImage) -> list[tuple]:
                          tuple(float(v) for v in data), True))
     if maps[0] is not None:
         tags.append((DNG_TAGS["ProfileHueSatMapDims"], _TIFF_LONG, 3, maps[0].dims, True))
+    return tags + _third_calibration_tags(raw, planes, forward_present=raw.forward_matrix is not None, maps=maps)
+
+
+def _illuminant_data_xy(xy) -> bytes:
+    """IlluminantData of type 0 (the light's white as CIE 1931 x, y: two RATIONALs after a SHORT 0),
+    in the file's little-endian order (DNG 1.7.1.0, IlluminantData1/2/3)."""
+    import struct
+
+    x, y = (float(v) for v in xy)
+    if not (0 < x < 1 and 0 < y < 1 and x + y < 1):
+        raise RawFormatError(f"a calibration light's white xy {xy!r} lies outside the chromaticity diagram")
+    return struct.pack("<H4I", 0, *_rationals([x, y], signed=False))
+
+
+def _third_calibration_tags(raw: RawImage, planes: int, *, forward_present: bool, maps: list) -> list[tuple]:
+    """CalibrationIlluminant3 = 255 with IlluminantData3, ColorMatrix3 and, as the first two have them,
+    ForwardMatrix3 and ProfileHueSatMapData3 (DNG 1.6: all three calibrations or none of each)."""
+    third = getattr(raw, "calibration_3", None)
+    if third is None:
+        return []
+    if raw.color_matrix_2 is None or planes != 3:
+        raise RawFormatError("a third calibration (calibration_3) needs the D65 and Standard A ones (color_matrix, "
+                             "color_matrix_2) and three colour planes")
+    if (third.forward_matrix is None) == forward_present or (third.hue_sat_map is None) != (maps[0] is None):
+        raise RawFormatError("calibration_3 must carry a forward matrix and a hue/sat map exactly when the first two "
+                             "calibrations do (DNG 1.6: ForwardMatrix and ProfileHueSatMapData for all three or none)")
+    data = _illuminant_data_xy(third.white_xy)
+    tags = [(DNG_TAGS["CalibrationIlluminant3"], _TIFF_SHORT, 1, (ILLUMINANT_OTHER,), True),
+            (DNG_TAGS["IlluminantData3"], 7, len(data), data, True),
+            _matrix_tag("ColorMatrix3", third.color_matrix, planes)]
+    if third.forward_matrix is not None:
+        tags.append(_matrix_tag("ForwardMatrix3", third.forward_matrix, planes))
+    if third.hue_sat_map is not None:
+        if third.hue_sat_map.dims != maps[0].dims:
+            raise RawFormatError("calibration_3's hue/sat map must share the others' divisions (ProfileHueSatMapDims)")
+        values = third.hue_sat_map.dng_data()
+        tags.append((DNG_TAGS["ProfileHueSatMapData3"], _TIFF_FLOAT, values.size, tuple(float(v) for v in values), True))
     return tags
 
 
@@ -362,8 +406,10 @@ def write_dng(raw: RawImage, path, *, make: str = "spectral_cam", software: str 
     else:
         black_dim, black_values = (2, 2), [float(v) for v in black.reshape(-1)]
     integral = all(v.is_integer() for v in black_values)
+    # a third calibration is DNG 1.6; readers before it keep reading slots 1 and 2 (the D65–A pair)
+    version = (1, 6, 0, 0) if getattr(raw, "calibration_3", None) is not None else (1, 4, 0, 0)
     tags = [
-        (DNG_TAGS["DNGVersion"], _TIFF_BYTE, 4, (1, 4, 0, 0), True),
+        (DNG_TAGS["DNGVersion"], _TIFF_BYTE, 4, version, True),
         (DNG_TAGS["DNGBackwardVersion"], _TIFF_BYTE, 4, (1, 1, 0, 0), True),
         (DNG_TAGS["UniqueCameraModel"], _TIFF_ASCII, 0, model, True),
         (DNG_TAGS["Make"], _TIFF_ASCII, 0, _ascii(make), True),

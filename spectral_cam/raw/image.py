@@ -16,6 +16,38 @@ from ..cfa import LINEAR, check_cfa
 from ..errors import RawFormatError
 
 
+@dataclass(frozen=True)
+class Calibration:
+    """A DNG 1.6 third calibration (CalibrationIlluminant3, ColorMatrix3, ForwardMatrix3,
+    ProfileHueSatMapData3): the camera profile fitted under a light off the D65–A locus, which a
+    DNG 1.6 reader blends with the D65 and Standard A ones by the scene white's distance from each
+    light in (1/temperature, tint) (DNG ch. 6, "three calibrations").
+
+    Attributes
+    ----------
+    illuminant : str
+        The light's name (the record; the file holds it as CalibrationIlluminant3 = 255, "other").
+    white_xy : tuple of float
+        CIE 1931 xy of the light's white (IlluminantData3).
+    color_matrix : numpy.ndarray
+        (3, 3) XYZ → camera RGB under that light (ColorMatrix3).
+    forward_matrix : numpy.ndarray or None
+        (3, 3) white-balanced camera RGB → XYZ(D50) under it (ForwardMatrix3).
+    hue_sat_map : HueSatMap or None
+        Its ProfileHueSatMapData3.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, ch. 6 (CalibrationIlluminant3, IlluminantData3).
+    """
+
+    illuminant: str
+    white_xy: tuple[float, float]
+    color_matrix: np.ndarray
+    forward_matrix: np.ndarray | None = None
+    hue_sat_map: object | None = None
+
+
 @dataclass
 class RawImage:
     """A sensor's raw output plus the metadata an ISP needs.
@@ -67,6 +99,9 @@ class RawImage:
     hue_sat_map, hue_sat_map_2
         :class:`spectral_cam.isp.hue_sat_map.HueSatMap` of the D65 and the Standard A calibration
         (DNG ProfileHueSatMapData, beside the forward matrices), or None.
+    calibration_3
+        A DNG 1.6 third calibration (:class:`Calibration`) under the scene's light when it lies
+        off the D65–A locus, or None.
     """
 
     mosaic: np.ndarray
@@ -86,6 +121,7 @@ class RawImage:
     profile_tone_curve: np.ndarray | None = None
     hue_sat_map: object | None = None
     hue_sat_map_2: object | None = None
+    calibration_3: Calibration | None = None
 
 
 def check_raw(raw: RawImage) -> np.ndarray:

@@ -91,7 +91,8 @@ def _tiff_extras(path: Path) -> dict:
                              "ColorMatrix2", "CalibrationIlluminant1", "CalibrationIlluminant2", "WhiteLevel",
                              "DefaultCropOrigin", "DefaultCropSize", "BaselineExposure", "ProfileToneCurve",
                              "ForwardMatrix1", "ForwardMatrix2", "ProfileHueSatMapDims", "ProfileHueSatMapData1",
-                             "ProfileHueSatMapData2", "AsShotNeutral"):
+                             "ProfileHueSatMapData2", "AsShotNeutral", "CalibrationIlluminant3", "ColorMatrix3",
+                             "ForwardMatrix3", "IlluminantData3", "ProfileHueSatMapData3"):
                     tag = tags.get(DNG_TAGS[name])
                     if tag is not None and name not in extras:
                         extras[name] = tag.value
@@ -461,6 +462,78 @@ def _profile(extras: dict, planes: int = 3) -> dict:
     return out
 
 
+#: CIE 1931 xy of the EXIF LightSource codes a third calibration may name (CIE 15:2004 Table T.3; the
+#: DNG SDK's dng_illuminant_data uses the same): D50, D55, D65, D75, Standard A.
+_LIGHT_XY = {23: (0.34567, 0.35850), 20: (0.33242, 0.34743), 21: (0.31272, 0.32903), 22: (0.29902, 0.31485),
+             17: (0.44757, 0.40745)}
+
+
+def _illuminant_data_xy(value) -> tuple[float, float] | None:
+    """The white xy an IlluminantData tag holds: type 0 (x, y RATIONALs) or type 1 (a spectrum:
+    count, first wavelength, spacing, samples; its CIE 1931 xy by colour-science); None when malformed.
+
+    References
+    ----------
+    .. [1] Adobe (2023). DNG Specification 1.7.1.0, IlluminantData1/2/3.
+    """
+    import struct
+
+    data = bytes(value) if isinstance(value, (bytes, bytearray)) else bytes(np.asarray(value, np.uint8))
+    try:
+        kind = struct.unpack_from("<H", data)[0]
+        if kind == 0:
+            xn, xd, yn, yd = struct.unpack_from("<4I", data, 2)
+            xy = (xn / xd, yn / yd)
+        elif kind == 1:
+            import colour
+
+            count = struct.unpack_from("<I", data, 2)[0]
+            if not 2 <= count <= 1000:
+                return None
+            fields = np.array(struct.unpack_from(f"<{4 + 2 * count}I", data, 6), dtype=float)
+            start, step = fields[0] / fields[1], fields[2] / fields[3]
+            power = fields[4::2] / fields[5::2]
+            sd = colour.SpectralDistribution(power, start + step * np.arange(count))
+            xy = tuple(colour.XYZ_to_xy(colour.sd_to_XYZ(sd.align(colour.SpectralShape(360, 830, 1)))))
+        else:
+            return None
+    except (struct.error, ZeroDivisionError, ValueError):
+        return None
+    return xy if all(0 < v < 1 for v in xy) and sum(xy) < 1 else None
+
+
+def _third_calibration(extras: dict, planes: int, profile: dict):
+    """The DNG 1.6 third calibration (:class:`~spectral_cam.raw.image.Calibration`) when the file has
+    one that can be used: CalibrationIlluminant3 (a named light or 255 with IlluminantData3), a
+    ColorMatrix3 of rank 3, and ForwardMatrix3 / ProfileHueSatMapData3 exactly where the other two
+    calibrations have theirs; else None."""
+    from ..isp.hue_sat_map import HueSatMap
+    from .image import Calibration
+
+    if planes != 3 or "ColorMatrix3" not in extras or "CalibrationIlluminant3" not in extras:
+        return None
+    code = int(np.ravel(extras["CalibrationIlluminant3"])[0]) if np.size(extras["CalibrationIlluminant3"]) else None
+    xy = _illuminant_data_xy(extras.get("IlluminantData3", b"")) if code == 255 else _LIGHT_XY.get(code)
+    matrix = _rational_matrix(extras["ColorMatrix3"], (3, 3))
+    if xy is None or matrix is None or np.linalg.matrix_rank(matrix) < 3:
+        return None
+    forward = _rational_matrix(extras["ForwardMatrix3"], (3, 3)) if "ForwardMatrix3" in extras else None
+    if forward is not None and np.linalg.matrix_rank(forward) < 3:
+        forward = None
+    hue_sat = None
+    dims, data = extras.get("ProfileHueSatMapDims"), extras.get("ProfileHueSatMapData3")
+    if dims is not None and data is not None:
+        try:
+            hue_sat = HueSatMap.from_dng(np.ravel(dims), data)
+        except (ConfigError, TypeError, ValueError):
+            hue_sat = None
+    if (forward is None) != (profile.get("forward_matrix") is None) or \
+            (hue_sat is None) != (profile.get("hue_sat_map") is None):
+        return None  # DNG 1.6: forward matrices and maps for all three calibrations or none
+    return Calibration(illuminant=f"CalibrationIlluminant3 = {code}", white_xy=(float(xy[0]), float(xy[1])),
+                       color_matrix=matrix, forward_matrix=forward, hue_sat_map=hue_sat)
+
+
 def _baseline_exposure(value) -> float:
     """BaselineExposure (SRATIONAL, stops) as a number; 0 when absent or unreadable."""
     if value is None:
@@ -595,6 +668,8 @@ def read_raw(path) -> RawImage:
     daylight_slot = next((n for n in (1, 2) if n != _tungsten_slot(extras) and f"ColorMatrix{n}" in extras), None)
     if f"ColorMatrix{daylight_slot}" in problems:
         matrix = None  # LibRaw derives nothing usable from it: the develop says which tag, not "none"
+    tungsten = _tungsten_matrix(extras, planes) if matrix is not None else None
+    profile = _profile(extras, planes) if matrix is not None else {}
     _check_white_level(path, extras.get("WhiteLevel"), black_levels)
     noise = extras.get("NoiseProfile")
     noise = np.atleast_1d(np.asarray(noise, dtype=float)) if noise is not None else np.empty(0)
@@ -616,8 +691,9 @@ def read_raw(path) -> RawImage:
         profile_tone_curve=_tone_curve(extras.get("ProfileToneCurve")),
         crop=_default_crop(path, extras, sizes, mosaic.shape[:2]),
         color_matrix=matrix,
-        color_matrix_2=_tungsten_matrix(extras, planes) if matrix is not None else None,
-        **(_profile(extras, planes) if matrix is not None else {}),
+        color_matrix_2=tungsten,
+        **profile,
+        calibration_3=_third_calibration(extras, planes, profile) if tungsten is not None else None,
         as_shot_neutral=neutral,
         noise_profile=noise_profile,
         camera_model=str(extras.get("UniqueCameraModel", "")).strip(),

@@ -32,6 +32,7 @@ from .dng_colour import (
     _fitted_corrections,
     _forward_matrix,
     _hue_sat_map,
+    _third_calibration,
 )
 from .metered_exposure import (
     auto_exposure_time,
@@ -229,6 +230,7 @@ def expose(
         forward_matrix_2=colour["forward_a"],
         hue_sat_map=colour["hue_sat"],
         hue_sat_map_2=colour["hue_sat_a"],
+        calibration_3=colour.get("third"),
         crop=radiance.frame_window if hasattr(radiance, "frame_window") else None,
         baseline_exposure=index["baseline_exposure_ev"],
         profile_tone_curve=profile_tone_curve(config.isp.tone),
@@ -258,7 +260,9 @@ def _colour_metadata(radiance, config, model) -> dict:
     if sensor.model != "ideal":
         colour.update(matrix=_colour_matrix(sensor.model, specs), matrix_a=_colour_matrix(sensor.model, specs, "A"),
                       forward=_forward_matrix(sensor.model, specs), forward_a=_forward_matrix(sensor.model, specs, "A"),
-                      hue_sat=_hue_sat_map(sensor.model, specs), hue_sat_a=_hue_sat_map(sensor.model, specs, "A"))
+                      hue_sat=_hue_sat_map(sensor.model, specs), hue_sat_a=_hue_sat_map(sensor.model, specs, "A"),
+                      third=_third_calibration(sensor.model, specs, config.illuminant.spd)
+                      if sensor.cfa != "RGBW" else None)  # DNG 1.6: a light off the D65–A locus
     if sensor.cfa == "RGBW":  # four colour planes: W = R + G + B (radiometry.white_quantum_efficiency)
         for key in ("matrix", "matrix_a"):  # XYZ → camera: W's row the sum of the others
             if colour[key] is not None:
