@@ -491,15 +491,19 @@ def _illuminant_data_xy(value) -> tuple[float, float] | None:
             if not 2 <= count <= 1000:
                 return None
             fields = np.array(struct.unpack_from(f"<{4 + 2 * count}I", data, 6), dtype=float)
+            if np.any(fields[1::2] == 0) or fields[2] == 0:  # a zero denominator or spacing: corrupt
+                return None
             start, step = fields[0] / fields[1], fields[2] / fields[3]
             power = fields[4::2] / fields[5::2]
+            if not (200 <= start <= 1000 and step <= 100 and power.max() > 0):
+                return None
             sd = colour.SpectralDistribution(power, start + step * np.arange(count))
             xy = tuple(colour.XYZ_to_xy(colour.sd_to_XYZ(sd.align(colour.SpectralShape(360, 830, 1)))))
         else:
             return None
-    except (struct.error, ZeroDivisionError, ValueError):
+    except (struct.error, ZeroDivisionError, ValueError, TypeError):
         return None
-    return xy if all(0 < v < 1 for v in xy) and sum(xy) < 1 else None
+    return xy if all(np.isfinite(xy)) and all(0 < v < 1 for v in xy) and sum(xy) < 1 else None
 
 
 def _third_calibration(extras: dict, planes: int, profile: dict):
