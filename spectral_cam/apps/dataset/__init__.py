@@ -71,7 +71,10 @@ images. Items are independent tasks:
 - a worker that dies mid-item (killed, out of memory) loses only that item, which is
   submitted again (``--retries``, default 2); an item that raises (an impossible value, a
   broken scene file) is recorded as failed with its error and the run goes on;
-- a progress bar on stderr shows items done, failures, the rate and the ETA.
+- a progress bar on stderr shows items done, failures, the rate and the ETA;
+- Ctrl-C (or SIGTERM) stops the run at once and keeps every finished item: "interrupted: 11/12
+  items done, kept in DIR; rerun the same command to resume" (:class:`~.run.DatasetInterrupted`,
+  exit 130; local workers ignore the terminal's SIGINT and are stopped by the driver).
 
 Execution: any ``concurrent.futures.Executor`` (:func:`generate_dataset`); by default a Dask
 ``LocalCluster`` of spawned worker processes (``--workers K``; one render per worker, one
