@@ -179,7 +179,7 @@ def evaluate_patches(linear: np.ndarray, chart: Chart, reference: np.ndarray) ->
         snr[i] = float(np.mean(luminance)) / sigma if sigma > 0 else math.inf
     n = chart.n_set
     split = lab_difference_split(test, reference)
-    clipped = gamut_clipped(test, reference)
+    clipped = gamut_clipped(test, reference, scale=scale)
     return {
         "test": test,
         "delta_e": delta,
@@ -245,10 +245,16 @@ def lab_difference_split(test: np.ndarray, reference: np.ndarray) -> np.ndarray:
 GAMUT_EDGE = 2e-3
 
 
-def gamut_clipped(test: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(N,) True where a channel of the truth lies outside the sRGB gamut (< 0 or > 1) and the
-    pipeline's same channel sits on that edge (0 or 1): the pipeline clipped it, so its ΔE
-    measures sRGB's gamut, not the pipeline."""
+def gamut_clipped(test: np.ndarray, reference: np.ndarray, *, scale: float = 1.0) -> np.ndarray:
+    """(N,) True where a channel of the truth lies outside the sRGB gamut of the pipeline's output
+    (< 0, or > 1 of its full scale) and the pipeline's same channel sits on that edge: the pipeline
+    clipped it, so its ΔE measures sRGB's gamut, not the pipeline.
+
+    ``test`` and ``reference`` are exposure-matched (``test = means × scale``); the edges are the
+    pipeline's own 0 and 1, so both are compared in its units (÷ ``scale``): with the white
+    reference developed at 0.68 (scale 1.46), a truth of 1.01 was within its range, and its 0.998
+    after matching was no clip."""
+    test, reference = np.asarray(test) / scale, np.asarray(reference) / scale
     below, above = reference < -GAMUT_EDGE, reference > 1.0 + GAMUT_EDGE
     clipped = (below & (np.abs(test) <= GAMUT_EDGE)) | (above & (np.abs(test - 1.0) <= GAMUT_EDGE))
     return np.any(clipped, axis=1)

@@ -96,3 +96,16 @@ def test_a_tone_curve_and_gamut_clipping_are_named_not_failed_blindly(tmp_path):
     outside = np.any((samples["clipped"].reference < 0) | (samples["clipped"].reference > 1), axis=1)
     assert 0 < samples["clipped"].stats["patches_clipped"] <= outside[:99].sum()
     assert any("outside the sRGB gamut" in w for w in samples["clipped"].warnings)
+
+
+def test_clipping_is_judged_at_the_pipelines_own_edges_not_after_exposure_matching():
+    """A channel is clipped where the pipeline's own output sits at its 0 or 1: with the white
+    developed at 0.68 (exposure scale 1.46) a truth of 1.014 lies inside the pipeline's range, and
+    its 0.998 after matching is a measurement (CIE 2017's TCS25 under D65 was flagged so); the same
+    channel at the pipeline's own 1.0 is a clip, and 0 where the truth is negative is one."""
+    from spectral_cam.apps.validate import gamut_clipped
+
+    reference = np.array([[1.014, 0.645, 0.147], [1.6, 0.5, 0.2], [-0.05, 0.3, 0.4]])
+    scale = 1.46
+    test = np.array([[0.998, 0.638, 0.153], [1.0 * scale, 0.5, 0.2], [0.0, 0.3, 0.4]])
+    assert gamut_clipped(test, reference, scale=scale).tolist() == [False, True, True]
