@@ -97,14 +97,22 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
     one (the render's ``white_reference``), else for the 99th percentile: the same rule as
     :func:`spectral_cam.expose` on a rendered image.
     """
-    from .isp import develop
-    from .render import render
     from .render.plan import make_plan
-    from .sensor import expose
+    from .render.variants import deterministic_threads
 
     # the sensor has a ring of real pixels around the frame (sensor.crop_margin_px): the RAW
     # carries them with a default crop, every other output is the frame
-    plan = make_plan(config, with_margin=True, with_depth=with_depth, lens=lens, outputs=outputs)
+    with deterministic_threads(config.render.deterministic):  # the probes' decisions too
+        plan = make_plan(config, with_margin=True, with_depth=with_depth, lens=lens, outputs=outputs)
+        return _simulate_plan(plan, progress)
+
+
+def _simulate_plan(plan, progress) -> Simulation:
+    """:func:`simulate` after its plan: render, expose, develop."""
+    from .isp import develop
+    from .render import render
+    from .sensor import expose
+
     config, lens = plan.config, plan.lens  # the resolved config: what was done, what scene.toml writes
     timings: dict[str, float] = {}
     captured = render(plan, progress=progress)

@@ -628,7 +628,10 @@ class RenderSection:
     digits, docs/design.md). ``estimator`` turns the passes into a pixel's radiance: ``mean``, or
     ``amon`` (the adaptive median of 8 pass means: no fireflies, :mod:`spectral_cam.render.robust`);
     ``auto`` takes ``amon`` where the scene can make fireflies (glossy, metal or glass
-    materials, a user's XML scene) and ``spp`` is fixed.
+    materials, a user's XML scene) and ``spp`` is fixed. ``deterministic = true`` renders on
+    one thread, so the same scene.toml gives the same bytes under any load (multi-threaded,
+    a pixel's sample sums can move in their last bits with the threads' timing:
+    :func:`spectral_cam.render.variants.deterministic_threads`).
     """
 
     spp: int | str = 64
@@ -642,6 +645,7 @@ class RenderSection:
     max_spp: int = 1024
     sampler: str = "multijitter"
     estimator: str = "auto"
+    deterministic: bool = False
 
     @property
     def spectral_bands(self) -> str:

@@ -124,10 +124,13 @@ def render(
     ((16, 24, 31), '400:700:10', 'pinhole')
     """
     from .plan import CapturePlan, make_plan
+    from .variants import deterministic_threads
 
-    plan = config if isinstance(config, CapturePlan) else \
-        make_plan(config, with_margin=with_margin, with_depth=with_depth, lens=lens)
-    return execute(plan, progress=progress)
+    scene = config.config if isinstance(config, CapturePlan) else config
+    with deterministic_threads(scene.render.deterministic):
+        plan = config if isinstance(config, CapturePlan) else \
+            make_plan(config, with_margin=with_margin, with_depth=with_depth, lens=lens)
+        return execute(plan, progress=progress)
 
 
 def execute(plan, *, progress: Callable[[int, int, float], None] | None = None) -> SpectralImage:
