@@ -1,10 +1,11 @@
-"""The stress studies' shared outputs: summary rows, ``summary.csv``/``summary.png`` and
+"""The stress studies' shared outputs: summary rows, ``summary.csv``/``summary.html`` and
 ``results.json``.
 
 Every study returns its headline numbers as rows of :data:`SUMMARY_FIELDS`
 (:func:`summary_row`); :func:`write_summary` writes them as a CSV (numbers through
-:func:`spectral_cam.records.format_number`) and as a table image, :func:`write_results`
-writes everything a run measured as strict JSON.
+:func:`spectral_cam.records.format_number`) and as an HTML page of one table per study (a
+table of hundreds of rows is text to search, sort and copy, not an image to squint at),
+:func:`write_results` writes everything a run measured as strict JSON.
 
 References
 ----------
@@ -15,10 +16,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...records import format_number, write_csv, write_json
-from ...viz import figure, save_png
+import html
 
-__all__ = ["SUMMARY_FIELDS", "summary_row", "write_summary", "write_results"]
+from ...io import atomic_path
+from ...records import format_number, write_csv, write_json
+
+__all__ = ["SUMMARY_FIELDS", "summary_row", "write_summary", "summary_html", "write_results"]
 
 #: Columns of ``summary.csv``.
 SUMMARY_FIELDS = ("study", "case", "metric", "value", "unit", "note")
@@ -37,7 +40,7 @@ def summary_row(study: str, case: str, metric: str, value, unit: str, note: str 
 
 
 def write_summary(rows: list[dict], directory: Path) -> list[str]:
-    """Write the summary table as ``summary.csv`` and ``summary.png``.
+    """Write the summary table as ``summary.csv`` and ``summary.html``.
 
     Parameters
     ----------
@@ -53,21 +56,44 @@ def write_summary(rows: list[dict], directory: Path) -> list[str]:
     """
     directory = Path(directory)
     write_csv(rows, directory / "summary.csv", SUMMARY_FIELDS)
-    cells = [[row["study"], row["case"][:44], row["metric"][:58], format_number(row["value"]), row["unit"],
-              row["note"][:70]] for row in rows]
-    fig = figure(17, 0.6 + 0.19 * (len(cells) + 1))
-    ax = fig.subplots()
-    ax.axis("off")
-    table = ax.table(cellText=cells or [[""] * 6], colLabels=list(SUMMARY_FIELDS), loc="upper left",
-                     cellLoc="left", colLoc="left", colWidths=[0.06, 0.2, 0.27, 0.07, 0.05, 0.35])
-    table.auto_set_font_size(False)
-    table.set_fontsize(7)
-    table.scale(1.0, 1.0)
-    for (r, _), cell in table.get_celld().items():
-        cell.set_height(1.0 / (len(cells) + 1))
-        if r == 0:
-            cell.set_text_props(weight="bold")
-    return ["summary.csv", save_png(fig, directory / "summary.png", dpi=80, palette=True).name]
+    with atomic_path(directory / "summary.html") as tmp:
+        tmp.write_text(summary_html(rows), encoding="utf-8")
+    return ["summary.csv", "summary.html"]
+
+
+_STYLE = ("body{font-family:system-ui,sans-serif;margin:1.5em;max-width:80em}"
+          "table{border-collapse:collapse;margin-bottom:1.5em}th,td{padding:2px 8px;text-align:left;"
+          "vertical-align:top;border-bottom:1px solid #ddd}td.v{text-align:right;font-variant-numeric:tabular-nums}"
+          "th{background:#f3f3f3;position:sticky;top:0}.small{color:#555;font-size:90%}")
+
+
+def summary_html(rows: list[dict]) -> str:
+    """The summary rows as a standalone HTML page: a contents line, then one table per study
+    (case, metric, value, unit, note), every text escaped.
+
+    Examples
+    --------
+    >>> page = summary_html([summary_row("optics", "f/8", "CoC <1 px", 2, "px")])
+    >>> "<td>CoC &lt;1 px</td>" in page and '<td class="v">2</td>' in page
+    True
+    """
+    esc = html.escape
+    studies = list(dict.fromkeys(row["study"] for row in rows))
+    out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+           f"<title>Stress studies: summary</title><style>{_STYLE}</style></head><body>",
+           "<h1>Stress studies: summary</h1>",
+           f'<p class="small">{len(rows)} rows; the same numbers as <a href="summary.csv">summary.csv</a>. '
+           + " · ".join(f'<a href="#{esc(s)}">{esc(s)}</a>' for s in studies) + "</p>"]
+    for study in studies:
+        out += [f'<h2 id="{esc(study)}">{esc(study)}</h2>', "<table>",
+                "<tr>" + "".join(f"<th>{esc(f)}</th>" for f in SUMMARY_FIELDS[1:]) + "</tr>"]
+        for row in (r for r in rows if r["study"] == study):
+            out.append(f"<tr><td>{esc(row['case'])}</td><td>{esc(row['metric'])}</td>"
+                       f'<td class="v">{esc(format_number(row["value"]))}</td><td>{esc(row["unit"])}</td>'
+                       f"<td>{esc(row['note'])}</td></tr>")
+        out.append("</table>")
+    out.append("</body></html>")
+    return "\n".join(out) + "\n"
 
 
 def write_results(results: dict, directory: Path) -> str:

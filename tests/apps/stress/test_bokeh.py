@@ -22,7 +22,7 @@ def test_disc_mask_is_the_blur_disc_interior():
     assert mask.sum() == pytest.approx(math.pi * (0.5 * 23.48 - 1.5) ** 2, rel=0.05)
 
 
-@pytest.mark.timeout(120)
+@pytest.mark.timeout(300)
 def test_bokeh_study_thin_lens_noise_follows_the_aperture_fraction(tmp_path, tiny):
     """The study's scene: a pixel inside the 23.5-px disc sees the source through
     p = (r·z_f/(|z − z_f|·R))² of the aperture, so thin-lens noise is √((1 − p)/(p·spp))."""
@@ -39,6 +39,10 @@ def test_bokeh_study_thin_lens_noise_follows_the_aperture_fraction(tmp_path, tin
         assert noise == pytest.approx(math.sqrt((1 - p) / (p * spp)), rel=0.25), spp
     assert data["tracer"]["noise"][0] < data["thin"]["noise"][0]  # the light tracer converges faster
     assert {row["study"] for row in result["rows"]} == {"bokeh"}
+    # the layered model is named by the key a reader sets (issue 39 #20), not "remedy"
+    cases = [row["case"] for row in result["rows"]]
+    assert any(case.startswith("lens.model = layered") for case in cases)
+    assert not [case for case in cases if "remedy" in case] and "layered, 16 spp" in result["images"]
     files = plot_bokeh(result, tmp_path)
     assert len(files) == 3 and all((tmp_path / name).read_bytes()[:4] == b"\x89PNG" for name in files)
     with pytest.raises(ConfigError, match="too few pixels"):
