@@ -945,7 +945,7 @@ def _sensor_table(table: Mapping[str, Any], data: Mapping[str, Any], overrides: 
         table["model_figures"] = [key for key in table.get("model_figures", ()) if key in from_model]
         if table.get("keep_field_of_view") is True and "pixel_pitch_um" not in given:
             table.pop("pixel_pitch_um", None)
-    return spectra.with_camera_figures(table)
+    return spectra.with_camera_figures(table, default_size_px=(SensorSection.width_px, SensorSection.height_px))
 
 
 def _lens_for_prescription(lens: dict[str, Any], base_dir: Path) -> dict[str, Any]:

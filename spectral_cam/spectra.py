@@ -574,13 +574,15 @@ def camera_figures(name: str) -> dict[str, CameraFigure]:
     return dict(_figure_table()[slug])
 
 
-def with_camera_figures(table: dict) -> dict:
+def with_camera_figures(table: dict, *, default_size_px: tuple[int, int]) -> dict:
     """A ``[sensor]`` table with its named camera's figures filled in for the keys it leaves
     unset (:data:`SENSOR_FIGURE_KEYS`; explicit keys win), and with ``keep_field_of_view`` the
     pitch that spreads ``width_px`` × ``height_px`` over the camera's published sensor (the
     largest that fits both sides, so the frame is the biggest of its aspect ratio on the
     sensor, as a camera's aspect modes are). A table that names no model (or ``"ideal"``) keeps
     the generic defaults (:func:`figure_record` says afterwards which figure came from where).
+    ``default_size_px`` is the frame (width, height) a table that leaves it unset gets (the
+    scene's defaults: passed in, since this layer sits below ``scene``).
 
     Raises
     ------
@@ -602,7 +604,7 @@ def with_camera_figures(table: dict) -> dict:
     earlier = set(earlier) if isinstance(earlier, (list, tuple)) else set()
     out["model_figures"] = tuple(key for key in SENSOR_FIGURE_KEYS.values() if key in earlier | set(filled))
     if table.get("keep_field_of_view") is True:
-        pitch = _pitch_keeping_view(figures, out)
+        pitch = _pitch_keeping_view(figures, out, default_size_px)
         given = table.get("pixel_pitch_um")
         number = isinstance(given, (int, float)) and not isinstance(given, bool)
         if number and abs(given - pitch.value) > 1e-6 * pitch.value:
@@ -612,11 +614,10 @@ def with_camera_figures(table: dict) -> dict:
     return out
 
 
-def _pitch_keeping_view(figures: dict[str, CameraFigure], table: dict) -> CameraFigure:
+def _pitch_keeping_view(figures: dict[str, CameraFigure], table: dict,
+                        default_size_px: tuple[int, int]) -> CameraFigure:
     """The pitch (µm) that puts ``width_px`` × ``height_px`` on the camera's published sensor."""
-    from .scene import SensorSection  # the default frame when the table leaves it unset
-
-    width, height = table.get("width_px", SensorSection.width_px), table.get("height_px", SensorSection.height_px)
+    width, height = table.get("width_px", default_size_px[0]), table.get("height_px", default_size_px[1])
     if not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in (width, height)):
         return figures["pixel_pitch_um"]  # SensorSection refuses the size itself
     size_w, size_h = figures["sensor_width_mm"].value, figures["sensor_height_mm"].value
@@ -631,10 +632,12 @@ def figure_record(sensor) -> dict:
     named camera set it (``sensor.model_figures``), ``"keep_field_of_view: ..."`` for a pitch
     derived from the camera's size, ``"default"`` for the generic default of a sensor that names
     no camera, else ``"scene"``."""
-    from .scene import SensorSection
+    import dataclasses
 
+    defaults = {field.name: field.default for field in dataclasses.fields(sensor)}  # the section's own
     figures = {} if sensor.model == "ideal" else camera_figures(sensor.model)
-    view = (_pitch_keeping_view(figures, {"width_px": sensor.width_px, "height_px": sensor.height_px})
+    size = (sensor.width_px, sensor.height_px)
+    view = (_pitch_keeping_view(figures, {"width_px": size[0], "height_px": size[1]}, size)
             if figures and getattr(sensor, "keep_field_of_view", False) else None)
     from_model = set(getattr(sensor, "model_figures", ()))
     record = {}
@@ -644,7 +647,7 @@ def figure_record(sensor) -> dict:
             origin = view.source
         elif key in from_model and _same(value, figures[figure].value):
             origin = f"camera table ({sensor.model}): {figures[figure].source}"
-        elif not from_model and value == getattr(SensorSection, key):
+        elif not from_model and value == defaults[key]:
             origin = "default" + (" (generic: name sensor.model for the camera's own)" if figures else "")
         else:
             origin = "scene"

@@ -12,11 +12,9 @@ References
 
 from __future__ import annotations
 
-import math
-import resource
-from pathlib import Path
-
 from ..errors import ConfigError
+from ..machine import available_bytes
+from ..sensor.events import BYTES_PER_EVENT, expected_events_per_pixel
 
 __all__ = ["estimate_render_bytes", "available_bytes", "check_render_memory", "sensor_bytes_per_pixel",
            "expected_events_per_pixel", "sensor_remedy"]
@@ -48,50 +46,9 @@ PHOTON_COUNTING_BYTES_PER_PIXEL = 320.0
 SPAD_BYTES_PER_PIXEL_PER_LEVEL = 16.0
 #: NumPy writes an array into an NPZ in buffered chunks of at most this (``numpy.lib.format.write_array``).
 NPZ_CHUNK_BYTES = 16.0 * 2 ** 20
-#: Bytes an event holds while the event model runs and returns (measured 61.1 for 2·10⁷ shot-noise and
-#: 61.4 for 2.5·10⁶ leak events: the per-pass index, time and polarity arrays, their concatenation, the
-#: time sort and the uint16 copies).
-BYTES_PER_EVENT = 64.0
 #: Bytes per pixel of the event model's working arrays (levels, thresholds, times: ~20 float64 planes),
 #: besides the frames' log intensities (8 B a pixel a frame).
 EVENT_WORK_BYTES_PER_PIXEL = 160.0
-#: The deepest swing of log light a full-depth flicker is taken to make before the config knows the rates:
-#: its trough meets the dark floor, here 10⁻³ of the mean light.
-FLICKER_FLOOR = 1e-3
-
-
-def _flicker_swing(light) -> float:
-    """ln(max w / min w) of the light's waveform (the floor :data:`FLICKER_FLOOR` for a full depth)."""
-    depth = float(light.flicker_depth)
-    low = max(1.0 - depth, FLICKER_FLOOR)
-    high = 1.0 + depth if light.flicker_waveform == "sine" else (1.0 - depth) + depth / float(light.flicker_duty)
-    return math.log(high / low)
-
-
-def expected_events_per_pixel(config, span_s: float | None = None, *, upper: bool = True) -> float:
-    """Events a pixel of an event sensor fires over ``span_s`` (default ``exposure.time_s``) from what the
-    config alone says: shot noise and leak at their rates, and a flickering light's crossings, 2⌈Δ/C⌉ a
-    period for its log swing Δ (C less 3σ of the threshold's mismatch); leak and flicker together at most
-    one a refractory period. ``upper``: the Poisson mean plus 5 standard deviations of a pixel's count.
-    Motion's events (the scene's own changes) need the rendered frames
-    (:func:`spectral_cam.sensor.events.expected_event_count`).
-
-    References
-    ----------
-    .. [1] Hu, Liu & Delbruck (2021), v2e (leak and shot-noise event rates); Gallego et al. (2022), §2.
-    """
-    sensor, light = config.sensor, config.illuminant
-    span = float(config.exposure.time_s) if span_s is None else float(span_s)
-    threshold = max(float(sensor.event_threshold) - 3.0 * float(sensor.event_threshold_sigma), 0.01)
-    crossings = float(sensor.event_leak_hz) * span
-    if light.flicker_hz and light.flicker_depth:
-        crossings += 2.0 * math.ceil(_flicker_swing(light) / threshold) * float(light.flicker_hz) * span
-    if sensor.event_refractory_s > 0:
-        crossings = min(crossings, span / float(sensor.event_refractory_s) + 1.0)
-    mean = crossings + float(sensor.event_shot_noise_hz) * span
-    return mean + 5.0 * math.sqrt(mean) if upper else mean
-
-
 def sensor_bytes_per_pixel(config) -> float:
     """Bytes per pixel the sensor's own outputs hold beyond a CMOS frame's: a single-photon capture's
     ``jot_frames`` count frames (1 B a jot a frame, and the packed bits written for one bit) with their
@@ -166,33 +123,6 @@ def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, 
     tile = min(pixels, TILE_PIXELS)
     robust = tile * 4.0 * channels * (robust_passes + 1) if robust_passes > 1 else 0.0
     return BASE_BYTES + pixels * per_pixel + tile * MITSUBA_BYTES_PER_CALL_PIXEL + robust
-
-
-def _cgroup_bytes() -> float:
-    try:
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = float(Path("/sys/fs/cgroup/memory.current").read_text())
-    except (OSError, ValueError):
-        return math.inf
-    return math.inf if limit == "max" else float(limit) - used
-
-
-def _meminfo_bytes() -> float:
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
-                return float(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return math.inf
-
-
-def available_bytes() -> float:
-    """Memory this process may still use: the least of the system's available memory, the
-    cgroup's headroom and the address-space limit (``ulimit -v``); inf where none is known."""
-    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-    rlimit = math.inf if soft == resource.RLIM_INFINITY else float(soft)
-    return min(_meminfo_bytes(), _cgroup_bytes(), rlimit)
 
 
 def check_render_memory(width_px: int, height_px: int, *, channels: int = 31, layered: bool = False,

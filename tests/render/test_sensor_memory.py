@@ -152,7 +152,9 @@ def test_the_event_model_refuses_frames_whose_motion_would_not_fit(monkeypatch):
     C = 0.02) are counted before any event is made."""
     from spectral_cam.sensor.events import simulate_events
 
-    monkeypatch.setattr(memory, "available_bytes", lambda: 1e9)
+    from spectral_cam import machine
+
+    monkeypatch.setattr(machine, "available_bytes", lambda: 1e9)
     config = sc.scene_from_dict({"sensor": {"kind": "event", "event_threshold": 0.02, "event_threshold_sigma": 0.0,
                                             "event_refractory_s": 0.0}})
     with pytest.raises(ConfigError, match="events"):
