@@ -27,6 +27,11 @@ def flat_field(illuminant, size=64, reflectance=0.5, lux=500.0):
     return SpectralImage(data, np.asarray(BANDS.centres_nm), np.asarray(BANDS.edges_nm))
 
 
+def d850_white_level() -> int:
+    """The D850's white level from its published 14-bit RAW (data/cameras/sensor_figures.csv)."""
+    return 2 ** int(spectra.camera_figures("nikon_d850")["bit_depth"].value) - 1
+
+
 def exposed(cfa="RGGB", model="nikon_d850", illuminant="D65", size=64, **sensor):
     cfg = scene_from_dict({"sensor": {"width_px": size, "height_px": size, "cfa": cfa, "model": model, **sensor},
                            "illuminant": {"spd": illuminant, "illuminance_lux": 500.0}})
@@ -40,7 +45,7 @@ def test_rawpy_reads_what_we_wrote(tmp_path, cfa):
     with rawpy.imread(str(path)) as handle:
         assert np.array_equal(handle.raw_image_visible, raw.mosaic)
         assert list(handle.black_level_per_channel) == [256] * 4
-        assert handle.white_level == 4095
+        assert handle.white_level == d850_white_level() == 16383
         letters = handle.color_desc.decode()
         assert "".join(letters[i] for i in handle.raw_pattern.ravel()) == cfa
         multipliers = np.asarray(handle.camera_whitebalance[:3])
@@ -67,7 +72,7 @@ def test_dng_tags(tmp_path):
     np.testing.assert_allclose(matrix(50722), raw.color_matrix, atol=1e-6)    # ColorMatrix2 = D65
     for code in (50964, 50965):  # ForwardMatrix1/2 map camera white onto D50 (DNG spec ch. 6)
         np.testing.assert_allclose(matrix(code) @ np.ones(3), [0.9642, 1.0, 0.8249], atol=2e-6)
-    assert tags[50717] == 4095 and tags[50714] == 256
+    assert tags[50717] == d850_white_level() and tags[50714] == 256
     np.testing.assert_allclose(tags[51041], raw.noise_profile)
     assert tags[50708] == raw.camera_model == "spectral_cam nikon_d850"
     assert tags[271] == "spectral_cam" and tags[272] == raw.camera_model
@@ -76,7 +81,7 @@ def test_dng_tags(tmp_path):
 def test_read_raw_round_trip(tmp_path):
     raw = exposed("BGGR", illuminant="A")
     back = read_raw(write_dng(raw, tmp_path / "raw.dng"))
-    assert back.cfa == "BGGR" and back.black_level == 256 and back.white_level == 4095
+    assert back.cfa == "BGGR" and back.black_level == 256 and back.white_level == d850_white_level()
     assert np.array_equal(back.mosaic, raw.mosaic) and back.mosaic.dtype == np.uint16
     np.testing.assert_allclose(back.as_shot_neutral, raw.as_shot_neutral, rtol=1e-5)
     np.testing.assert_allclose(back.color_matrix, raw.color_matrix, atol=2e-4)  # via LibRaw's float32 matrix
