@@ -18,6 +18,7 @@ from typing import Mapping, Sequence
 
 from ...io import atomic_path
 from ...records import json_ready
+from .hf import hf_configs, parquet_shards, webdataset_shards
 from .labels import LABELS
 
 __all__ = ["write_metadata", "write_card", "written_labels", "DATA_SOURCES"]
@@ -45,7 +46,7 @@ def _image_name(files: Sequence[str]) -> str | None:
 
 def metadata_rows(rows: Mapping[int, dict]) -> list[dict]:
     """One row per finished item, in index order: ``file_name`` (the developed image, relative
-    to the dataset folder), ``id``, ``index``, ``seed``, every sampled parameter (its scene key)
+    to the dataset folder), ``id``, ``index``, ``split``, ``seed``, every sampled parameter (its scene key)
     and ``<label>_file`` for every file the item holds."""
     out = []
     for index in sorted(rows):
@@ -54,7 +55,7 @@ def metadata_rows(rows: Mapping[int, dict]) -> list[dict]:
             continue
         files = list(row.get("files") or [])  # relative to the dataset folder
         entry = {"file_name": _image_name(files), "id": row["id"], "index": row["index"],
-                 "seed": row.get("seed"), "exposure_s": row.get("exposure_s")}
+                 "split": row.get("split") or "train", "seed": row.get("seed"), "exposure_s": row.get("exposure_s")}
         entry.update(row.get("params") or {})
         entry.update({f"{Path(name).stem}_file": name for name in files})
         out.append(entry)
@@ -82,6 +83,62 @@ def write_metadata(output: Path, rows: Mapping[int, dict]) -> Path:
     return path
 
 
+def _split_lines(spec, done: Sequence[Mapping]) -> list[str]:
+    """The card's "Splits" section: each split's fraction and items, and how items are assigned."""
+    counts = {name: sum(1 for row in done if (row.get("split") or "train") == name) for name, _ in spec.splits}
+    lines = ["", "## Splits", "", "| split | fraction | items |", "|---|---|---|"]
+    lines += [f"| `{name}` | {fraction:g} | {counts[name]} |" for name, fraction in spec.splits]
+    lines += ["", f"Each item's split is drawn from SHA-256 of (split seed {spec.effective_split_seed}, its index) "
+              "alone: an item keeps its split when the dataset grows or resumes, and the counts are binomial about "
+              "the fractions. `metadata.jsonl` and `manifest.jsonl` carry it in `split`."]
+    return lines
+
+
+def _preview_lines(output: Path) -> list[str]:
+    """The card's "Previews" section, linking the label grid and the contact sheet where written."""
+    shown = [(name, what) for name, what in (("label_preview.png", "labels of the first items beside their images"),
+                                             ("contact_sheet.png", "developed images with their sampled values"))
+             if (Path(output) / name).is_file()]
+    if not shown:
+        return []
+    lines = ["", "## Previews", ""] + [f"- [{name}]({name}): {what}" for name, what in shown]
+    if (Path(output) / "label_preview.png").is_file():
+        lines += ["", "![labels of the first items](label_preview.png)"]
+    return lines
+
+
+def _in_order(shards: Mapping[str, list], splits: Sequence[str]) -> dict[str, list]:
+    """Shards by split in the spec's split order (others after, by name)."""
+    return {name: shards[name] for name in [*splits, *sorted(set(shards) - set(splits))] if name in shards}
+
+
+def _hf_lines(parquet: Mapping, tars: Mapping) -> list[str]:
+    """How to load the shards (the typed Parquet rows; the WebDataset tars), or how to add them."""
+    lines = []
+    if parquet:
+        lines += ["Hugging Face `datasets` reads the typed rows in `data/` (the YAML header above names them per "
+                  "split; PNG labels as `Image`, EXR, DNG and JSON labels as arrays and numbers, `meta_json`, "
+                  "`camera_json` and `illuminant_json` whole), from any working folder:", "", "```python",
+                  "import datasets",
+                  "splits = datasets.load_dataset('DATASET_DIR')                     # DatasetDict: "
+                  + ", ".join(parquet),
+                  "part = splits['" + next(iter(parquet)) + "'].with_format('numpy')   # part[0]['depth']: "
+                  "(H, W) float32 m", "```", ""]
+    else:
+        lines += ["Typed Hugging Face rows (every label decoded, one split each) are written where the `datasets` "
+                  "package is installed: `pip install 'spectral_cam[hf]'`, then rerun the same "
+                  "`spectral-cam dataset` command (it resumes and writes `data/`).", ""]
+    if tars:
+        first = next(iter(tars))
+        lines += ["WebDataset tars stream the item files as they are (keys are item ids):", "", "```python",
+                  "import webdataset as wds",
+                  f"for sample in wds.WebDataset('webdataset/split={first}/{{000000..{len(tars[first]) - 1:06d}}}.tar', "
+                  "shardshuffle=False):",
+                  "    sample['__key__'], sample['image.png'], sample['depth.exr']    # bytes of each file",
+                  "```", ""]
+    return lines
+
+
 def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) -> Path:
     """``output/README.md``: the dataset card (a YAML header Hugging Face reads, then the spec,
     counts, the labels the items hold with units, layout, how to load it, sources and
@@ -90,9 +147,12 @@ def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) 
     done = [r for r in rows.values() if r.get("status") == "done"]
     failed = sum(1 for r in rows.values() if r.get("status") == "failed")
     outputs = list(spec.outputs)
+    splits = [name for name, _ in spec.splits]
+    parquet, tars = (_in_order(found, splits) for found in (parquet_shards(output), webdataset_shards(output)))
     lines = ["---", "pretty_name: spectral_cam synthetic camera dataset",
              "tags: [synthetic, raw, spectral, depth, camera-simulation]",
-             "configs:", "- config_name: default", "  drop_labels: true", "---", "",
+             *(hf_configs(parquet, splits) if parquet else ["configs:", "- config_name: default", "  drop_labels: true"]),
+             "---", "",
              "# Synthetic camera dataset (spectral_cam)", "",
              f"{len(done)} items rendered ({failed} failed, {len(rows)} planned) from a spectral scene through a "
              "thin lens, a simulated sensor (photons, shot, read and dark noise, ADC) and an ISP, by "
@@ -118,15 +178,22 @@ def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) 
         lines += [f"- sweep `{sweep.key}`: {json.dumps(json_ready(list(sweep.values)))}" for sweep in spec.sweeps]
     if not spec.distributions and not spec.sweeps:
         lines.append("None: every item is the same scene with its own noise and sample seeds.")
-    lines += ["", "## Layout", "", "    metadata.jsonl        one row per item: file_name (the image), id, seed, "
+    lines += _split_lines(spec, done)
+    lines += _preview_lines(output)
+    lines += ["", "## Layout", "", "    metadata.jsonl        one row per item: file_name (the image), id, split, seed, "
               "parameters, <label>_file paths",
               "    manifest.jsonl        every planned item: status, seed, parameters, files, errors",
-              "    items/NNNNNN/         one folder per item: the labels above and meta.json", "",
-              "## Loading", "", "```python",
+              "    items/NNNNNN/         one folder per item: the labels above and meta.json",
+              *(["    data/split=S/*.parquet  typed Hugging Face rows of split S: every label decoded (below)"]
+                if parquet else []),
+              *(["    webdataset/split=S/*.tar  WebDataset shards of split S: each item's files as <id>.<file name>"]
+                if tars else []), "",
+              "## Loading", "", *_hf_lines(parquet, tars), "```python",
               "from spectral_cam.apps.dataset import SyntheticDataset   # NumPy arrays per item",
               "item = SyntheticDataset('.')[0]                          # item['image'], item['depth'], ...",
-              "", "import datasets                                          # Hugging Face, reads metadata.jsonl",
-              "data = datasets.load_dataset('imagefolder', data_dir='.', split='train')", "```", "",
+              "", "import datasets                                          # Hugging Face, the image and label paths",
+              "files = datasets.load_dataset('imagefolder', data_dir='.', split='train')   # from metadata.jsonl",
+              "```", "",
               "`SyntheticDataset` is a map-style dataset whose items PyTorch's default collate batches: "
               "`torch.utils.data.DataLoader(SyntheticDataset('.'), batch_size=4)` (items of one size; "
               "`transform=[Resize(h, w), Crop(h, w)]` makes them so and keeps `camera['K']` consistent; "

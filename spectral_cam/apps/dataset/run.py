@@ -40,8 +40,9 @@ from ...records import json_ready, read_json, write_json
 from ...render.variants import set_render_threads
 from ...scene import scene_from_dict
 from .labels import file_check, write_item
-from .card import write_card, write_metadata
-from .sheets import write_blur_chart, write_contact_sheet
+from .card import metadata_rows, write_card, write_metadata
+from .hf import datasets_installed, write_parquet_shards, write_webdataset_shards
+from .sheets import write_blur_chart, write_contact_sheet, write_label_preview
 from .spec import DatasetSpec, ItemPlan
 
 __all__ = ["DatasetSummary", "DatasetInterrupted", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers",
@@ -49,7 +50,7 @@ __all__ = ["DatasetSummary", "DatasetInterrupted", "generate_dataset", "item_tas
 
 #: Seconds between manifest rewrites during a run (it is always written at the end).
 MANIFEST_EVERY_S = 30.0
-_MANIFEST_KEYS = ("index", "id", "status", "resumed", "seed", "params", "files", "labels", "error", "attempts",
+_MANIFEST_KEYS = ("index", "id", "split", "status", "resumed", "seed", "params", "files", "labels", "error", "attempts",
                   "seconds", "exposure_s", "variant", "file_checks", "path")
 
 
@@ -73,7 +74,7 @@ def item_task(spec: DatasetSpec, plan: ItemPlan, output: str | Path, *,
     Returns
     -------
     dict
-        ``{"index", "id", "seed", "params", "scene", "path", "outputs", "spec_hash",
+        ``{"index", "id", "split", "seed", "params", "scene", "path", "outputs", "spec_hash",
         "render_threads", "measure_blur"}``.
 
     Raises
@@ -83,7 +84,8 @@ def item_task(spec: DatasetSpec, plan: ItemPlan, output: str | Path, *,
     """
     if plan.scene is None:
         raise ConfigError(f"item {plan.id} has no valid scene: {plan.error}")
-    return {"index": plan.index, "id": plan.id, "seed": plan.seed, "params": plan.params, "scene": plan.scene,
+    return {"index": plan.index, "id": plan.id, "split": spec.split_of(plan.index), "seed": plan.seed,
+            "params": plan.params, "scene": plan.scene,
             "path": str(Path(output).resolve() / "items" / plan.id), "outputs": list(spec.outputs),
             "spec_hash": spec.hash, "render_threads": render_threads, "measure_blur": bool(spec.sweeps)}
 
@@ -478,8 +480,8 @@ def _plan_items(spec: DatasetSpec, total: int, per_point: int, output: Path, row
     items_dir = output / "items"
     for index in range(total):
         plan = spec.plan_item(index, per_point)
-        base = {"index": index, "id": plan.id, "seed": plan.seed, "params": plan.params,
-                "path": f"items/{plan.id}", "attempts": 0}
+        base = {"index": index, "id": plan.id, "split": spec.split_of(index), "seed": plan.seed,
+                "params": plan.params, "path": f"items/{plan.id}", "attempts": 0}
         if plan.scene is None:
             rows[index] = {**base, "status": "failed", "resumed": False, "files": [], "error": plan.error}
             bar.rejected += 1
@@ -708,7 +710,7 @@ def generate_dataset(
             bar.close()
             _write_manifest(manifest, rows)
             write_metadata(output, rows)
-            write_card(output, spec, rows, spec_hash=spec.hash)
+            write_card(output, spec, rows, spec_hash=spec.hash)  # the shards on disk are the last complete run's
             raise DatasetInterrupted(output, done=sum(1 for r in rows.values() if r["status"] == "done"),
                                      failed=sum(1 for r in rows.values() if r["status"] == "failed"),
                                      total=total) from None
@@ -720,9 +722,10 @@ def generate_dataset(
         summary.errors = {r["id"]: r["error"] for r in sorted(rows.values(), key=lambda r: r["index"])
                           if r["status"] == "failed"}
         write_metadata(output, rows)  # what loaders read: Hugging Face's ImageFolder, the card's readers
-        write_card(output, spec, rows, spec_hash=spec.hash)
         if any(r["status"] == "done" for r in rows.values()):
+            _write_shards(output, spec, rows)
             _write_summaries(output, sweeps=bool(spec.sweeps))
+        write_card(output, spec, rows, spec_hash=spec.hash)  # last: it links the shards and previews
     summary.seconds = time.perf_counter() - started
     return summary
 
@@ -895,7 +898,8 @@ def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, 
                         continue
                     row = {"status": "failed", "files": [],
                            "error": f"worker lost {attempts[index]} times; last: {type(exc).__name__}: {exc}"}
-                row = {**row, "index": index, "id": task["id"], "seed": task["seed"], "params": task["params"],
+                row = {**row, "index": index, "id": task["id"], "split": task.get("split"), "seed": task["seed"],
+                       "params": task["params"],
                        "path": f"items/{task['id']}", "resumed": False, "attempts": attempts[index]}
                 if row["status"] == "done":
                     row["files"] = [f"items/{task['id']}/{name}" for name in row["files"]]
@@ -919,7 +923,21 @@ def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, 
 
 
 def _write_summaries(output: Path, *, sweeps: bool) -> None:
-    """Contact sheet for every dataset; blur chart for sweeps (of the blur presets)."""
+    """Contact sheet and label previews for every dataset; blur chart for sweeps (of the blur presets)."""
     write_contact_sheet(output)
+    write_label_preview(output)
     if sweeps:
         write_blur_chart(output)
+
+
+def _write_shards(output: Path, spec: DatasetSpec, rows: Mapping[int, dict]) -> None:
+    """The Parquet shards of typed Hugging Face columns (where ``datasets`` is installed: the card
+    says how to add them otherwise) and, with ``[dataset] webdataset = true``, the WebDataset tars;
+    each rewritten whole from the finished items, one split after another."""
+    metadata = metadata_rows(rows)
+    splits = [name for name, _ in spec.splits]
+    params = sorted({key for row in rows.values() for key in (row.get("params") or {})})
+    if datasets_installed():
+        write_parquet_shards(output, metadata, splits=splits, params=params, shard_items=spec.shard_items)
+    if spec.webdataset:
+        write_webdataset_shards(output, metadata, splits=splits, shard_items=spec.shard_items)

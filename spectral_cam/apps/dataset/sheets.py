@@ -1,4 +1,5 @@
-"""Dataset summaries drawn from a finished folder: the contact sheet and the blur chart.
+"""Dataset summaries drawn from a finished folder: the contact sheet, the label preview and the
+blur chart.
 
 Both read only what a run wrote (``manifest.jsonl``, ``dataset.json``, the items' images and
 meta.json), so they can be redrawn at any time. Figures are matplotlib ``Figure`` objects
@@ -7,6 +8,9 @@ meta.json), so they can be redrawn at any time. Figures are matplotlib ``Figure`
 References
 ----------
 .. [1] docs/design.md, "Result folder (job.py)" and "Optics (optics/)" (the thin-lens CoC).
+.. [2] Crameri, F., Shephard, G. E. & Heron, P. J. (2020). The misuse of colour in science
+   communication. Nat. Commun. 11, 5444 (perceptually uniform maps for data; diverging maps centred
+   on a meaningful zero).
 """
 
 from __future__ import annotations
@@ -22,7 +26,8 @@ from ...errors import ConfigError
 from ...records import exact_number, format_number, read_json, write_csv
 from ...viz import figure, save_png
 
-__all__ = ["CONTACT_SHEET_MAX", "write_contact_sheet", "write_blur_chart", "caption_keys"]
+__all__ = ["CONTACT_SHEET_MAX", "PREVIEW_ITEMS", "PREVIEW_LABELS", "write_contact_sheet", "write_label_preview",
+           "write_blur_chart", "caption_keys", "id_colours"]
 
 #: Items on the contact sheet of a dataset (the first ones; a sweep's grid is usually smaller).
 CONTACT_SHEET_MAX = 64
@@ -170,6 +175,184 @@ def write_contact_sheet(output: str | Path, path: str | Path | None = None, *,
         if keys:
             title += "\n" + _label(row.get("params") or {}, keys)
         ax.set_title(title, fontsize=6.5, linespacing=1.1)
+    return save_png(fig, path, dpi=110)
+
+
+#: Items on the label preview (the first finished ones).
+PREVIEW_ITEMS = 4
+#: Labels the preview shows, in its column order, where the items hold them.
+PREVIEW_LABELS = ("image", "depth", "segmentation", "semantic", "defocus", "normals")
+_PREVIEW_TITLES = {"image": "image", "depth": "depth", "segmentation": "instances (segmentation)",
+                   "semantic": "classes (semantic)", "defocus": "defocus (signed CoC)", "normals": "normals (camera)"}
+
+
+def id_colours(ids: np.ndarray, table: Mapping[int, Sequence[int]] | None = None) -> np.ndarray:
+    """(…, 3) float RGB of integer ids: black for 0 (nothing), the colour ``table`` gives an id
+    (classes.json's sRGB 0–255), else hues a golden angle (≈ 0.382 turn) apart, so consecutive
+    ids, the neighbours on a segmentation, differ most.
+
+    References
+    ----------
+    .. [1] Green-Armytage, P. (2010). A colour alphabet and the limits of colour coding. Colour:
+       Design & Creativity 5, 1–23 (distinct colours for categories).
+    """
+    import matplotlib.colors
+
+    ids = np.asarray(ids, dtype=np.int64)
+    unique, inverse = np.unique(ids, return_inverse=True)
+    colours = np.zeros((len(unique), 3))
+    for k, value in enumerate(unique):
+        if value == 0:
+            continue
+        if table and int(value) in table:
+            colours[k] = np.asarray(table[int(value)][:3], dtype=float) / 255.0
+        else:
+            hue = (value * 0.381966) % 1.0
+            colours[k] = matplotlib.colors.hsv_to_rgb((hue, 0.55 + 0.35 * (value % 3) / 2, 0.95 - 0.2 * (value % 2)))
+    return colours[inverse.reshape(ids.shape)]
+
+
+def _preview_items(output: Path, limit: int) -> list[tuple[dict, dict]]:
+    """(manifest row, loader item) of the first finished items, each with the preview labels it holds."""
+    from .card import written_labels
+    from .loader import LOADABLE_LABELS, read_item
+
+    found = []
+    for row in _manifest_rows(output):
+        if row.get("status") != "done":
+            continue
+        labels = [name for name in PREVIEW_LABELS if name in LOADABLE_LABELS and name in written_labels(row)]
+        found.append((row, read_item(output / row["path"], labels)))
+        if len(found) == limit:
+            break
+    return found
+
+
+def _class_table(output: Path) -> dict[int, dict]:
+    try:
+        from .loader import read_classes
+    except ImportError:  # a loader without class maps
+        return {}
+    try:
+        return read_classes(output)
+    except Exception:  # noqa: BLE001 - no classes.json: ids get their golden-angle colours
+        return {}
+
+
+def _depth_norm(values: list[np.ndarray]):
+    """The depth colour scale shared by the rows: 1st–99th percentile of the finite depths,
+    logarithmic where they span more than a decade (a room beside a distant sky)."""
+    import matplotlib.colors
+
+    finite = np.concatenate([v[np.isfinite(v) & (v > 0)] for v in values] or [np.array([1.0])])
+    if finite.size == 0:
+        finite = np.array([1.0])
+    low, high = np.percentile(finite, [1, 99])
+    high = max(high, low * 1.001)
+    return matplotlib.colors.LogNorm(low, high) if high / low > 10 else matplotlib.colors.Normalize(low, high)
+
+
+def _defocus_norm(values: list[np.ndarray]):
+    """A diverging scale centred on 0 (in focus), ± the 99th percentile of |CoC|."""
+    import matplotlib.colors
+
+    finite = np.concatenate([np.abs(v[np.isfinite(v)]) for v in values] or [np.array([1.0])])
+    bound = float(np.percentile(finite, 99)) if finite.size else 1.0
+    return matplotlib.colors.Normalize(-max(bound, 0.5), max(bound, 0.5))
+
+
+def write_label_preview(output: str | Path, path: str | Path | None = None, *,
+                        items: int = PREVIEW_ITEMS) -> Path | None:
+    """A PNG grid of the first items' labels beside their images: one row per item, one column per
+    label the items hold (:data:`PREVIEW_LABELS`).
+
+    Depth in metres on the perceptually uniform ``viridis`` (near dark, far bright; grey where no
+    surface was hit), one scale for every row, logarithmic when the depths span more than a decade;
+    instance and class ids in distinct colours (classes.json's colours for classes, with a legend
+    of the classes shown); signed defocus (CoC diameter, px; + behind the focus plane) on the
+    diverging ``RdBu_r`` centred on 0; camera-space normals as RGB = (n + 1) / 2. Each colour-mapped
+    column has its colour bar with units under it.
+
+    Parameters
+    ----------
+    output
+        The dataset folder (reads manifest.jsonl, the items and classes.json).
+    path
+        The PNG (default ``<output>/label_preview.png``).
+    items
+        Rows: the first finished items.
+
+    Returns
+    -------
+    pathlib.Path or None
+        The PNG, or None when no finished item holds an image or a label to show.
+
+    References
+    ----------
+    .. [1] Matplotlib, "Choosing colormaps" (sequential perceptually uniform maps; diverging maps).
+    """
+    import matplotlib
+    import matplotlib.patches
+
+    output = Path(output)
+    path = Path(path) if path else output / "label_preview.png"
+    found = _preview_items(output, items)
+    columns = [name for name in PREVIEW_LABELS if any(name in item for _, item in found)]
+    if not found or not columns:
+        return None
+    frame = next(np.shape(item[name])[:2] for _, item in found for name in columns if name in item)
+    aspect = frame[0] / frame[1]
+    classes = _class_table(output)
+    fig = figure(2.3 * len(columns), 2.3 * aspect * len(found) + 1.5)
+    # a last, thin row for the colour bars: every column's panels keep one size and line up
+    grid = fig.add_gridspec(len(found) + 1, len(columns), height_ratios=[2.3 * aspect] * len(found) + [0.12])
+    axes = np.array([[fig.add_subplot(grid[r, c]) for c in range(len(columns))] for r in range(len(found))])
+    norms = {"depth": _depth_norm([item["depth"] for _, item in found if "depth" in item]),
+             "defocus": _defocus_norm([item["defocus"] for _, item in found if "defocus" in item])}
+    maps = {"depth": matplotlib.colormaps["viridis"].with_extremes(bad="0.75"),
+            "defocus": matplotlib.colormaps["RdBu_r"]}
+    shown_classes: set[int] = set()
+    mappables = {}
+    for r, (row, item) in enumerate(found):
+        for c, name in enumerate(columns):
+            ax = axes[r, c]
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if r == 0:
+                ax.set_title(_PREVIEW_TITLES[name], fontsize=8)
+            if c == 0:
+                ax.set_ylabel(f"#{row['id']}" + (f"\n{row['split']}" if row.get("split") else ""), fontsize=7)
+            if name not in item:
+                ax.text(0.5, 0.5, "not written", ha="center", va="center", fontsize=7, color="0.4",
+                        transform=ax.transAxes)
+                continue
+            value = np.asarray(item[name])
+            if name in norms:
+                shown = np.where(np.isfinite(value), value, np.nan)
+                mappables[name] = ax.imshow(shown, cmap=maps[name], norm=norms[name], interpolation="nearest")
+            elif name in ("segmentation", "semantic"):
+                table = {k: v["colour"] for k, v in classes.items()} if name == "semantic" else None
+                ax.imshow(id_colours(value, table), interpolation="nearest")
+                if name == "semantic":
+                    shown_classes |= {int(v) for v in np.unique(value) if v}
+            elif name == "normals":
+                ax.imshow(np.clip((np.nan_to_num(value[..., :3]) + 1.0) / 2.0, 0, 1), interpolation="nearest")
+            else:
+                ax.imshow(value if value.dtype == np.uint8 else (value / 257).astype(np.uint8), interpolation="nearest")
+    units = {"depth": "depth z (m); grey: no surface", "defocus": "signed CoC diameter (px), + behind focus"}
+    for name, mappable in mappables.items():
+        bar = fig.colorbar(mappable, cax=fig.add_subplot(grid[len(found), columns.index(name)]),
+                           orientation="horizontal")
+        bar.set_label(units[name], fontsize=7)
+        bar.ax.tick_params(labelsize=6.5)
+    if "normals" in columns:
+        axes[-1, columns.index("normals")].set_xlabel("RGB = (n + 1) / 2, n in camera axes", fontsize=6.5)
+    if shown_classes:
+        handles = [matplotlib.patches.Patch(color=id_colours(np.array([k]), {k: classes[k]["colour"]})[0],
+                                            label=classes[k]["name"]) for k in sorted(shown_classes) if k in classes]
+        fig.legend(handles=handles[:16], loc="lower center", ncol=min(len(handles), 6), fontsize=6.5, frameon=False,
+                   title="classes (semantic)", title_fontsize=7)
+    fig.suptitle(f"Labels of the first {len(found)} items", fontsize=9)
     return save_png(fig, path, dpi=110)
 
 

@@ -4,12 +4,15 @@ A spec is a scene file (any ``[section] key = value`` of docs/design.md, "Scene 
 value may instead be a distribution (:data:`DISTRIBUTIONS`, or ``{ files = "glob" }``: a choice of
 the files it matches, e.g. a folder of XML scenes), plus a ``[dataset]`` table (``scene``,
 ``seed``, ``n``, ``outputs``, ``sweep``). :meth:`DatasetSpec.plan_item` turns (spec, index) into
-the item's seed, sampled parameters and validated scene, the same on any machine and in any order.
+the item's seed, sampled parameters and validated scene, the same on any machine and in any order;
+:meth:`DatasetSpec.split_of` puts each index in a split (``[dataset] splits``, ``split_seed``) by a
+hash of (split seed, index) alone, so an item keeps its split when the dataset grows or resumes.
 
 References
 ----------
 .. [1] O'Neill, M. E. (2014) and NumPy ``SeedSequence``: independent streams from a root
    entropy and a spawn key (numpy.random.SeedSequence documentation, NEP 19).
+.. [2] Hugging Face ``datasets``, "Splits" (split names; ``train``, ``validation``, ``test``).
 """
 
 from __future__ import annotations
@@ -32,13 +35,21 @@ from ...records import json_ready
 from ...scene import SceneConfig, parse_override, read_toml, scene_from_dict
 from .labels import DEFAULT_OUTPUTS, LABELS
 
-__all__ = ["DISTRIBUTIONS", "FORMAT_VERSION", "Distribution", "Sweep", "parse_sweep", "ItemPlan", "DatasetSpec",
+__all__ = ["DISTRIBUTIONS", "FORMAT_VERSION", "DEFAULT_SPLITS", "SHARD_ITEMS", "Distribution", "Sweep", "parse_sweep",
+           "ItemPlan", "DatasetSpec",
            "spec_from_dict", "load_spec"]
 
 #: Distributions a spec value may take (an inline table with exactly one of these keys).
 DISTRIBUTIONS = ("uniform", "log_uniform", "choice")
 #: Format version of dataset.json, part of the spec hash.
 FORMAT_VERSION = 1
+#: Splits of a spec without ``[dataset] splits``: every item in ``train`` (Hugging Face's default split).
+DEFAULT_SPLITS = (("train", 1.0),)
+#: Items per Parquet and WebDataset shard by default (``[dataset] shard_items``).
+SHARD_ITEMS = 1000
+#: [dataset] keys that do not decide the items' pixels (not in the spec hash: they may change on resume).
+_UNHASHED = ("outputs", "count", "source", "splits", "split_seed", "webdataset", "shard_items")
+_SPLIT_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 _SWEEP_RANGE = re.compile(r"^\s*([^:\s]+)\s*:\s*([^:\s]+)\s*:\s*(\d+)\s*(?::\s*(lin|log)\s*)?$")
 
@@ -348,6 +359,10 @@ class DatasetSpec:
     count: int | None = None
     base_dir: str = "."
     source: str | None = None
+    splits: tuple = DEFAULT_SPLITS
+    split_seed: int | None = None
+    webdataset: bool = False
+    shard_items: int = SHARD_ITEMS
 
     def to_dict(self) -> dict:
         """The spec as JSON (what dataset.json records)."""
@@ -360,6 +375,10 @@ class DatasetSpec:
             "seed": self.seed,
             "count": self.count,
             "source": self.source,
+            "splits": dict(self.splits),
+            "split_seed": self.effective_split_seed,
+            "webdataset": self.webdataset,
+            "shard_items": self.shard_items,
         }
 
     @functools.cached_property
@@ -368,7 +387,7 @@ class DatasetSpec:
         not of the outputs or the count, so either can change on resume. A scene or spectrum
         file counts by its content, not its path, so the same spec and files give the same items
         in any folder on any machine (the absolute path of an XML scene made them differ)."""
-        decisive = {k: v for k, v in self.to_dict().items() if k not in ("outputs", "count", "source")}
+        decisive = {k: v for k, v in self.to_dict().items() if k not in _UNHASHED}
         text = json.dumps(_by_content(decisive), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
@@ -393,6 +412,43 @@ class DatasetSpec:
         if not isinstance(n, int) or isinstance(n, bool) or n < 1:
             raise ConfigError(f"-n {n!r}: the number of items must be a whole number >= 1")
         return n * self.grid_size
+
+    @property
+    def effective_split_seed(self) -> int:
+        """The seed of the split assignment: ``[dataset] split_seed``, else the dataset's seed."""
+        return self.seed if self.split_seed is None else self.split_seed
+
+    def split_of(self, index: int) -> str:
+        """The split of item ``index``: the first split whose cumulative fraction exceeds
+        u = SHA-256(split seed, index) / 2^64 (uniform on [0, 1)).
+
+        Each index is assigned on its own, so an item keeps its split when ``-n`` grows, on
+        resume, and whichever items failed; the shares of a split are binomial about its
+        fraction (not exact, as a shuffled list cut at the fractions would be, which reassigns
+        items whenever N changes).
+
+        Parameters
+        ----------
+        index
+            Item index, 0-based.
+
+        Returns
+        -------
+        str
+            A name of ``[dataset] splits`` (``"train"`` without it).
+
+        References
+        ----------
+        .. [1] FIPS 180-4, SHA-256: its output bits are indistinguishable from uniform.
+        """
+        digest = hashlib.sha256(f"spectral_cam.split:{self.effective_split_seed}:{int(index)}".encode()).digest()
+        u = int.from_bytes(digest[:8], "big") / 2.0 ** 64
+        total = 0.0
+        for name, fraction in self.splits:
+            total += fraction
+            if u < total:
+                return name
+        return next(name for name, fraction in reversed(self.splits) if fraction > 0)  # u within rounding of 1
 
     def _entropy(self) -> int:
         return int(self.hash[:32], 16)  # 128 bits of the hash, which holds the dataset seed
@@ -568,7 +624,7 @@ def spec_from_dict(
     base_dir = Path(base_dir).resolve()
     data = dict(data)
     settings = dict(data.pop("dataset", {}) or {})
-    valid_settings = ("scene", "seed", "n", "outputs", "sweep")
+    valid_settings = ("scene", "seed", "n", "outputs", "sweep", "splits", "split_seed", "webdataset", "shard_items")
     unknown = sorted(set(settings) - set(valid_settings))
     if unknown:
         raise ConfigError(f"unknown key(s) {', '.join('dataset.' + k for k in unknown)}; valid keys of "
@@ -647,9 +703,38 @@ def spec_from_dict(
         raise ConfigError(f"dataset.n = {count!r}: must be a whole number >= 1")
     ordered = tuple(name for name in LABELS if name in outputs)
     spec = DatasetSpec(fixed=fixed, distributions=distributions, sweeps=tuple(axes), outputs=ordered,
-                       seed=seed, count=count, base_dir=str(base_dir), source=source)
+                       seed=seed, count=count, base_dir=str(base_dir), source=source, **_sharding(settings))
     spec.check_values()
     return spec
+
+
+def _sharding(settings: Mapping[str, Any]) -> dict:
+    """``splits``, ``split_seed``, ``webdataset`` and ``shard_items`` of ``[dataset]``, checked."""
+    splits = settings.get("splits", dict(DEFAULT_SPLITS))
+    example = "e.g. splits = { train = 0.8, val = 0.1, test = 0.1 }"
+    if not isinstance(splits, dict) or not splits:
+        raise ConfigError(f"dataset.splits = {splits!r}: give a table of split name = fraction, {example}")
+    for name, fraction in splits.items():
+        if not _SPLIT_NAME.match(name):
+            raise ConfigError(f"dataset.splits: split name {name!r} must be a letter then letters, digits or _ "
+                              f"(Hugging Face split names); {example}")
+        if (not isinstance(fraction, (int, float)) or isinstance(fraction, bool) or not math.isfinite(fraction)
+                or not 0 <= fraction <= 1):
+            raise ConfigError(f"dataset.splits.{name} = {fraction!r}: a fraction must be a number in [0, 1]; {example}")
+    if abs(sum(splits.values()) - 1.0) > 1e-9:
+        raise ConfigError(f"dataset.splits: the fractions sum to {sum(splits.values()):.12g}; they must sum to 1, "
+                          f"{example}")
+    split_seed = settings.get("split_seed")
+    if split_seed is not None and (not isinstance(split_seed, int) or isinstance(split_seed, bool) or split_seed < 0):
+        raise ConfigError(f"dataset.split_seed = {split_seed!r}: must be a whole number >= 0 (default: dataset.seed)")
+    webdataset = settings.get("webdataset", False)
+    if not isinstance(webdataset, bool):
+        raise ConfigError(f"dataset.webdataset = {webdataset!r}: must be true or false (write WebDataset .tar shards)")
+    shard_items = settings.get("shard_items", SHARD_ITEMS)
+    if not isinstance(shard_items, int) or isinstance(shard_items, bool) or shard_items < 1:
+        raise ConfigError(f"dataset.shard_items = {shard_items!r}: items per shard must be a whole number >= 1")
+    return {"splits": tuple((name, float(f)) for name, f in splits.items()), "split_seed": split_seed,
+            "webdataset": webdataset, "shard_items": shard_items}
 
 
 def _resolve_paths_table(table: Mapping[str, Any], base_dir: Path) -> dict:

@@ -52,7 +52,7 @@ def test_metadata_jsonl_has_a_row_per_item_with_its_image_parameters_and_labels(
 
 def test_the_dataset_card_names_every_label_its_units_and_the_sources(dataset):
     card = (dataset / "README.md").read_text()
-    assert card.startswith("---\n") and "drop_labels: true" in card.split("---")[1]
+    assert card.startswith("---\n") and "path: data/split=train/*.parquet" in card.split("---")[1]  # typed rows (test_hf)
     for label in SPEC["dataset"]["outputs"]:
         assert f"| `{label}` |" in card
     assert "camera-space z, metres" in card and "Apache-2.0" in card and "BSD-3-Clause" in card
