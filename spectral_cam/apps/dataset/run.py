@@ -722,10 +722,12 @@ def generate_dataset(
         summary.errors = {r["id"]: r["error"] for r in sorted(rows.values(), key=lambda r: r["index"])
                           if r["status"] == "failed"}
         write_metadata(output, rows)  # what loaders read: Hugging Face's ImageFolder, the card's readers
-        if any(r["status"] == "done" for r in rows.values()):
-            _write_shards(output, spec, rows)
-            _write_summaries(output, sweeps=bool(spec.sweeps))
-        write_card(output, spec, rows, spec_hash=spec.hash)  # last: it links the shards and previews
+        try:
+            if any(r["status"] == "done" for r in rows.values()):
+                _write_shards(output, spec, rows)
+                _write_summaries(output, sweeps=bool(spec.sweeps))
+        finally:  # last: it links the shards and previews (and lists the items should they fail)
+            write_card(output, spec, rows, spec_hash=spec.hash)
     summary.seconds = time.perf_counter() - started
     return summary
 
