@@ -83,6 +83,26 @@ def write_metadata(output: Path, rows: Mapping[int, dict]) -> Path:
     return path
 
 
+def _class_section(output: Path) -> list[str]:
+    """The card's "Classes" section: classes.json's table (id, name, category, colour, pixels,
+    items), or nothing for a dataset without it."""
+    try:
+        classes = json.loads((output / "classes.json").read_text(encoding="utf-8"))["classes"]
+    except (OSError, ValueError, KeyError):
+        return []
+    lines = ["## Classes", "",
+             "[`classes.json`](classes.json) is the class map of `semantic.png` (uint16 class ids, 0 = unlabelled: no "
+             "surface, or sky where the scene has one and the class `sky` is listed) and of each instance's "
+             "`class_id` in meta.json's `segmentation.instances` (`segmentation.png`: uint16 instance ids, 0 = "
+             "none, the parts of one object one instance; each with its `bbox` [x, y, w, h] px, `area` px and "
+             "`truncated`; `visible_fraction` is null: no amodal masks). Ids are fixed by the spec, the same in every "
+             "item and resumed run; classes no item shows are left out.", "",
+             "| id | class | category | colour (sRGB) | pixels | items |", "|---|---|---|---|---|---|"]
+    lines += [f"| {c['id']} | `{c['name']}` | {c['category']} | {tuple(c['colour'])} | {c['pixels']} | {c['items']} |"
+              for c in classes]
+    return lines + [""]
+
+
 def _split_lines(spec, done: Sequence[Mapping]) -> list[str]:
     """The card's "Splits" section: each split's fraction and items, and how items are assigned."""
     counts = {name: sum(1 for row in done if (row.get("split") or "train") == name) for name, _ in spec.splits}
@@ -170,8 +190,9 @@ def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) 
         lines += ["", "Asked for but written by no item (the scenes here cannot produce them):", ""]
         lines += [f"- `{name}`: {LABELS[name].description}" for name in missing]
     lines += ["", "Every item folder also holds `meta.json`: the resolved scene, optics, sensor (gain, exposure, "
-              "noise parameters, seeds), the model decisions and the sampled parameters.", "",
-              "## Sampled parameters", ""]
+              "noise parameters, seeds), the model decisions and the sampled parameters.", ""]
+    lines += _class_section(Path(output))
+    lines += ["## Sampled parameters", ""]
     if spec.distributions:
         lines += [f"- `{key}`: {json.dumps(json_ready(value.to_dict()))}" for key, value in sorted(spec.distributions.items())]
     if spec.sweeps:

@@ -38,7 +38,7 @@ import numpy as np
 from ...errors import ConfigError, RawFormatError
 from ...io import atomic_path, staged_directory
 from ...registry import Registry
-from .loader import SyntheticDataset, read_item
+from .loader import SyntheticDataset, read_classes, read_item
 
 __all__ = ["EXPORTS", "export", "export_coco", "export_depth_png", "export_flo", "write_depth_png",
            "read_depth_png", "write_flo", "read_flo", "mask_to_rle", "DEPTH_SCALES"]
@@ -147,27 +147,53 @@ def _segmentation(folder: Path) -> tuple[np.ndarray, dict[int, dict]]:
     return ids, table
 
 
+def _class_map(dataset: Path, tables: list[dict[int, dict]]) -> dict[int, dict] | None:
+    """classes.json's classes by id where the dataset has it and every instance names its
+    class_id; None for a dataset from before classes.json (its categories are the instances'
+    class names)."""
+    if not (dataset / "classes.json").is_file():
+        return None
+    classes = read_classes(dataset)
+    entries = [entry for table in tables for entry in table.values()]
+    if any("class_id" not in entry for entry in entries):
+        return None
+    unknown = sorted({int(entry["class_id"]) for entry in entries if entry.get("pixels")} - set(classes))
+    if unknown:
+        raise RawFormatError(f"{dataset / 'classes.json'} does not list class id(s) {unknown} that the items' "
+                             f"segmentation names; rerun the same `spectral-cam dataset` command with -o {dataset} "
+                             f"to write it again")
+    return classes
+
+
 def coco_instances(dataset_dir: str | Path) -> dict:
     """The dataset's segmentation as a COCO instances document (see :func:`export_coco`)."""
     items = _finished_items(dataset_dir, (("segmentation", "segmentation.png"),))
     dataset = Path(dataset_dir)
+    labels = [(row, folder, *_segmentation(folder)) for row, folder in items]
+    class_map = _class_map(dataset, [table for *_, table in labels])
     images, annotations, classes = [], [], {}  # classes: name -> supercategory
-    for row, folder in items:
+    for row, folder, ids, table in labels:
         image_id = int(row["index"]) + 1  # COCO's ids start at 1 (pycocotools' matching takes 0 as "none")
         file_name = _image_name(row, dataset)
-        ids, table = _segmentation(folder)
         images.append({"id": image_id, "file_name": file_name, "width": int(ids.shape[1]),
                        "height": int(ids.shape[0]), "item_id": str(row["id"]), "dataset_index": int(row["index"])})
         for k in (int(k) for k in np.unique(ids) if k != 0):
             entry, mask = table[k], ids == k
             classes.setdefault(str(entry["class"]), str(entry.get("category") or "shape"))
             annotations.append({
-                "id": len(annotations) + 1, "image_id": image_id, "category_id": str(entry["class"]),
+                "id": len(annotations) + 1, "image_id": image_id,
+                "category_id": str(entry["class"]) if class_map is None else int(entry["class_id"]),
                 "segmentation": mask_to_rle(mask), "area": int(mask.sum()), "bbox": _box(mask), "iscrowd": 0,
                 "instance_id": k, "name": str(entry["name"])})
-    category_ids = {name: k for k, name in enumerate(sorted(classes), start=1)}
-    for annotation in annotations:
-        annotation["category_id"] = category_ids[annotation["category_id"]]
+    if class_map is None:  # a dataset from before classes.json: ids 1… in name order
+        category_ids = {name: k for k, name in enumerate(sorted(classes), start=1)}
+        for annotation in annotations:
+            annotation["category_id"] = category_ids[annotation["category_id"]]
+        categories = [{"id": category_ids[name], "name": name, "supercategory": classes[name]}
+                      for name in sorted(classes)]
+    else:  # classes.json's ids and categories: the semantic map's, the same in every item
+        categories = [{"id": k, "name": entry["name"], "supercategory": entry["category"]}
+                      for k, entry in sorted(class_map.items()) if entry.get("instances")]
     today = datetime.date.today()
     return {
         "info": {"description": f"spectral_cam synthetic dataset {dataset.resolve().name}: the instances of its "
@@ -177,8 +203,7 @@ def coco_instances(dataset_dir: str | Path) -> dict:
         "licenses": [],
         "images": images,
         "annotations": annotations,
-        "categories": [{"id": category_ids[name], "name": name, "supercategory": classes[name]}
-                       for name in sorted(classes)],
+        "categories": categories,
     }
 
 
@@ -193,11 +218,12 @@ def export_coco(dataset_dir: str | Path, out_path: str | Path, *, force: bool = 
     and ``item_id``, ``dataset_index``. One ``annotations`` entry per instance id that shows
     in the item's segmentation.png (0, nothing, is not one): ``segmentation`` as uncompressed
     RLE (:func:`mask_to_rle`), ``area`` its pixel count, ``bbox`` [x, y, w, h] px enclosing it,
-    ``iscrowd`` 0, ``instance_id`` (segmentation.png's id) and ``name`` (the shape's). Categories
-    are the instance table's classes (a shape's name without its index) that show anywhere in the
-    dataset, ids 1… in name order. Instances are what the label says: the parts of one object
-    that the scene builds as separate shapes (a cylinder's cap) are separate annotations of their
-    own class.
+    ``iscrowd`` 0, ``instance_id`` (segmentation.png's id) and ``name`` (the object's). An
+    instance is one object, its parts merged (a cylinder's tube and top: one annotation).
+    Categories are classes.json's classes that have instances, with its ids (the ids of
+    semantic.png and of each instance's ``class_id``) and its categories as ``supercategory``;
+    a dataset from before classes.json gets its instance table's class names, ids 1… in name
+    order.
 
     Parameters
     ----------

@@ -43,7 +43,8 @@ from ...registry import Registry
 from ...scene import SceneConfig
 
 __all__ = ["LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "defocus_map_px",
-           "clean_camera_rgb", "measure_scene_blur"]
+           "clean_camera_rgb", "measure_scene_blur", "PRESET_CLASSES", "USER_CLASS_BASE", "SHAPE_RULES",
+           "class_table", "spec_class_table", "write_classes", "Instances", "instance_boxes"]
 
 #: What an item can write besides meta.json: ``[dataset] outputs`` name → entry (a function
 #: ``(item, folder) -> files``; ``options``: the meta.json keys it records). Their order here
@@ -71,12 +72,16 @@ class Item:
     timings : dict
         Seconds per stage; a label that times itself records ``timings[name]`` (its time
         is then not counted under ``"write"``).
+    classes : list of dict, optional
+        The dataset's class map (:func:`spec_class_table`); default the item's own scene's
+        (:func:`class_table`), which is the same for a dataset of one scene.
     """
 
     sim: Simulation
     measure_blur: bool = False
     records: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
+    classes: list | None = None
 
     @property
     def config(self) -> SceneConfig:
@@ -101,6 +106,21 @@ class Item:
         from ...render import render_shape_map
 
         return render_shape_map(self.config, lens=self.sim.lens, with_materials=True)
+
+    @functools.cached_property
+    def class_map(self) -> list[dict]:
+        """The class map the item's ids come from (:attr:`classes`, or its scene's own)."""
+        return list(self.classes) if self.classes is not None else class_table([self.config])
+
+    @functools.cached_property
+    def instances(self) -> tuple[np.ndarray, "Instances"]:
+        """(H, W) uint16 instance ids of the pinhole view (0: none), the parts of one object
+        merged (:class:`Instances`), and the instances."""
+        index, shapes = self.shape_map
+        objects = Instances.of(self.config, self.sim.lens, shapes, self.class_map)
+        if len(objects.records) >= 65535:
+            raise ConfigError(f"{len(objects.records)} objects do not fit a 16-bit segmentation (at most 65534)")
+        return objects.ids(index).astype(np.uint16), objects
 
 
 # ----------------------------------------------------------------------------- the labels
@@ -310,35 +330,383 @@ def shape_reflectance(config: SceneConfig, name: str) -> str | None:
     return None
 
 
-@LABELS.register("segmentation", options=("segmentation",),
-                 description="segmentation.png: per pixel, the 16-bit instance id of the shape its ray meets "
-                             "through an ideal pinhole (the all-in-focus view; 0: nothing; each disc of dead_leaves "
-                             "its own); meta.json maps each id to the shape's name, class, material, reflectance "
-                             "source and pixel count")
-def _segmentation(item: Item, folder: Path) -> list[Path]:
+# ----------------------------------------------------------------------------- classes and instances
+@dataclass(frozen=True)
+class ShapeClass:
+    """A class of the dataset-wide class map: its ``name`` (what a pixel shows: ``sphere``,
+    ``plant``, ``chart_patch``), its ``category`` (the coarse kind a vision user groups it by:
+    ``object``, ``vegetation``, ``ground``, ``chart``, ``sky``, ``structure``, ``furniture``,
+    ``light``, ``background``, ``texture``, ``asset``, ``scatter``, ``scene``, ``unknown``) and what it
+    is."""
+
+    name: str
+    category: str
+    description: str = ""
+
+
+#: Every class the presets build, in id order: class id = place + 1 (0: unlabelled, where the
+#: pinhole ray meets nothing and no sky is there). Append only: an id, once given, is never
+#: reused, so a class keeps its id across items, resumed runs, datasets and versions.
+PRESET_CLASSES = (
+    ShapeClass("ground", "ground", "the ground plane and its far strips (tabletop, vegetation)"),
+    ShapeClass("hills", "ground", "the ring of distant hills (ground = 'hills')"),
+    ShapeClass("sky", "sky", "rays that leave the scene under a sun-and-sky or overcast sky (semantic map only)"),
+    ShapeClass("clouds", "sky", "the cloud layer under a sun and sky"),
+    ShapeClass("sphere", "object", "a tabletop sphere"),
+    ShapeClass("box", "object", "a tabletop cube, or the Cornell box's two boxes"),
+    ShapeClass("cylinder", "object", "a tabletop cylinder (tube and top disc: one instance)"),
+    ShapeClass("torus", "object", "a tabletop torus (procedural mesh)"),
+    ShapeClass("vase", "object", "a tabletop vase (procedural mesh)"),
+    ShapeClass("table_object", "object", "a thing on the room's table (vase, bowl, mug or a stack of books)"),
+    ShapeClass("plant", "vegetation", "a crop plant (vegetation)"),
+    ShapeClass("weed", "vegetation", "a weed (vegetation)"),
+    ShapeClass("chart_patch", "chart", "a ColorChecker patch (its BabelColor reflectance in the instance table)"),
+    ShapeClass("chart_board", "chart", "the ColorChecker's black board or frame"),
+    ShapeClass("chart_surround", "background", "the grey surround behind the colorchecker preset's chart"),
+    ShapeClass("flat_field", "chart", "the flat_field preset's uniform target"),
+    ShapeClass("edge_dark", "chart", "the slanted_edge preset's dark side"),
+    ShapeClass("edge_bright", "chart", "the slanted_edge preset's bright half"),
+    ShapeClass("depth_plane", "chart", "a dof_targets checkered plane"),
+    ShapeClass("point_source", "light", "a point_sources emitter"),
+    ShapeClass("dead_leaf", "texture", "a dead_leaves disc (each its own instance)"),
+    ShapeClass("backdrop", "background", "the dead_leaves backdrop"),
+    ShapeClass("wall", "structure", "a wall (room, Cornell box, the tabletop's backdrop)"),
+    ShapeClass("floor", "structure", "a floor (room, Cornell box)"),
+    ShapeClass("ceiling", "structure", "a ceiling (room, Cornell box)"),
+    ShapeClass("skirting", "structure", "the room's skirting boards"),
+    ShapeClass("table", "furniture", "the room's table (top and legs)"),
+    ShapeClass("rug", "furniture", "the room's rug"),
+    ShapeClass("sofa", "furniture", "the room's sofa (base, back, arms, seats, feet)"),
+    ShapeClass("cushion", "furniture", "a cushion on the sofa"),
+    ShapeClass("painting", "furniture", "the room's painting and its frame"),
+    ShapeClass("bookshelf", "furniture", "the room's bookshelf (sides, back, boards)"),
+    ShapeClass("book", "furniture", "a book on the shelf"),
+    ShapeClass("floor_lamp", "furniture", "the room's floor lamp (base, pole, shade and its diffusers)"),
+    ShapeClass("sideboard", "furniture", "the room's sideboard (body, doors, knobs, feet)"),
+    ShapeClass("ceiling_lamp", "light", "the room's ceiling panel"),
+    ShapeClass("area_light", "light", "an area light seen directly (the Cornell box's, the overhead lamp)"),
+    ShapeClass("other", "unknown", "a shape no rule names (its own name is in the instance table)"),
+)
+#: First id of the classes a spec names itself (assets, scatter, an XML scene's shapes), in
+#: (category, name) order: ids below it stay :data:`PRESET_CLASSES`' however that list grows.
+USER_CLASS_BASE = 256
+
+
+@dataclass(frozen=True)
+class _Rule:
+    """Shape names matching ``pattern`` (in one of ``presets``; None: any) are of class
+    ``cls`` (a name, or ``"{kind}"``: the tabletop object's shape) and belong to the instance
+    ``instance`` (a template of the match's groups)."""
+
+    presets: tuple | None
+    pattern: str
+    cls: str
+    instance: str = r"\g<0>"
+
+
+_OUTDOOR = ("tabletop", "vegetation")
+#: How each preset's shape names become classes and instances (first match wins): the parts of
+#: one object (a cylinder's tube and top, a table's top and legs) share an instance.
+SHAPE_RULES = (
+    _Rule(_OUTDOOR, r"ground|ground_far_(north|south|east|west)", "ground", "ground"),
+    _Rule(_OUTDOOR, r"terrain", "hills"),
+    _Rule(_OUTDOOR, r"clouds", "clouds"),
+    _Rule(_OUTDOOR, r"backdrop", "wall"),
+    _Rule(_OUTDOOR, r"lamp", "area_light"),
+    _Rule(("tabletop",), r"(object_\d+)(_top)?", "{kind}", r"\1"),
+    _Rule(("vegetation",), r"plant_\d+", "plant"),
+    _Rule(("vegetation",), r"weed_\d+", "weed"),
+    _Rule(None, r"(chart_)?patch_\d+", "chart_patch"),
+    _Rule(None, r"chart_board|chart_frame", "chart_board"),
+    _Rule(("colorchecker",), r"surround", "chart_surround"),
+    _Rule(("flat_field",), r"target", "flat_field"),
+    _Rule(("slanted_edge",), r"background", "edge_dark"),
+    _Rule(("slanted_edge",), r"bright_half", "edge_bright"),
+    _Rule(("dof_targets",), r"plane_\d+", "depth_plane"),
+    _Rule(("point_sources",), r"source_\d+", "point_source"),
+    _Rule(("dead_leaves",), r"leaf_\d+", "dead_leaf"),
+    _Rule(("dead_leaves",), r"backdrop", "backdrop"),
+    _Rule(("cornell_box",), r"back|green_wall|red_wall", "wall"),
+    _Rule(("cornell_box",), r"floor|ceiling", r"\g<0>"),
+    _Rule(("cornell_box",), r"small_box|large_box", "box"),
+    _Rule(("cornell_box",), r"light", "area_light"),
+    _Rule(("room",), r"wall_(back|left|right|front)", "wall"),
+    _Rule(("room",), r"floor|ceiling|rug", r"\g<0>"),
+    _Rule(("room",), r"skirting_\w+", "skirting", "skirting"),
+    _Rule(("room",), r"table_(top|leg_\d+)", "table", "table"),
+    _Rule(("room",), r"sofa_\w+", "sofa", "sofa"),
+    _Rule(("room",), r"cushion_\d+", "cushion"),
+    _Rule(("room",), r"painting(_frame_\w+)?", "painting", "painting"),
+    _Rule(("room",), r"shelf_\w+", "bookshelf", "bookshelf"),
+    _Rule(("room",), r"book_\d+", "book"),
+    _Rule(("room",), r"lamp_(base|pole|shade|light_down|light_up)", "floor_lamp", "floor_lamp"),
+    _Rule(("room",), r"sideboard(_\w+)?", "sideboard", "sideboard"),
+    _Rule(("room",), r"ceiling_lamp", "ceiling_lamp"),
+    _Rule(("room",), r"(object_\d+)(_\d+)?", "table_object", r"\1"),
+)
+
+
+def _class_colour(class_id: int) -> list[int]:
+    """A display colour (sRGB 0–255) of a class id: hues a golden angle apart, so neighbouring
+    ids differ; fixed by the id alone (the same in every dataset)."""
+    import colorsys
+
+    if class_id == 0:
+        return [0, 0, 0]
+    hue = (class_id * 0.6180339887498949) % 1.0
+    value = 0.95 if class_id % 2 else 0.75
+    return [int(round(255 * c)) for c in colorsys.hsv_to_rgb(hue, 0.7, value)]
+
+
+def _xml_shape_ids(path: str | Path) -> list[str]:
+    """The ``id`` of every ``<shape>`` of a Mitsuba XML file (its own, not those of included files)."""
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        root = ElementTree.parse(path).getroot()
+    except (OSError, ElementTree.ParseError):
+        return []
+    return [shape.get("id") for shape in root.iter("shape") if shape.get("id")]
+
+
+def _user_classes(config: SceneConfig) -> set[tuple[str, str]]:
+    """(category, name) of the classes a scene names itself: its assets, its scatter entries and
+    its XML file's shapes (a shape's id without its index, :func:`shape_class`)."""
+    scene = config.scene
+    found = {("asset", spec.name) for spec in scene.assets} | {("scatter", spec.name) for spec in scene.scatter}
+    if scene.mitsuba_xml:
+        found |= {("scene", shape_class(name)) for name in _xml_shape_ids(scene.mitsuba_xml)}
+    return found
+
+
+def class_table(configs: Sequence[SceneConfig]) -> list[dict]:
+    """The class map of a set of scenes: every :data:`PRESET_CLASSES` entry (id = place + 1),
+    then the classes the scenes name themselves (:func:`_user_classes`) from
+    :data:`USER_CLASS_BASE` in (category, name) order.
+
+    Returns
+    -------
+    list of dict
+        ``{"id", "name", "category", "colour", "description"}`` in id order; ``colour`` sRGB 0–255.
+    """
+    table = [{"id": k + 1, "name": c.name, "category": c.category, "colour": _class_colour(k + 1),
+              "description": c.description} for k, c in enumerate(PRESET_CLASSES)]
+    preset_names = {c.name for c in PRESET_CLASSES}
+    user = sorted({pair for config in configs for pair in _user_classes(config) if pair[1] not in preset_names})
+    table += [{"id": USER_CLASS_BASE + k, "name": name, "category": category,
+               "colour": _class_colour(USER_CLASS_BASE + k), "description": f"named by the spec ({category})"}
+              for k, (category, name) in enumerate(user)]
+    return table
+
+
+def spec_class_table(spec) -> list[dict]:
+    """:func:`class_table` of a dataset spec: the scenes its fixed values make with every value
+    its choices and sweeps give the keys that name classes (``scene.preset``,
+    ``scene.mitsuba_xml``, ``scene.assets``, ``scene.scatter``). It depends on the spec alone, so
+    every item of a dataset, and every resumed run, numbers the classes alike."""
+    import itertools
+
+    keys = ("scene.preset", "scene.mitsuba_xml", "scene.assets", "scene.scatter")
+    options: dict[str, list] = {}
+    for distribution in spec.distributions.values():
+        if distribution.key in keys and distribution.kind == "choice":
+            options.setdefault(distribution.key, []).extend(distribution.values)
+    for sweep in spec.sweeps:
+        if sweep.key in keys:
+            options.setdefault(sweep.key, []).extend(sweep.values)
+    configs = []
+    for values in itertools.product(*options.values()):
+        try:
+            configs.append(spec.scene(dict(zip(options, values))))
+        except Exception:  # a combination the spec never draws (refused at load); its items fail on their own
+            continue
+    return class_table(configs)
+
+
+def _shape_class_and_instance(config: SceneConfig, name: str, user: Mapping[str, str],
+                              kinds: Sequence[str]) -> tuple[str, str]:
+    """(class name, instance key) of a shape by :data:`SHAPE_RULES`, the scene's own names
+    (``user``: shape class → class name) and the tabletop objects' shapes (``kinds``)."""
+    import re
+
+    if name in user or shape_class(name) in user:
+        return user.get(name) or user[shape_class(name)], name
+    preset = "" if config.scene.mitsuba_xml else config.scene.preset
+    for rule in SHAPE_RULES:
+        if rule.presets is not None and preset not in rule.presets:
+            continue
+        match = re.fullmatch(rule.pattern, name)
+        if match:
+            cls = match.expand(rule.cls) if "\\" in rule.cls else rule.cls
+            if cls == "{kind}":
+                number = int(re.search(r"\d+", name).group())
+                cls = kinds[number] if number < len(kinds) else "other"
+            return cls, match.expand(rule.instance)
+    return "other", name
+
+
+def _tabletop_kinds(config: SceneConfig, lens) -> list[str]:
+    """The shape kind of each tabletop object (``object_<n>``: :func:`tabletop_layout`'s n-th)."""
+    if config.scene.mitsuba_xml or config.scene.preset != "tabletop":
+        return []
+    from ...presets.tabletop import tabletop_layout
+    from ...reflectance_sets import reflectance_set
+
+    count = len(reflectance_set(config.scene.object_reflectances).sds)
+    return [item.shape for item in tabletop_layout(config, lens.layout_lens, count)]
+
+
+def sky_visible(config: SceneConfig) -> bool:
+    """Whether a ray that leaves the scene sees a sky (an outdoor preset under a sun and sky or
+    an overcast sky): the semantic map's ``sky`` there, not 0."""
+    if config.scene.mitsuba_xml or config.scene.preset not in _OUTDOOR:
+        return False
+    from ...presets.outdoor import light_kind
+
+    return light_kind(config) in ("sunsky", "overcast")
+
+
+@dataclass
+class Instances:
+    """The objects of an item's scene: the shapes merged per object (:data:`SHAPE_RULES`).
+
+    Attributes
+    ----------
+    of_shape : numpy.ndarray
+        (S + 1,) instance id of each shape index, the last for −1 (no shape): 0.
+    records : list of dict
+        Per instance id 1…: ``name`` (the object's), ``class``, ``class_id``, ``category``,
+        ``parts`` (its shapes' names) and the first part's ``material``, ``reflectance``.
+    class_of : numpy.ndarray
+        (M + 1,) class id of each instance id (0: 0).
+    """
+
+    of_shape: np.ndarray
+    records: list
+    class_of: np.ndarray
+
+    @classmethod
+    def of(cls, config: SceneConfig, lens, shapes: Sequence[Mapping], table: Sequence[Mapping]) -> "Instances":
+        """Group ``shapes`` (:func:`spectral_cam.render.render_shape_map`'s records) into objects,
+        each classed by ``table`` (:func:`class_table`)."""
+        by_name = {entry["name"]: entry for entry in table}
+        user = {name: name for category, name in _user_classes(config) if name in by_name}
+        kinds = _tabletop_kinds(config, lens)
+        keys: dict[str, int] = {}
+        records: list[dict] = []
+        of_shape = np.zeros(len(shapes) + 1, np.int64)
+        for k, shape in enumerate(shapes):
+            name, key = _shape_class_and_instance(config, shape["name"], user, kinds)
+            entry = by_name.get(name, by_name["other"])
+            if key not in keys:
+                keys[key] = len(records) + 1
+                records.append({"name": key, "class": entry["name"], "class_id": entry["id"],
+                                "category": entry["category"], "parts": [], "material": shape.get("material"),
+                                "reflectance": shape.get("reflectance") or shape_reflectance(config, shape["name"]),
+                                **{f: shape[f] for f in ("depth_m", "radius_px", "leaf") if f in shape}})
+            records[keys[key] - 1]["parts"].append(shape["name"])
+            of_shape[k] = keys[key]
+        class_of = np.array([0] + [r["class_id"] for r in records], np.int64)
+        return cls(of_shape=of_shape, records=records, class_of=class_of)
+
+    def ids(self, shape_index: np.ndarray) -> np.ndarray:
+        """Instance ids (0: none) of shape indices (−1: none)."""
+        return self.of_shape[np.asarray(shape_index)]
+
+
+def instance_boxes(ids: np.ndarray, count: int) -> dict[int, dict]:
+    """Pixel count, box and truncation of each instance id 1…``count`` that shows in ``ids``.
+
+    Returns
+    -------
+    dict
+        id → ``{"pixels", "bbox": [x, y, width, height] (px; pixel (c, r) covers [c, c+1) ×
+        [r, r+1), COCO's convention), "truncated": whether the mask touches the frame's edge}``.
+
+    References
+    ----------
+    .. [1] COCO data format, https://cocodataset.org/#format-data (``bbox``).
+    .. [2] Geiger, A., et al. (2013). Vision meets robotics: the KITTI dataset. IJRR ("truncated").
+    """
+    from scipy import ndimage
+
+    counts = np.bincount(ids.ravel(), minlength=count + 1)
+    height, width = ids.shape
+    out = {}
+    for k, window in enumerate(ndimage.find_objects(ids.astype(np.int64), max_label=count), start=1):
+        if window is None:
+            continue
+        rows, cols = window
+        out[k] = {"pixels": int(counts[k]),
+                  "bbox": [float(cols.start), float(rows.start), float(cols.stop - cols.start),
+                           float(rows.stop - rows.start)],
+                  "truncated": bool(rows.start == 0 or cols.start == 0 or rows.stop == height or cols.stop == width)}
+    return out
+
+
+#: What the instance table's visibility fields mean (no amodal masks are rendered).
+VISIBILITY_NOTE = ("visible_fraction is null: no amodal (occlusion-free) mask is rendered, so the hidden share of an "
+                   "object is not known; truncated: the mask touches the frame's edge (the object may go on outside "
+                   "it); an object of the scene that no pixel shows (hidden or outside the frame) has pixels 0 and "
+                   "bbox null")
+
+
+def _write_png16(values: np.ndarray, path: Path) -> Path:
     import cv2
 
-    t0 = time.perf_counter()
-    index, shapes = item.shape_map
-    if len(shapes) >= 65535:
-        raise ConfigError(f"{len(shapes)} shapes do not fit a 16-bit segmentation (at most 65534)")
-    ids = (index + 1).astype(np.uint16)  # 0: no shape
-    path = folder / "segmentation.png"
-    if not cv2.imwrite(str(path), ids):
+    if not cv2.imwrite(str(path), values.astype(np.uint16)):
         raise OSError(f"could not write {path}")
-    counts = np.bincount(ids.ravel(), minlength=len(shapes) + 1)
-    table = [{"id": k + 1, "name": shape["name"], "class": shape_class(shape["name"]), "material": shape["material"],
-              "reflectance": shape.get("reflectance") or shape_reflectance(item.config, shape["name"]),
-              "pixels": int(counts[k + 1]),
-              **{key: shape[key] for key in ("depth_m", "radius_px") if key in shape}}
-             for k, shape in enumerate(shapes)
-             if counts[k + 1] or not shape.get("leaf")]  # a dead-leaves disc is listed where it shows
+    return path
+
+
+@LABELS.register("segmentation", options=("segmentation",),
+                 description="segmentation.png: per pixel, the 16-bit instance id of the object its ray meets "
+                             "through an ideal pinhole (the all-in-focus view; 0: nothing); the parts of one object "
+                             "(a cylinder's tube and top, a table's legs) are one instance, each dead_leaves disc its "
+                             "own; meta.json lists each object that shows with its class and class_id (classes.json), "
+                             "category, parts, material, reflectance source, pixels, bbox [x, y, w, h] px and truncation")
+def _segmentation(item: Item, folder: Path) -> list[Path]:
+    t0 = time.perf_counter()
+    ids, objects = item.instances
+    path = _write_png16(ids, folder / "segmentation.png")
+    boxes = instance_boxes(ids, len(objects.records))
+    hidden = {"pixels": 0, "bbox": None, "truncated": None}
+    table = [{"id": k, **record, "pixels": boxes.get(k, hidden)["pixels"], "area": boxes.get(k, hidden)["pixels"],
+              "bbox": boxes.get(k, hidden)["bbox"], "truncated": boxes.get(k, hidden)["truncated"],
+              "visible_fraction": None}
+             for k, record in enumerate(objects.records, start=1)
+             if k in boxes or not record.get("leaf")]  # a dead-leaves disc is listed where it shows
     item.records["segmentation"] = {
-        "file": "segmentation.png", "dtype": "uint16", "background_id": 0, "pixels_unlabelled": int(counts[0]),
+        "file": "segmentation.png", "dtype": "uint16", "background_id": 0, "pixels_unlabelled": int((ids == 0).sum()),
         "view": "ideal pinhole through the frame (the all-in-focus view), one ray per pixel through a random "
                 "point of it (as the depth label's)",
+        "classes": "classes.json at the dataset root (class_id: its id)", "visibility": VISIBILITY_NOTE,
+        "bbox": "[x, y, width, height] px, pixel (c, r) covering [c, c + 1) x [r, r + 1) (COCO)",
         "instances": table}
     item.timings["segmentation"] = time.perf_counter() - t0
+    return [path]
+
+
+@LABELS.register("semantic", options=("semantic",),
+                 description="semantic.png: per pixel, the 16-bit class id (classes.json at the dataset root) of "
+                             "the object its ray meets through an ideal pinhole (the segmentation's view): the "
+                             "segmentation's instance ids looked up in their classes; 0: unlabelled (no surface; "
+                             "under a sun and sky or overcast sky those rays are class sky)")
+def _semantic(item: Item, folder: Path) -> list[Path]:
+    t0 = time.perf_counter()
+    ids, objects = item.instances
+    classes = objects.class_of[ids]
+    sky = next(entry["id"] for entry in item.class_map if entry["name"] == "sky")
+    if sky_visible(item.config):
+        classes[ids == 0] = sky
+    path = _write_png16(classes, folder / "semantic.png")
+    counts = np.bincount(classes.ravel())
+    item.records["semantic"] = {
+        "file": "semantic.png", "dtype": "uint16", "unlabelled_id": 0, "classes_file": "classes.json",
+        "sky": "rays that leave the scene are class sky" if sky_visible(item.config) else
+               "rays that leave the scene are 0 (no sky in this scene)",
+        "class_pixels": {str(k): int(n) for k, n in enumerate(counts) if n and k}}
+    item.timings["semantic"] = time.perf_counter() - t0
     return [path]
 
 
@@ -361,21 +729,40 @@ def _coverage(item: Item, folder: Path) -> list[Path]:
     camera = _COVERAGE_CAMERA.get(lens_model, lens_model)
     passes = 64
     ids, coverage, shapes = render_coverage_map(item.config, lens=item.sim.lens, model=camera, passes=passes)
+    objects = Instances.of(item.config, item.sim.lens, shapes, item.class_map)  # segmentation.png's ids
+    ids, coverage = _merge_ranks(objects.ids(ids), coverage)
     channels = {}
     for rank in range(COVERAGE_RANKS):
-        channels[f"id_{rank}"] = (ids[..., rank] + 1).astype(np.float32)  # segmentation.png's ids: 0 none
+        channels[f"id_{rank}"] = ids[..., rank].astype(np.float32)  # segmentation.png's ids: 0 none
         channels[f"coverage_{rank}"] = coverage[..., rank]
     path = write_exr_channels(channels, folder / "coverage.exr",
                               {"spectral_cam_units": "id_k: instance id (segmentation.png's; 0 none); coverage_k: "
                                                      "fraction of the pixel's rays"})
     item.records["coverage"] = {
         "file": "coverage.exr", "channels": list(channels), "ranks": COVERAGE_RANKS, "rays_per_pixel": passes,
-        "camera": camera, "ids": "segmentation.png's instance ids (meta.json segmentation.instances names them)",
+        "camera": camera, "ids": "segmentation.png's instance ids (the parts of one object merged; 0: none)",
+        "instances": {str(k): record["name"] for k, record in enumerate(objects.records, start=1)
+                      if (ids == k).any()},
         "definition": "coverage_k: the fraction of the pixel's rays (random points of the pixel and of the "
                       "aperture) whose first surface is instance id_k, ranked by coverage; rays that escape "
                       "and lower ranks hold the rest"}
     item.timings["coverage"] = time.perf_counter() - t0
     return [path]
+
+
+def _merge_ranks(ids: np.ndarray, coverage: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ranked (ids, coverage) per pixel with the ranks of one instance summed (two parts of one
+    object: one instance) and re-ranked, most coverage first; an emptied rank is id 0, coverage 0."""
+    ranks = ids.shape[-1]
+    merged = coverage.astype(np.float32).copy()
+    for a in range(ranks):
+        for b in range(a + 1, ranks):
+            same = (ids[..., a] == ids[..., b]) & (ids[..., a] > 0)
+            merged[..., a] += np.where(same, merged[..., b], 0.0)
+            merged[..., b] = np.where(same, 0.0, merged[..., b])
+    ids = np.where(merged > 0, ids, 0)
+    order = np.argsort(-merged, axis=-1, kind="stable")
+    return np.take_along_axis(ids, order, -1), np.take_along_axis(merged, order, -1)
 
 
 @LABELS.register("flow", options=("flow",),
@@ -501,13 +888,80 @@ def _illuminant_map(item: Item, folder: Path) -> list[Path]:
     return [path]
 
 
+#: Outputs whose ids classes.json names.
+CLASS_LABELS = ("segmentation", "semantic", "coverage")
+
+
+def write_classes(output: str | Path, table: Sequence[Mapping], rows: Mapping[int, Mapping]) -> Path | None:
+    """``output/classes.json``: the dataset's class map (``table``, :func:`spec_class_table`) with
+    the classes no finished item shows dropped, each kept one with its pixels, items and
+    instances over the dataset (from the items' meta.json); written atomically, nothing where no
+    item holds a segmentation or semantic label.
+
+    Class ids come from the spec alone, so they agree across the items, across resumed runs and
+    between datasets of one spec, whichever items finished first; a class first shown by items a
+    resumed run adds joins the file with the id it always had.
+
+    Returns
+    -------
+    pathlib.Path or None
+        The file, or None when no item holds the labels.
+    """
+    import json
+
+    from ...io import atomic_path
+
+    pixels: dict[int, int] = {}
+    items: dict[int, int] = {}
+    instances: dict[int, int] = {}
+    labelled = 0
+    for row in rows.values():
+        if row.get("status") != "done":
+            continue
+        try:
+            meta = json.loads((Path(output) / "items" / str(row["id"]) / "meta.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        semantic, segmentation = meta.get("semantic") or {}, meta.get("segmentation") or {}
+        shown: dict[int, int] = {int(k): int(n) for k, n in (semantic.get("class_pixels") or {}).items()}
+        for record in segmentation.get("instances") or []:
+            if "class_id" not in record or not record.get("pixels"):
+                continue
+            instances[record["class_id"]] = instances.get(record["class_id"], 0) + 1
+            if not semantic:
+                shown[record["class_id"]] = shown.get(record["class_id"], 0) + int(record["pixels"])
+        labelled += bool(semantic or segmentation.get("instances") is not None)
+        for k, n in shown.items():
+            pixels[k] = pixels.get(k, 0) + n
+            items[k] = items.get(k, 0) + 1
+    if not labelled:
+        return None
+    kept = [{**{key: entry[key] for key in ("id", "name", "category", "colour")}, "pixels": pixels[entry["id"]],
+             "items": items[entry["id"]], "instances": instances.get(entry["id"], 0),
+             "description": entry.get("description", "")}
+            for entry in table if pixels.get(entry["id"])]
+    document = {
+        "format": 1, "unlabelled_id": 0, "files": ["segmentation.png (instance ids)", "semantic.png (class ids)"],
+        "ids": f"fixed by the spec: ids 1-{USER_CLASS_BASE - 1} the presets' classes (the same in every dataset), "
+               f"from {USER_CLASS_BASE} the classes the spec names (assets, scatter, an XML scene's shapes) in "
+               "(category, name) order; a class no finished item shows is left out, ids keep their gaps",
+        "colour": "display sRGB 0-255", "items_labelled": labelled, "classes": kept}
+    path = Path(output) / "classes.json"
+    with atomic_path(path) as tmp:
+        text = json.dumps(document, indent=1)  # one class a line: readable, and diffable between runs
+        lines = ",\n  ".join(json.dumps(entry, ensure_ascii=False) for entry in kept)
+        text = text[:text.rindex('"classes": [')] + '"classes": [\n  ' + lines + "\n ]\n}"
+        Path(tmp).write_text(text + "\n", encoding="utf-8")
+    return path
+
+
 #: Outputs of an item unless the spec's ``[dataset] outputs`` says otherwise (the spectral
 #: cube, 31 float32 channels, is opt-in).
 DEFAULT_OUTPUTS = ("raw", "image", "depth", "defocus", "all_in_focus", "clean_rgb")
 
 
 def write_item(config: SceneConfig, target: str | Path, *, outputs: Sequence[str], measure_blur: bool = False,
-               dataset: Mapping[str, Any] | None = None) -> dict:
+               dataset: Mapping[str, Any] | None = None, classes: Sequence[Mapping] | None = None) -> dict:
     """Render one item and write its folder atomically: the labels, then meta.json.
 
     Parameters
@@ -523,6 +977,9 @@ def write_item(config: SceneConfig, target: str | Path, *, outputs: Sequence[str
     dataset
         The item's record in meta.json (``index``, ``id``, ``seed``, ``spec_hash``, ``params``,
         ``outputs``).
+    classes
+        The dataset's class map (:func:`spec_class_table`), which the segmentation, semantic and
+        coverage labels' class ids come from; default the item's scene's own (:func:`class_table`).
 
     Returns
     -------
@@ -534,7 +991,7 @@ def write_item(config: SceneConfig, target: str | Path, *, outputs: Sequence[str
         LABELS.check(name, key="dataset.outputs")
     started = time.perf_counter()
     with staged_directory(target, force=True) as stage:
-        item = Item(simulate(config), measure_blur=measure_blur)
+        item = Item(simulate(config), measure_blur=measure_blur, classes=None if classes is None else list(classes))
         written: list[Path] = []
         by_label: dict[str, list[str]] = {}  # what each output wrote: some write nothing for some scenes
         write_s = 0.0

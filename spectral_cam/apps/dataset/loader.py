@@ -18,7 +18,9 @@ key                 value
 ``radiance``        (H, W, B) float32 spectral radiance per nm; ``radiance_nm``: the B wavelengths
 ``undistortion``    (H, W, 2) float32 cv2.remap maps (map_x, map_y)
 ``health``          (H, W, 2) float32 chlorophyll (µg/cm²) and health state
-``segmentation``    (H, W) uint16 instance ids (0: nothing; meta["segmentation"] names them)
+``segmentation``    (H, W) uint16 instance ids, one per object (0: nothing; meta["segmentation"] lists
+                    each with its class_id, bbox and pixels)
+``semantic``        (H, W) uint16 class ids (0: unlabelled; classes.json names them: :func:`read_classes`)
 ``coverage``        (H, W, 3) int32 ranked instance ids under defocus (0: none); ``coverage_fraction``
                     (H, W, 3) float32 their shares of the pixel's rays
 ``flow``            (H, W, 2) float32 forward flow over the exposure, px (x right, y down)
@@ -79,7 +81,8 @@ import numpy as np
 
 from ...errors import RawFormatError
 
-__all__ = ["SyntheticDataset", "read_item", "batchable", "Crop", "Resize", "LOADABLE_LABELS", "FRAME_LABELS"]
+__all__ = ["SyntheticDataset", "read_item", "read_classes", "batchable", "Crop", "Resize", "LOADABLE_LABELS",
+           "FRAME_LABELS"]
 
 #: Image formats read as images (the developed image and the all-in-focus view).
 _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
@@ -173,6 +176,7 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "undistortion": ("undistortion.exr", lambda p: {"undistortion": _stack(p, ("map_x", "map_y"))}),
     "health": ("health.exr", lambda p: {"health": _stack(p, ("cab", "state"))}),
     "segmentation": ("segmentation.png", lambda p: {"segmentation": _image(p)}),
+    "semantic": ("semantic.png", lambda p: {"semantic": _image(p)}),
     "coverage": ("coverage.exr", _coverage),
     "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
     "albedo": ("albedo.exr", lambda p: {"albedo": _clean_rgb(p), "albedo_srgb": _stack(p, ("sRGB_R", "sRGB_G", "sRGB_B")),
@@ -249,6 +253,26 @@ def read_item(folder: str | Path, labels: Iterable[str] | None = None) -> dict[s
         if wanted is not None and label not in item:
             raise RawFormatError(f"{folder} has no {label!r} label; it holds {', '.join(files)}")
     return item
+
+
+def read_classes(root: str | Path) -> dict[int, dict]:
+    """A dataset's class map, ``classes.json`` at its root: class id → ``{"id", "name",
+    "category", "colour" (sRGB 0–255), "pixels", "items", "instances", "description"}``, for the
+    ids in ``semantic.png`` and the segmentation's ``class_id`` (0, unlabelled, is not listed).
+
+    Raises
+    ------
+    RawFormatError
+        For a folder without a readable classes.json (a dataset without segmentation or semantic
+        labels has none).
+    """
+    path = Path(root) / "classes.json"
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+        return {int(entry["id"]): entry for entry in document["classes"]}
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise RawFormatError(f"{path} cannot be read ({type(exc).__name__}: {exc}); a dataset has it when its "
+                             f"outputs include 'segmentation' or 'semantic'") from None
 
 
 # ----------------------------------------------------------------------------- batchable items
@@ -333,7 +357,7 @@ def batchable(item: dict[str, Any]) -> dict[str, Any]:
 FRAME_LABELS = {
     "image": "area", "all_in_focus": "area", "clean_rgb": "area", "radiance": "area", "albedo": "area",
     "albedo_srgb": "area", "shading": "area", "illuminance_lux": "area", "illuminant_map": "area",
-    "light_shares": "area", "depth": "nearest", "defocus": "nearest", "segmentation": "nearest",
+    "light_shares": "area", "depth": "nearest", "defocus": "nearest", "segmentation": "nearest", "semantic": "nearest",
     "coverage": "nearest", "coverage_fraction": "nearest", "health": "nearest", "flow": "nearest",
     "undistortion": "nearest",
 }
@@ -579,6 +603,11 @@ class SyntheticDataset:
         files = set(self._read(index, []).get("meta", {}).get("files", []))
         present = [label for label in wanted if _READERS[label][0] in files]
         return self._read(index, present)
+
+    @property
+    def classes(self) -> dict[int, dict]:
+        """The dataset's class map (:func:`read_classes`): class id → name, category, colour …"""
+        return read_classes(self.root)
 
     def params(self, index: int) -> dict:
         """The parameters sampled for an item (its manifest row's ``params``), as the spec drew them."""

@@ -39,7 +39,7 @@ from ...progress import ProgressLine, duration
 from ...records import json_ready, read_json, write_json
 from ...render.variants import set_render_threads
 from ...scene import scene_from_dict
-from .labels import file_check, write_item
+from .labels import CLASS_LABELS, file_check, spec_class_table, write_classes, write_item
 from .card import metadata_rows, write_card, write_metadata
 from .hf import datasets_installed, write_parquet_shards, write_webdataset_shards
 from .sheets import write_blur_chart, write_contact_sheet, write_label_preview
@@ -75,7 +75,8 @@ def item_task(spec: DatasetSpec, plan: ItemPlan, output: str | Path, *,
     -------
     dict
         ``{"index", "id", "split", "seed", "params", "scene", "path", "outputs", "spec_hash",
-        "render_threads", "measure_blur"}``.
+        "render_threads", "measure_blur", "classes"}`` (``classes``: the spec's class map,
+        :func:`~.labels.spec_class_table`, where an output names classes; else None).
 
     Raises
     ------
@@ -87,7 +88,21 @@ def item_task(spec: DatasetSpec, plan: ItemPlan, output: str | Path, *,
     return {"index": plan.index, "id": plan.id, "split": spec.split_of(plan.index), "seed": plan.seed,
             "params": plan.params, "scene": plan.scene,
             "path": str(Path(output).resolve() / "items" / plan.id), "outputs": list(spec.outputs),
-            "spec_hash": spec.hash, "render_threads": render_threads, "measure_blur": bool(spec.sweeps)}
+            "spec_hash": spec.hash, "render_threads": render_threads, "measure_blur": bool(spec.sweeps),
+            "classes": _class_map(spec)}
+
+
+def _class_map(spec: DatasetSpec) -> list[dict] | None:
+    """The spec's class map (one per spec: its ids are the same for every item), where its outputs name classes."""
+    if not set(spec.outputs) & set(CLASS_LABELS):
+        return None
+    if spec.hash not in _CLASS_MAPS:  # the hash holds everything the scenes come from
+        _CLASS_MAPS[spec.hash] = spec_class_table(spec)
+    return _CLASS_MAPS[spec.hash]
+
+
+#: Class maps by spec hash (planning calls :func:`_class_map` once per item).
+_CLASS_MAPS: dict[str, list[dict]] = {}
 
 
 def render_item(task: Mapping[str, Any]) -> dict:
@@ -116,7 +131,7 @@ def render_item(task: Mapping[str, Any]) -> dict:
         config = scene_from_dict(task["scene"])
         record = {key: task[key] for key in ("index", "id", "seed", "spec_hash", "params")}
         meta = write_item(config, task["path"], outputs=task["outputs"], measure_blur=task.get("measure_blur", False),
-                          dataset={**record, "outputs": list(task["outputs"])})
+                          dataset={**record, "outputs": list(task["outputs"])}, classes=task.get("classes"))
         row.update(status="done", files=meta["files"], error=None, exposure_s=meta["sensor"]["exposure_s"],
                    variant=meta["render"]["variant"], file_checks=meta["dataset"]["file_checks"],
                    labels=meta["dataset"]["labels"])
@@ -710,6 +725,7 @@ def generate_dataset(
             bar.close()
             _write_manifest(manifest, rows)
             write_metadata(output, rows)
+            _write_classes(output, spec, rows)
             write_card(output, spec, rows, spec_hash=spec.hash)  # the shards on disk are the last complete run's
             raise DatasetInterrupted(output, done=sum(1 for r in rows.values() if r["status"] == "done"),
                                      failed=sum(1 for r in rows.values() if r["status"] == "failed"),
@@ -722,6 +738,7 @@ def generate_dataset(
         summary.errors = {r["id"]: r["error"] for r in sorted(rows.values(), key=lambda r: r["index"])
                           if r["status"] == "failed"}
         write_metadata(output, rows)  # what loaders read: Hugging Face's ImageFolder, the card's readers
+        _write_classes(output, spec, rows)  # before the card, which lists its classes
         try:
             if any(r["status"] == "done" for r in rows.values()):
                 _write_shards(output, spec, rows)
@@ -751,6 +768,12 @@ def _run(spec, total, per_point, output, rows, bar, summary, manifest, *, force,
     finally:
         _write_manifest(manifest, rows)
         summary.manifest = manifest
+
+
+def _write_classes(output: Path, spec: DatasetSpec, rows: dict) -> None:
+    """classes.json (:func:`~.labels.write_classes`) where the outputs name classes; a stale one removed otherwise."""
+    if _class_map(spec) is None or write_classes(output, _class_map(spec), rows) is None:
+        (output / "classes.json").unlink(missing_ok=True)
 
 
 class DatasetInterrupted(KeyboardInterrupt):

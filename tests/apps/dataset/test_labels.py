@@ -78,7 +78,7 @@ def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
     assert meta["defocus"]["channel"] == "CoC"
     recorded = {key for entry in LABELS.values() for key in entry.options}
     assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb", "undistortion", "health", "segmentation", "albedo",
-                        "flow", "illuminant_map", "coverage"}
+                        "flow", "illuminant_map", "coverage", "semantic"}
     assert all(meta[key] is None for key in recorded - {"defocus"})
     assert json.loads((tmp_path / "item" / "meta.json").read_text())["files"] == meta["files"]
 
@@ -122,7 +122,7 @@ def test_segmentation_instances_coincide_with_the_depth_labels_planes(make_scene
     table = {row["name"]: row for row in meta["segmentation"]["instances"]}
     for index, z in enumerate(depths):
         row = table[f"plane_{index}"]
-        assert row["class"] == "plane" and row["reflectance"] == "checkerboard of flat 0.1 and 0.8"
+        assert row["class"] == "depth_plane" and row["reflectance"] == "checkerboard of flat 0.1 and 0.8"
         assert "Diffuse" in row["material"]
         instance = ids == row["id"]
         geometric = np.abs(depth - z) < 1e-3 * z
