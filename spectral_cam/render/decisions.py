@@ -3,8 +3,9 @@
 Each returns its choice and a record for ``meta.json`` under ``model_decisions``:
 the lens model (pinhole when defocus costs <= 0.03 of MTF at Nyquist; the depth-layered
 model where it is exact and cheaper), diffraction (only when it costs > 0.03 of MTF at
-Nyquist), the film (camera curves when nothing needs the spectrum) and ``spp = "auto"``
-(stop when Monte-Carlo noise is <= 0.3 of the sensor's own). See docs/design.md, "Model
+Nyquist), the film (camera curves when nothing needs the spectrum), ``spp = "auto"``
+(stop when Monte-Carlo noise is <= 0.3 of the sensor's own) and the estimator (the median of
+means from 8 passes of 8 spp; with fewer, only where a probe render finds fireflies). See docs/design.md, "Model
 decisions".
 
 References
@@ -197,6 +198,22 @@ GLOSSY_BSDFS = ("conductor", "roughconductor", "dielectric", "roughdielectric", 
 #: distribution), so a pass needs some samples.
 ROBUST_PASSES = (8, 16, 4)
 ROBUST_MIN_PASS_SPP = 4
+#: Where ``render.estimator = "auto"`` takes the median without measuring: at least this many
+#: passes of at least this many samples. Splitting the samples into passes costs noise even where
+#: no pixel takes the median, as each pass is stratified on its own (0.3-0.4 % of the tabletop's
+#: pixels took the median): on the tabletop (160×108, against 2048 spp, docs/bench/estimators.csv)
+#: the adaptive median's RMS error was 1.72× the mean's at 4 passes of 4 spp, 1.73× at 8 of 4,
+#: 1.17× at 8 of 8 and 1.12× at 8 of 16; on the glass sphere's caustics it was 0.16×, 0.08×, 0.41×
+#: and 0.29× (fireflies are error too). From 8 passes of 8 the split is cheap enough to keep
+#: always against fireflies.
+AUTO_MIN_PASSES = 8
+AUTO_MIN_PASS_SPP = 8
+#: Below that, ``auto`` measures: a pinhole probe of the scene this wide (px), at the render's spp,
+#: mean estimate; the median only where its firefly share
+#: (:func:`spectral_cam.metrics.realism.firefly_share`) reaches :data:`AUTO_FIREFLY_SHARE`
+#: (the glass sphere's mean: 4.9e-4 at 16 spp; the tabletop's: 2.9e-5, 0 at 32 spp).
+AUTO_PROBE_WIDTH_PX = 160
+AUTO_FIREFLY_SHARE = 1e-4
 
 
 def _can_make_fireflies(config: SceneConfig) -> tuple[bool, str]:
@@ -222,14 +239,31 @@ def _can_make_fireflies(config: SceneConfig) -> tuple[bool, str]:
     return False, f"the {config.scene.preset} preset is Lambertian or emissive only"
 
 
-def decide_estimator(config: SceneConfig, spp: int | str) -> tuple[int, dict]:
+def decide_estimator(config: SceneConfig, spp: int | str, *, lens: ThinLens | None = None,
+                     probe=None) -> tuple[int, dict]:
     """How the passes become a pixel's radiance: the number K of equal passes whose adaptive
     median of means (:mod:`spectral_cam.render.robust`) removes fireflies, or 1 for the plain
     mean.
 
     ``render.estimator = "auto"`` takes the adaptive median where the scene can make fireflies
-    (:func:`_can_make_fireflies`), ``"amon"`` always, ``"mean"`` never; it needs a fixed
-    ``spp`` that splits into K passes the sampler keeps exactly, and no motion sub-frames.
+    (:func:`_can_make_fireflies`) and the samples split into at least :data:`AUTO_MIN_PASSES`
+    passes of at least :data:`AUTO_MIN_PASS_SPP`; with fewer or smaller passes the split costs
+    up to 1.7× the mean's RMS error, so it measures first: the median only where a probe
+    render's mean holds fireflies (:func:`firefly_probe`, :data:`AUTO_FIREFLY_SHARE`).
+    ``"amon"`` takes the median always (passes of at least :data:`ROBUST_MIN_PASS_SPP`),
+    ``"mean"`` never. Either needs a fixed ``spp`` that splits into K passes the sampler keeps
+    exactly, and no motion sub-frames.
+
+    Parameters
+    ----------
+    config : SceneConfig
+        The resolved scene.
+    spp : int or "auto"
+        Samples per pixel.
+    lens : ThinLens, optional
+        The frame's lens, for the probe's view (default: built from ``config``).
+    probe : callable, optional
+        ``probe(config, lens) -> firefly share`` (default :func:`firefly_probe`).
 
     Returns
     -------
@@ -256,15 +290,67 @@ def decide_estimator(config: SceneConfig, spp: int | str) -> tuple[int, dict]:
     if spp == "auto" or config.motion.moving:
         return 1, {"choice": "mean", "reason": f"{why}, but {'spp = auto' if spp == 'auto' else 'motion blur'} "
                                                "renders its own passes: the mean"}
-    for k in ROBUST_PASSES:
-        if spp % k == 0 and spp // k >= ROBUST_MIN_PASS_SPP and \
-                exact_pass_spp(config.render.sampler, spp // k) == spp // k:
-            return k, {"choice": "amon", "passes": k, "gini_threshold": GINI_THRESHOLD,
-                       "reason": f"{why}: the adaptive median of {k} pass means of {spp // k} spp removes fireflies "
-                                 "(the mean where the passes agree)"}
-    return 1, {"choice": "mean", "reason": f"{why}, but {spp} spp does not split into 4, 8 or 16 passes of at least "
-                                           f"{ROBUST_MIN_PASS_SPP} spp that the {config.render.sampler} sampler keeps "
-                                           "exactly: the mean"}
+    passes = [k for k in ROBUST_PASSES if spp % k == 0 and spp // k >= ROBUST_MIN_PASS_SPP
+              and exact_pass_spp(config.render.sampler, spp // k) == spp // k]
+    if not passes:
+        return 1, {"choice": "mean", "reason": f"{why}, but {spp} spp does not split into 4, 8 or 16 passes of at "
+                                               f"least {ROBUST_MIN_PASS_SPP} spp that the {config.render.sampler} "
+                                               "sampler keeps exactly: the mean"}
+    enough = [k for k in passes if k >= AUTO_MIN_PASSES and spp // k >= AUTO_MIN_PASS_SPP]
+    k = (enough or passes)[0]
+    record = {"choice": "amon", "passes": k, "gini_threshold": GINI_THRESHOLD,
+              "reason": f"{why}: the adaptive median of {k} pass means of {spp // k} spp removes fireflies "
+                        "(the mean where the passes agree)"}
+    if mode == "auto" and not enough:
+        share = float((probe or firefly_probe)(config, lens or ThinLens.from_config(config.lens, config.sensor)))
+        record["probe_firefly_share"] = share
+        if share < AUTO_FIREFLY_SHARE:
+            return 1, {"choice": "mean", "probe_firefly_share": share,
+                       "reason": f"{why}, but {k} passes of {spp // k} spp cost up to 1.7× the mean's noise "
+                                 f"(docs/bench/estimators.csv) and a {AUTO_PROBE_WIDTH_PX}-px probe's mean held "
+                                 f"{share:.2g} fireflies (< {AUTO_FIREFLY_SHARE:g}): the mean "
+                                 "(render.estimator = 'amon' forces the median)"}
+        record["reason"] += (f"; measured first, as {k} passes of {spp // k} spp cost noise: a "
+                             f"{AUTO_PROBE_WIDTH_PX}-px probe's mean held {share:.2g} fireflies "
+                             f"(≥ {AUTO_FIREFLY_SHARE:g})")
+    return k, record
+
+
+def firefly_probe(config: SceneConfig, lens: ThinLens) -> float:
+    """Firefly share of the plain mean on a small pinhole render of the frame's view: at most
+    :data:`AUTO_PROBE_WIDTH_PX` wide (coarser pixels), the render's spp, sampler, seed and
+    integrator depth, its luminance (CIE Y) only.
+
+    Returns
+    -------
+    float
+        :func:`spectral_cam.metrics.realism.firefly_share` of the probe (0 to 1).
+
+    References
+    ----------
+    .. [1] docs/bench/estimators.csv (the share separating scenes the median helps from those it
+       does not).
+    """
+    import dataclasses
+
+    import mitsuba as mi
+
+    from ..metrics.realism import firefly_share
+    from .films import camera_film
+    from .scene_dict import build_scene, configured_camera, exact_pass_spp
+    from .variants import choose_variant_record
+
+    if mi.variant() is None:  # called outside a capture plan, which sets it first
+        mi.set_variant(choose_variant_record(config.render.variant)[0])
+    width = min(AUTO_PROBE_WIDTH_PX, lens.width_px)
+    height = max(1, round(width * lens.height_px / lens.width_px))
+    view = dataclasses.replace(lens, width_px=width, height_px=height, frame_lens=lens.layout_lens)
+    spp = exact_pass_spp(config.render.sampler, int(config.render.spp))
+    camera = configured_camera(mi, config, view, "pinhole", camera_film(config, width, height, channels=("Y",)), spp)
+    scene, sensor, integrator = build_scene(mi, config, view, camera,
+                                            {"type": "path", "max_depth": config.render.max_depth})
+    image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, seed=config.render.seed, spp=spp))
+    return firefly_share(image.reshape(height, width, -1)[..., 0])
 
 
 def thin_lens_noise(lens: ThinLens, depth_m: np.ndarray, spp: int) -> float:

@@ -400,7 +400,7 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     config, decisions["illuminant"] = resolve_light(config, lens=frame, variant=variant)
     if config.scene.mitsuba_xml:
         decisions["field_of_view"] = xml_field_of_view_record(config, frame)
-    groups, decisions["estimator"] = decide_estimator(config, config.render.spp)
+    groups, decisions["estimator"] = decide_estimator(config, config.render.spp, lens=frame)  # may probe (few passes)
 
     # memory before anything renders, at the most the decisions to come can need (31 bands unless
     # the camera film is asked; the layered model only where asked: auto's choice is checked again)

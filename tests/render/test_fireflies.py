@@ -91,8 +91,9 @@ def test_lambertian_scenes_keep_the_plain_mean(preset):
 
 def test_the_estimator_needs_samples_in_every_pass():
     """Passes of fewer than 4 samples are refused for the median (its bias at 2 spp a pass cast
-    a sun-lit grey ground magenta); odd sample counts keep the mean, with the reason."""
-    tabletop = sc.scene_from_dict({"scene": {"preset": "tabletop"}})
+    a sun-lit grey ground magenta); odd sample counts keep the mean, with the reason. (``auto``
+    asks more: tests/render/test_estimator_choice.py.)"""
+    tabletop = sc.scene_from_dict({"scene": {"preset": "tabletop"}, "render": {"estimator": "amon"}})
     assert decide_estimator(tabletop, 16)[0] == 4
     assert decide_estimator(tabletop, 8)[0] == 1
     assert decide_estimator(tabletop, 63)[1]["choice"] == "mean"
