@@ -18,9 +18,12 @@ from .reading import read_exr, read_manifest, read_png
 
 pytestmark = pytest.mark.timeout(300)
 
-#: A tabletop whose layout holds a cylinder (a tube and a top disc: two shapes, one object).
-TABLETOP = {"scene": {"preset": "tabletop", "object_count": 5, "ground": "flat", "layout_seed": 3},
-            "sensor": {"width_px": 48, "height_px": 32}, "render": {"spp": 2, "max_depth": 2}}
+#: A tabletop whose layout holds a cylinder (a tube and a top disc: two shapes, one object), seen
+#: wide (±9° vertically) and 5° down, so the sky shows above the distant hills.
+TABLETOP = {"scene": {"preset": "tabletop", "object_count": 3, "ground": "flat", "layout_seed": 9,
+                      "view_pitch_deg": -5.0},
+            "sensor": {"width_px": 48, "height_px": 32, "pixel_pitch_um": 40.0}, "lens": {"focal_length_mm": 4.0},
+            "render": {"spp": 2, "max_depth": 2}}
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +82,7 @@ def test_an_objects_parts_are_one_instance_of_its_shape_kind(tabletop):
                 count, _ = cv2.connectedComponents((ids == row["id"]).astype(np.uint8), connectivity=8)
                 assert count - 1 == 1
         shown += 1
-    assert shown == sum(1 for row in table.values() if row["category"] == "object" and row["pixels"]) >= 3
+    assert shown == sum(1 for row in table.values() if row["category"] == "object" and row["pixels"]) == 3
 
 
 def test_boxes_and_areas_are_the_masks_extents(tabletop):
@@ -99,8 +102,7 @@ def test_boxes_and_areas_are_the_masks_extents(tabletop):
 
 def test_the_semantic_map_is_the_class_lookup_of_the_instance_map(tabletop):
     """semantic.png = class_id of the instance at each pixel; where the pinhole ray meets nothing
-    (the depth label is infinite) it is the sky under the tabletop's sun and sky (none in this
-    view: the tabletop's layout needs the ground across the frame)."""
+    (the depth label is infinite) it is the sky under the tabletop's sun and sky."""
     from spectral_cam.apps.dataset.labels import sky_visible
 
     _, folder, meta = tabletop
@@ -113,8 +115,14 @@ def test_the_semantic_map_is_the_class_lookup_of_the_instance_map(tabletop):
         lookup[row["id"]] = row["class_id"]
     sky = [c.name for c in PRESET_CLASSES].index("sky") + 1
     nothing = ids == 0
-    assert (~nothing).all() or nothing.any()
-    np.testing.assert_array_equal(nothing, ~np.isfinite(depth))
+    assert nothing.sum() > 50 and (~nothing).any()
+    # the depth label's ray goes through its own random point of the pixel: the two may differ only
+    # on the sky's edge (within a pixel of it)
+    import cv2
+
+    sky_in_depth = (~np.isfinite(depth)).astype(np.uint8)
+    edge = cv2.dilate(sky_in_depth, np.ones((3, 3), np.uint8)) != cv2.erode(sky_in_depth, np.ones((3, 3), np.uint8))
+    assert not (nothing != sky_in_depth.astype(bool))[~edge].any()
     np.testing.assert_array_equal(semantic[~nothing], lookup[ids[~nothing]])
     assert sky_visible(tabletop[0]) and (semantic[nothing] == sky).all()
     counts = np.bincount(semantic.ravel())
