@@ -520,6 +520,11 @@ def spec_class_table(spec) -> list[dict]:
             configs.append(spec.scene(dict(zip(options, values))))
         except Exception:  # a combination the spec never draws (refused at load); its items fail on their own
             continue
+    if not configs:  # the fixed values need a drawn one to make a scene: the first item's stands for them
+        from ...scene import scene_from_dict
+
+        plan = spec.plan_item(0)
+        configs = [scene_from_dict(plan.scene)] if plan.scene is not None else []
     return class_table(configs)
 
 
