@@ -746,8 +746,7 @@ def _coverage(item: Item, folder: Path) -> list[Path]:
     item.records["coverage"] = {
         "file": "coverage.exr", "channels": list(channels), "ranks": COVERAGE_RANKS, "rays_per_pixel": passes,
         "camera": camera, "ids": "segmentation.png's instance ids (the parts of one object merged; 0: none)",
-        "instances": {str(k): record["name"] for k, record in enumerate(objects.records, start=1)
-                      if (ids == k).any()},
+        "instances": {str(k): objects.records[k - 1]["name"] for k in np.unique(ids).tolist() if k},
         "definition": "coverage_k: the fraction of the pixel's rays (random points of the pixel and of the "
                       "aperture) whose first surface is instance id_k, ranked by coverage; rays that escape "
                       "and lower ranks hold the rest"}

@@ -32,7 +32,7 @@ def tabletop(tmp_path_factory):
 
     config = scene_from_dict(TABLETOP)
     folder = tmp_path_factory.mktemp("classes") / "item"
-    meta = write_item(config, folder, outputs=["depth", "segmentation", "semantic"])
+    meta = write_item(config, folder, outputs=["depth", "segmentation", "semantic", "coverage"])
     return config, folder, meta
 
 
@@ -137,6 +137,21 @@ def test_ranks_of_one_object_are_merged_in_the_coverage():
     merged_ids, merged = _merge_ranks(ids, coverage)
     np.testing.assert_array_equal(merged_ids, [[[3, 5, 0], [2, 4, 0], [7, 1, 0]]])
     np.testing.assert_allclose(merged, [[[0.7, 0.2, 0.0], [0.5, 0.3, 0.0], [0.35, 0.3, 0.0]]], atol=1e-6)
+
+
+def test_the_coverage_names_the_segmentations_merged_instances(tabletop):
+    """coverage.exr's ids are segmentation.png's (one per object): where one instance takes all of a
+    pixel's rays through the aperture, it is the pinhole's instance there, and no cylinder lid
+    shows up as an id of its own."""
+    _, folder, meta = tabletop
+    ids = read_png(folder / "segmentation.png")
+    exr = read_exr(folder / "coverage.exr")
+    names = {row["id"]: row["name"] for row in meta["segmentation"]["instances"]}
+    seen = {int(k) for k in np.unique(exr["id_0"])} - {0}
+    assert {int(k): name for k, name in meta["coverage"]["instances"].items()}.items() <= names.items()
+    assert seen <= set(names)
+    whole = exr["coverage_0"] == 1.0
+    assert whole.mean() > 0.5 and np.mean(exr["id_0"][whole] == ids[whole]) > 0.99
 
 
 # ----------------------------------------------------------------------------- dataset-wide ids
