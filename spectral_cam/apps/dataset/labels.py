@@ -13,7 +13,10 @@ staging folder. Adding a label is one entry here::
 An entry's ``options`` are the meta.json keys it records (each None in an item without the
 label). The physics of the labels lives here too: the signed defocus map
 (:func:`defocus_map_px`), the noise-free camera RGB (:func:`clean_camera_rgb`) and the blur
-measured against depth (:func:`measure_scene_blur`).
+measured against depth (:func:`measure_scene_blur`); and the classes of the segmentation and
+semantic labels: :data:`PRESET_CLASSES` (ids fixed, append only), :data:`SHAPE_RULES` (which
+shapes are one object, of which class), :func:`spec_class_table` (a spec's class map, what every
+item's ids come from) and :func:`write_classes` (the dataset's ``classes.json``).
 
 References
 ----------
