@@ -94,8 +94,9 @@ def _class_section(output: Path) -> list[str]:
              "[`classes.json`](classes.json) is the class map of `semantic.png` (uint16 class ids, 0 = unlabelled: no "
              "surface, or sky where the scene has one and the class `sky` is listed) and of each instance's "
              "`class_id` in meta.json's `segmentation.instances` (`segmentation.png`: uint16 instance ids, 0 = "
-             "none, the parts of one object one instance; each with its `bbox` [x, y, w, h] px, `area` px and "
-             "`truncated`; `visible_fraction` is null: no amodal masks). Ids are fixed by the spec, the same in every "
+             "none, the parts of one object one instance; each with its `bbox` [x, y, w, h] px, `area` px, "
+             "`truncated`, `amodal_pixels` (its occlusion-free mask in the frame) and `visible_fraction` = area / "
+             "amodal_pixels). Ids are fixed by the spec, the same in every "
              "item and resumed run; classes no item shows are left out.", "",
              "| id | class | category | colour (sRGB) | pixels | items |", "|---|---|---|---|---|---|"]
     lines += [f"| {c['id']} | `{c['name']}` | {c['category']} | {tuple(c['colour'])} | {c['pixels']} | {c['items']} |"

@@ -125,6 +125,13 @@ class Item:
             raise ConfigError(f"{len(objects.records)} objects do not fit a 16-bit segmentation (at most 65534)")
         return objects.ids(index).astype(np.uint16), objects
 
+    @functools.cached_property
+    def amodal(self) -> np.ndarray | None:
+        """Pixels of each instance's amodal mask (:func:`amodal_pixels`), None where
+        :func:`shape_layers` cannot trace them (Mitsuba's scalar variants)."""
+        layers = shape_layers(self.config, self.sim.lens)
+        return None if layers is None else amodal_pixels(layers, self.instances[1])
+
 
 # ----------------------------------------------------------------------------- the labels
 def _result_file(item: Item, folder: Path, *, name: str) -> list[Path]:
@@ -622,6 +629,82 @@ class Instances:
         return self.of_shape[np.asarray(shape_index)]
 
 
+#: Surfaces each pinhole ray is followed through for the amodal masks (a closed object takes two).
+AMODAL_LAYERS = 8
+_LAYERS_INTEGRATOR = "spectral_cam_shape_layers"
+_LAYERS_REGISTERED: set = set()
+
+
+def _register_shape_layers(mi) -> None:
+    """A Mitsuba integrator returning, along each camera ray, the shape and primitive of each of
+    the first :data:`AMODAL_LAYERS` surfaces it passes through (AOVs ``<k>_s``, ``<k>_p``; 0 past
+    the last): the ray is spawned on from every hit, whatever the material."""
+    import drjit as dr
+
+    if mi.variant() in _LAYERS_REGISTERED:
+        return
+
+    class ShapeLayers(mi.SamplingIntegrator):
+        def aov_names(self):
+            return [f"{k}_{c}" for k in range(AMODAL_LAYERS) for c in "sp"]
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            ray, alive, layers = mi.Ray3f(ray), mi.Bool(active), []
+            for _ in range(AMODAL_LAYERS):
+                si = scene.ray_intersect(ray, alive)
+                alive = alive & si.is_valid()
+                layers += [dr.select(alive, mi.Float(dr.reinterpret_array(mi.UInt32, si.shape)), 0.0),
+                           dr.select(alive, mi.Float(si.prim_index), 0.0)]
+                ray = si.spawn_ray(ray.d)
+            return mi.Spectrum(0.0), mi.Bool(True), layers
+
+    mi.register_integrator(_LAYERS_INTEGRATOR, lambda props: ShapeLayers(props))
+    _LAYERS_REGISTERED.add(mi.variant())
+
+
+def shape_layers(config: SceneConfig, lens) -> np.ndarray | None:
+    """The shapes each pixel's pinhole ray passes through: (H, W, :data:`AMODAL_LAYERS`) indices
+    into :func:`spectral_cam.render.render_shape_map`'s shapes, nearest first (−1: none), on the
+    segmentation's own rays (the same random point of each pixel: layer 0 is its shape map).
+    None in Mitsuba's scalar variants, whose shapes have no registry ids to return.
+
+    References
+    ----------
+    .. [1] Everitt, C. (2001). Interactive order-independent transparency. NVIDIA (depth peeling).
+    .. [2] Jakob, W., et al. (2022). Mitsuba 3, ``Scene.ray_intersect``, ``SurfaceInteraction3f.spawn_ray``.
+    """
+    import mitsuba as mi
+
+    from ...render import choose_variant
+    from ...render.depth import _index_of, _Instances, _luminance_film, _pinhole_probe, _shape_ids
+
+    mi.set_variant(choose_variant(config.render.variant))
+    if mi.variant().startswith("scalar"):
+        return None
+    _register_shape_layers(mi)
+    width, height = lens.width_px, lens.height_px
+    # the shape map's stream and spp: the same rays as the segmentation's (render.depth.render_shapes)
+    scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height), {"type": _LAYERS_INTEGRATOR},
+                                     spp=1, stream=1 << 21, optimize=False)
+    lookup, shapes = _shape_ids(mi, scene)
+    instances = _Instances(config, lens, shapes)
+    out = np.empty((height, width, AMODAL_LAYERS), np.int64)
+    for first, end, image in tiles():
+        for k in range(AMODAL_LAYERS):
+            pair = image[..., -2 * AMODAL_LAYERS + 2 * k:][..., :2]  # (shape, primitive), as _index_of reads them
+            out[first:end, :, k] = instances(_index_of(lookup, pair), pair)
+    return out
+
+
+def amodal_pixels(layers: np.ndarray, objects: "Instances") -> np.ndarray:
+    """Pixels of each instance id's amodal mask (0…M): those whose ray passes through any of its
+    shapes, each pixel counted once per instance (a closed object is met twice)."""
+    ids = np.sort(objects.ids(layers), axis=-1)
+    first = np.ones(ids.shape, bool)
+    first[..., 1:] = ids[..., 1:] != ids[..., :-1]
+    return np.bincount(ids[first & (ids > 0)], minlength=len(objects.records) + 1)
+
+
 def instance_boxes(ids: np.ndarray, count: int) -> dict[int, dict]:
     """Pixel count, box and truncation of each instance id 1…``count`` that shows in ``ids``.
 
@@ -652,11 +735,13 @@ def instance_boxes(ids: np.ndarray, count: int) -> dict[int, dict]:
     return out
 
 
-#: What the instance table's visibility fields mean (no amodal masks are rendered).
-VISIBILITY_NOTE = ("visible_fraction is null: no amodal (occlusion-free) mask is rendered, so the hidden share of an "
-                   "object is not known; truncated: the mask touches the frame's edge (the object may go on outside "
-                   "it); an object of the scene that no pixel shows (hidden or outside the frame) has pixels 0 and "
-                   "bbox null")
+#: What the instance table's visibility fields mean.
+VISIBILITY_NOTE = (f"amodal_pixels: the pixels whose pinhole ray passes through the object (its occlusion-free mask "
+                   f"inside the frame; rays followed through their first {AMODAL_LAYERS} surfaces); visible_fraction = "
+                   "pixels / amodal_pixels (0: wholly hidden behind others; null where no ray meets it, outside "
+                   "the frame, or in Mitsuba's scalar variants, which trace no amodal masks); truncated: the mask "
+                   "touches the frame's edge (the object may go on outside it, which no fraction counts); an object "
+                   "that no pixel shows has pixels 0 and bbox null")
 
 
 def _write_png16(values: np.ndarray, path: Path) -> Path:
@@ -672,18 +757,24 @@ def _write_png16(values: np.ndarray, path: Path) -> Path:
                              "through an ideal pinhole (the all-in-focus view; 0: nothing); the parts of one object "
                              "(a cylinder's tube and top, a table's legs) are one instance, each dead_leaves disc its "
                              "own; meta.json lists each object that shows with its class and class_id (classes.json), "
-                             "category, parts, material, reflectance source, pixels, bbox [x, y, w, h] px and truncation")
+                             "category, parts, material, reflectance source, pixels, bbox [x, y, w, h] px, truncation, "
+                             "amodal pixels and visible fraction")
 def _segmentation(item: Item, folder: Path) -> list[Path]:
     t0 = time.perf_counter()
     ids, objects = item.instances
     path = _write_png16(ids, folder / "segmentation.png")
     boxes = instance_boxes(ids, len(objects.records))
     hidden = {"pixels": 0, "bbox": None, "truncated": None}
-    table = [{"id": k, **record, "pixels": boxes.get(k, hidden)["pixels"], "area": boxes.get(k, hidden)["pixels"],
-              "bbox": boxes.get(k, hidden)["bbox"], "truncated": boxes.get(k, hidden)["truncated"],
-              "visible_fraction": None}
-             for k, record in enumerate(objects.records, start=1)
-             if k in boxes or not record.get("leaf")]  # a dead-leaves disc is listed where it shows
+    amodal = item.amodal
+    table = []
+    for k, record in enumerate(objects.records, start=1):
+        if k not in boxes and record.get("leaf"):
+            continue  # a dead-leaves disc is listed where it shows
+        shown = boxes.get(k, hidden)
+        behind = None if amodal is None else int(max(amodal[k], shown["pixels"]))
+        table.append({"id": k, **record, "pixels": shown["pixels"], "area": shown["pixels"], "bbox": shown["bbox"],
+                      "truncated": shown["truncated"], "amodal_pixels": behind,
+                      "visible_fraction": shown["pixels"] / behind if behind else None})
     item.records["segmentation"] = {
         "file": "segmentation.png", "dtype": "uint16", "background_id": 0, "pixels_unlabelled": int((ids == 0).sum()),
         "view": "ideal pinhole through the frame (the all-in-focus view), one ray per pixel through a random "

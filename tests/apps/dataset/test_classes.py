@@ -1,6 +1,7 @@
 """Issue 40 #3: classes and instances. The parts of one object are one instance (checked against the
 tabletop preset's own object list and the renderer's per-shape map, and by OpenCV's connected
-components), boxes and areas are the masks' extents and pixel counts, the semantic map is the class
+components), boxes and areas are the masks' extents and pixel counts, visibility is the share of the
+amodal mask that shows (against the ColorChecker's layering), the semantic map is the class
 lookup of the instance map (sky where the depth label has no surface), and classes.json's ids come
 from the declared class list whatever order the items finish in or whether the run resumed."""
 
@@ -96,8 +97,29 @@ def test_boxes_and_areas_are_the_masks_extents(tabletop):
         assert row["area"] == row["pixels"] == rows.size
         assert row["bbox"] == [cols.min(), rows.min(), cols.max() - cols.min() + 1, rows.max() - rows.min() + 1]
         touches = rows.min() == 0 or cols.min() == 0 or rows.max() == height - 1 or cols.max() == width - 1
-        assert row["truncated"] == touches and row["visible_fraction"] is None
+        assert row["truncated"] == touches
+        assert row["amodal_pixels"] >= row["pixels"] and row["visible_fraction"] == row["pixels"] / row["amodal_pixels"]
     assert "amodal" in meta["segmentation"]["visibility"]
+
+
+def test_visibility_is_the_share_of_the_amodal_mask_that_shows(make_scene, tmp_path):
+    """The colorchecker preset stacks its patches on the chart's frame and the frame on a surround
+    that fills the view: the frame's amodal mask is its visible pixels and every patch's, the
+    surround's the whole frame; each patch shows whole (visible_fraction 1)."""
+    import cv2
+
+    config = make_scene(scene={"preset": "colorchecker"}, sensor={"width_px": 48, "height_px": 32}, render={"spp": 1})
+    meta = write_item(config, tmp_path / "item", outputs=["segmentation"])
+    ids = cv2.imread(str(tmp_path / "item" / "segmentation.png"), cv2.IMREAD_UNCHANGED)
+    rows = {row["name"]: row for row in meta["segmentation"]["instances"]}
+    patches = [row for name, row in rows.items() if name.startswith("patch_")]
+    patch_pixels = sum(int((ids == row["id"]).sum()) for row in patches)
+    frame, surround = rows["chart_frame"], rows["surround"]
+    assert len(patches) == 24 and all(row["visible_fraction"] == 1.0 for row in patches)
+    assert frame["amodal_pixels"] == int((ids == frame["id"]).sum()) + patch_pixels
+    assert surround["amodal_pixels"] == ids.size and (ids > 0).all()
+    assert surround["visible_fraction"] == pytest.approx((ids == surround["id"]).sum() / ids.size)
+    assert 0 < surround["visible_fraction"] < frame["visible_fraction"] < 1
 
 
 def test_the_semantic_map_is_the_class_lookup_of_the_instance_map(tabletop):
