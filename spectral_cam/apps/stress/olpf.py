@@ -6,8 +6,10 @@ noise-free through an RGGB, an X-Trans, a Quad Bayer and an RGBW sensor behind a
 separation d (0 = none … 1.5 pitch) and developed by each demosaic that takes the tile. Every colour in the result is false: the
 false colour per frequency ring is the mean chroma (max − min channel) over the mean level; the
 sharpness the filter costs is the zone plate's luminance modulation kept at 0.25 cycle per pixel,
-against its analytic |sinc(f)|·|cos(π f d)|² (pixel aperture, filter in x and y; the demosaic
-adds its own loss).
+against its analytic |sinc(f)|·|H_d(f)|² (pixel aperture, filter in x and y; the demosaic adds
+its own loss). H_d is the filter as applied to pixels (:func:`spectral_cam.sensor.olpf.olpf_kernel_mtf`):
+|cos(π f d)| at a whole-pitch d, and below it at a fractional one, whose displaced spot is shared by
+area between two pixels.
 
 References
 ----------
@@ -102,7 +104,7 @@ def olpf_study(settings: StressSettings, *, methods=None) -> dict:
                  for d, fc in zip(STUDY_SEPARATIONS, entry["false_colour"])]
         rows.append(summary_row("olpf", label, f"modulation kept at {SHARPNESS_FREQUENCY:g} cycle/px, d = 1",
                                 entry["modulation_kept"][STUDY_SEPARATIONS.index(1.0)], "of the scene's",
-                                f"analytic sinc·cos² = {_analytic_kept(1.0):.3f}"))
+                                f"analytic sinc·|H|² = {_analytic_kept(1.0):.3f}"))
     data["analytic_modulation_kept"] = [_analytic_kept(d) for d in STUDY_SEPARATIONS]
     return {"rows": rows, "data": data, "crops": crops}
 
@@ -125,13 +127,17 @@ def _modulation(luminance: np.ndarray, phase: np.ndarray) -> float:
 
 
 def _analytic_kept(separation_px: float) -> float:
-    """|sinc(f)|·|cos(π f d)| of the pixel aperture and the filter at :data:`SHARPNESS_FREQUENCY`, for a
-    radial pattern seen along x and y alike (the filter acts on both axes; a ring's mean of both)."""
+    """|sinc(f)|·|H_d(f)| of the pixel aperture and the filter as applied at :data:`SHARPNESS_FREQUENCY`,
+    for a radial pattern seen along x and y alike (the filter acts on both axes; a ring's mean of both).
+    H_d is |cos(π f d)| for a whole-pitch d (the four-spot filter exactly) and the area-shared kernel's
+    transfer for a fractional one (:func:`~spectral_cam.sensor.olpf.olpf_kernel_mtf`)."""
+    from ...sensor.olpf import olpf_kernel_mtf
+
     f = SHARPNESS_FREQUENCY
     angles = np.linspace(0, np.pi / 2, 91)
     fx, fy = f * np.cos(angles), f * np.sin(angles)
-    return float(np.mean(np.abs(np.sinc(fx) * np.sinc(fy) * np.cos(np.pi * fx * separation_px)
-                                * np.cos(np.pi * fy * separation_px))))
+    return float(np.mean(np.abs(np.sinc(fx) * np.sinc(fy)) * olpf_kernel_mtf(fx, separation_px)
+                         * olpf_kernel_mtf(fy, separation_px)))
 
 
 def plot_olpf(result: dict, directory: Path) -> list[str]:
@@ -143,10 +149,15 @@ def plot_olpf(result: dict, directory: Path) -> list[str]:
     separations = data["separations_px"]
     fig = figure(12.0, 4.0)
     ax1, ax2, ax3 = fig.subplots(1, 3)
+    # eleven methods outrun matplotlib's ten colours: Bayer methods solid with circles, the larger
+    # tiles dashed with their own markers, so no two curves look alike
+    markers = iter("osD^v<>ph*X")
     for name, entry in data["methods"].items():
-        ax1.plot(separations, entry["false_colour"], marker="o", label=name)
-        ax3.plot(separations, entry["modulation_kept"], marker="o", label=name)
-    ax3.plot(separations, data["analytic_modulation_kept"], "k--", label="pixel × filter (analytic)")
+        style = {"marker": next(markers), "linestyle": "-" if " " not in name else "--", "label": name}
+        ax1.plot(separations, entry["false_colour"], **style)
+        ax3.plot(separations, entry["modulation_kept"], **style)
+    ax3.plot(separations, data["analytic_modulation_kept"], "k:", linewidth=2,
+             label="pixel × filter as applied (analytic)")
     centres = 0.5 * (np.array(data["frequency_edges"][:-1]) + np.array(data["frequency_edges"][1:]))
     first = next(iter(data["methods"].values()))
     for d, ring in zip(separations, first["false_colour_per_ring"]):
