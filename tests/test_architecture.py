@@ -128,12 +128,22 @@ def _reaches(graph, start: str, prefix: str) -> list[str]:
     ("spectral_cam.isp", "spectral_cam.render"),
     ("spectral_cam.isp", "spectral_cam.spectra"),
     ("spectral_cam.raw", "spectral_cam.sensor"),
+    ("spectral_cam.raw", "spectral_cam.isp"),             # the hue/sat map's model lives in raw/ (issue 41 #5)
     ("spectral_cam.metrics", "spectral_cam.render"),
 ])
 def test_data_flows_one_way(lower, higher):
     graph = import_graph()
     offenders = {m: _reaches(graph, m, higher) for m in graph if m == lower or m.startswith(lower + ".")}
     assert not {m: t for m, t in offenders.items() if t}
+
+
+def test_the_sensor_reads_nothing_of_the_isp_but_its_tone_curves():
+    """design.md's named exception: sensor/ reads isp/tone.py (the BaselineExposure and
+    ProfileToneCurve a RAW carries); the hue/sat map it fits comes from raw/, not isp/."""
+    graph = import_graph()
+    reached = {t for m in graph if m == "spectral_cam.sensor" or m.startswith("spectral_cam.sensor.")
+               for t in _reaches(graph, m, "spectral_cam.isp")}
+    assert reached <= {"spectral_cam.isp.tone"}, sorted(reached)
 
 
 def test_only_apps_and_cli_import_apps_and_cli():

@@ -97,7 +97,7 @@ class RawImage:
         (N, 2) linear input → output pairs of the tone curve the default rendering applies (DNG
         ProfileToneCurve), or None.
     hue_sat_map, hue_sat_map_2
-        :class:`spectral_cam.isp.hue_sat_map.HueSatMap` of the D65 and the Standard A calibration
+        :class:`spectral_cam.raw.hue_sat_map.HueSatMap` of the D65 and the Standard A calibration
         (DNG ProfileHueSatMapData, beside the forward matrices), or None.
     calibration_3
         A DNG 1.6 third calibration (:class:`Calibration`) under the scene's light when it lies

@@ -24,6 +24,7 @@ import numpy as np
 from ..cfa import DNG_WHITE_CODE, EXTENDED_PATTERNS, LINEAR, WHITE, channel_count
 from ..errors import ConfigError, RawFormatError
 from .dng import DNG_TAGS, ILLUMINANT_A
+from .hue_sat_map import HueSatMap
 from .image import RawImage
 
 #: sRGB (D65) → XYZ as LibRaw hard-codes it (``xyz_rgb``), needed to undo its derivation.
@@ -438,8 +439,6 @@ def _profile(extras: dict, planes: int = 3) -> dict:
     """ForwardMatrix and ProfileHueSatMap per calibration: ``forward_matrix``/``hue_sat_map`` of the
     daylight slot (the one that is not Standard A), ``..._2`` of the Standard A slot; None where a
     tag is absent or malformed (a corrupt profile is no profile, as Adobe's reader treats it)."""
-    from ..isp.hue_sat_map import HueSatMap
-
     tungsten = _tungsten_slot(extras)
     daylight = next((n for n in (1, 2) if n != tungsten and f"ColorMatrix{n}" in extras), None)
     out = dict.fromkeys(("forward_matrix", "forward_matrix_2", "hue_sat_map", "hue_sat_map_2"))
@@ -511,7 +510,6 @@ def _third_calibration(extras: dict, planes: int, profile: dict):
     one that can be used: CalibrationIlluminant3 (a named light or 255 with IlluminantData3), a
     ColorMatrix3 of rank 3, and ForwardMatrix3 / ProfileHueSatMapData3 exactly where the other two
     calibrations have theirs; else None."""
-    from ..isp.hue_sat_map import HueSatMap
     from .image import Calibration
 
     if planes != 3 or "ColorMatrix3" not in extras or "CalibrationIlluminant3" not in extras:

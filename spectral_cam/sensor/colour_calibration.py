@@ -458,7 +458,7 @@ def fit_hue_sat_map(
 
     Returns
     -------
-    spectral_cam.isp.hue_sat_map.HueSatMap
+    spectral_cam.raw.hue_sat_map.HueSatMap
 
     References
     ----------
@@ -467,7 +467,7 @@ def fit_hue_sat_map(
        (penalised least squares), §7.10 (cross-validation).
     """
     from ..cie import D50_WHITE_XYZ, bradford_adaptation
-    from ..isp.hue_sat_map import XYZ_D50_TO_PROPHOTO, HueSatMap, interpolation_weights, rgb_to_hsv
+    from ..raw.hue_sat_map import XYZ_D50_TO_PROPHOTO, HueSatMap, interpolation_weights, rgb_to_hsv
 
     hues, sats = (int(d) for d in divisions)
     if hues < 1 or sats < 2 or not smoothness >= 0:
