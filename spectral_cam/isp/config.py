@@ -157,7 +157,7 @@ class ISPConfig:
         _choice("colour_matrix", self.colour_matrix, COLOUR_MATRIX_METHODS)
         if not (_number(self.exposure_ev) and abs(self.exposure_ev) <= 20):
             _fail("exposure_ev", self.exposure_ev, "must be a number of stops in [-20, 20]")
-        _choice("tone", self.tone, TONE_METHODS)
+        _choice("tone", self.tone, TONE.names())  # live: an entry registered after import counts
         if not (_number(self.sharpen) and 0 <= self.sharpen <= 10):
             _fail("sharpen", self.sharpen, "must be an unsharp-mask amount in [0, 10] (0 = off)")
         if not (_number(self.sharpen_radius_px) and 0 < self.sharpen_radius_px <= 50):

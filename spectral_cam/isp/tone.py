@@ -8,7 +8,8 @@ metered grey at 118/255 from 9.9 % of white. ``"srgb"`` applies the sRGB OETF on
 (IEC 61966-2-1): a colorimetric rendition with a hard clip at white (colour accuracy is
 measured on the linear image). ``"filmic"`` first compresses highlights with Narkowicz's fit
 of the ACES reference rendering transform. ``"linear"`` shows the linear values. Every
-method returns values in [0, 1].
+method returns values in [0, 1]. Each :data:`TONE` entry also declares the DNG ProfileToneCurve its
+RAWs carry (:class:`ToneEntry`), so an Adobe-path reader renders a neutral as the develop does.
 
 References
 ----------
@@ -24,15 +25,17 @@ from __future__ import annotations
 
 import functools
 import os
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
-from ..registry import Registry
+from ..registry import Entry, Registry
 
-__all__ = ["TONE", "srgb_oetf", "srgb_eotf", "filmic", "adobe", "apply_exposure", "tone_map", "grey_input",
-           "profile_tone_curve", "adobe_default_curve", "adobe_exposure_ramp", "adobe_exposure_shoulder", "rgb_tone",
-           "SOS_GREY_DISPLAY", "finite_linear"]
+__all__ = ["TONE", "ToneEntry", "ToneRegistry", "adobe_curve", "srgb_oetf", "srgb_eotf", "filmic", "adobe",
+           "apply_exposure", "tone_map", "grey_input", "profile_tone_curve", "adobe_default_curve",
+           "adobe_exposure_ramp", "adobe_exposure_shoulder", "rgb_tone", "SOS_GREY_DISPLAY", "finite_linear"]
 
 _F32 = np.float32
 
@@ -377,46 +380,136 @@ def _gain(ev: float):
     return _F32(2.0 ** float(ev))
 
 
-#: Tone curves by name: each maps linear sRGB and an exposure (stops) to display values in [0, 1].
-TONE = Registry("tone curve")
-TONE.add("adobe", adobe, description="Adobe's default rendering (DNG SDK: exposure ramp, ACR3 curve on "
-                                     "ProPhoto, hue-preserving), then sRGB encoding: a camera's look")
+def adobe_curve(values: np.ndarray) -> np.ndarray:
+    """Adobe's ACR3 default curve (:func:`adobe_default_curve`) at ``values`` in [0, 1], linearly
+    interpolated between its 1025 samples as the DNG SDK does: ``"adobe"``'s ProfileToneCurve.
+
+    References
+    ----------
+    .. [1] Adobe DNG SDK 1.7, ``source/dng_render.cpp`` (``dng_tone_curve_acr3_default::Evaluate``).
+    """
+    return np.interp(values, *adobe_default_curve())
+
+
+def _identity(values: np.ndarray) -> np.ndarray:
+    return np.array(values, dtype=np.float64)
+
+
+#: Marks a :meth:`ToneRegistry.add` call that did not say what the DNG should carry.
+_UNDECLARED = object()
+
+
+@dataclass(frozen=True)
+class ToneEntry(Entry):
+    """A tone curve: its rendering and the DNG ProfileToneCurve that gives an Adobe-path reader
+    the same rendering of a neutral.
+
+    Attributes
+    ----------
+    dng_curve : callable or None
+        Linear input in [0, 1] (after the reader's exposure) → linear output in [0, 1], before
+        the reader's output encoding (sRGB): what :func:`profile_tone_curve` samples into the DNG.
+        None: the curve has no DNG form of its own, and the DNG carries the identity, so a reader
+        shows its output encoding alone — never its own default curve, which an absent tag asks for.
+    """
+
+    dng_curve: Callable[[np.ndarray], np.ndarray] | None = None
+
+
+class ToneRegistry(Registry):
+    """The :data:`TONE` registry: as :class:`~spectral_cam.registry.Registry`, but every entry
+    declares its DNG ProfileToneCurve (``dng_curve=``, a function or None), so a new curve cannot
+    silently write another curve's (or the identity) into the RAWs rendered with it.
+    """
+
+    def register(self, name: str, *, dng_curve=_UNDECLARED, options: tuple[str, ...] = (),
+                 description: str = ""):
+        """Decorator: register the decorated rendering under ``name`` with its ``dng_curve``."""
+
+        def decorate(function: Callable) -> Callable:
+            self.add(name, function, dng_curve=dng_curve, options=options, description=description)
+            return function
+
+        return decorate
+
+    def add(self, name: str, function: Callable, *, dng_curve=_UNDECLARED, options: tuple[str, ...] = (),
+            description: str = "") -> ToneEntry:
+        """Register ``function(linear, *, ev)`` under ``name`` with its DNG curve.
+
+        Raises
+        ------
+        ValueError
+            When ``dng_curve`` is not given, or is neither callable nor None.
+        """
+        if dng_curve is _UNDECLARED or not (dng_curve is None or callable(dng_curve)):
+            raise ValueError(f"tone curve {name!r}: declare what its DNGs carry as ProfileToneCurve: "
+                             "dng_curve=<function of linear values in [0, 1], returning values in [0, 1], applied "
+                             "before the reader's sRGB encoding>, or dng_curve=None for a curve with no DNG form "
+                             f"(the DNG then carries the identity); got {dng_curve!r}")
+        super().add(name, function, options=options, description=description)  # refuses a name twice
+        entry = ToneEntry(name, function, tuple(options), description, dng_curve)
+        self._entries[name] = entry
+        return entry
+
+
+#: Tone curves by name: each maps linear sRGB and an exposure (stops) to display values in [0, 1], and
+#: declares the ProfileToneCurve its DNGs carry.
+TONE = ToneRegistry("tone curve")
+TONE.add("adobe", adobe, dng_curve=adobe_curve,
+         description="Adobe's default rendering (DNG SDK: exposure ramp, ACR3 curve on "
+                     "ProPhoto, hue-preserving), then sRGB encoding: a camera's look")
+# the reader's own sRGB encoding is the whole of this rendering: the identity is its curve, not a stand-in
 TONE.add("srgb", lambda linear, *, ev=0.0: np.clip(srgb_oetf(np.asarray(linear, _F32) * _gain(ev)), 0, 1),
-         description="the sRGB OETF only (colorimetric), hard clip at white")
-TONE.add("filmic", lambda linear, *, ev=0.0: filmic(np.asarray(linear, _F32) * _gain(ev)),
+         dng_curve=_identity, description="the sRGB OETF only (colorimetric), hard clip at white")
+TONE.add("filmic", lambda linear, *, ev=0.0: filmic(np.asarray(linear, _F32) * _gain(ev)), dng_curve=_narkowicz,
          description="ACES-like filmic curve (Narkowicz), then the sRGB OETF")
+# no DNG form: every Adobe-path reader encodes its output, so "display = linear" cannot be asked of it
 TONE.add("linear", lambda linear, *, ev=0.0: np.clip(np.asarray(linear, _F32) * _gain(ev), 0, 1),
-         description="no curve (display = linear, clipped)")
+         dng_curve=None, description="no curve (display = linear, clipped); its DNGs carry the identity curve")
 
 #: The display value ISO 12232's standard output sensitivity puts mid grey at: 118 of 255 in sRGB.
 SOS_GREY_DISPLAY = 118.0 / 255.0
 
 
-def profile_tone_curve(method: str, samples: int = 129) -> np.ndarray:
-    """The tone curve of ``method`` as a DNG ``ProfileToneCurve``: (samples, 2) pairs of linear
-    input and linear output in [0, 1], which an Adobe-path reader applies before its output
-    encoding (the ACR3 curve for ``"adobe"``; Narkowicz's curve for ``"filmic"``; the identity
-    for ``"srgb"`` and ``"linear"``, whose only encoding is the sRGB one). 129 samples: a cubic
+def profile_tone_curve(method: str, *, samples: int = 129) -> np.ndarray:
+    """The DNG ``ProfileToneCurve`` of the tone curve ``method``: its :data:`TONE` entry's
+    ``dng_curve`` sampled at ``samples`` points of [0, 1], as (input, output) pairs of linear
+    values, which an Adobe-path reader applies before its output encoding (the ACR3 curve for
+    ``"adobe"``, Narkowicz's curve for ``"filmic"``, the identity for ``"srgb"``, whose only
+    encoding is the sRGB one, and for ``"linear"``, which has no DNG form). 129 samples: a cubic
     spline through them (as Adobe's reader fits) is within 2.3·10⁻⁴ of the 1025-sample ACR3
     table, and exiftool decodes the tag without a "large array" warning (257 samples draw one).
+
+    Parameters
+    ----------
+    method : str
+        A :data:`TONE` name.
+    samples : int
+        Points on [0, 1] (at least 2).
 
     Returns
     -------
     numpy.ndarray
         float64 (samples, 2).
 
+    Raises
+    ------
+    ConfigError
+        For an unknown method, or an entry whose ``dng_curve`` leaves [0, 1] or returns no finite
+        value per input.
+
     References
     ----------
     .. [1] Adobe (2023). DNG Specification 1.7.1.0, ProfileToneCurve (tag 50940).
     """
-    TONE.check(method, key="isp.tone")
-    x = np.linspace(0.0, 1.0, samples)
-    if method == "adobe":
-        y = np.interp(x, *adobe_default_curve())
-    elif method == "filmic":
-        y = _narkowicz(x)
-    else:
-        y = x.copy()
+    entry = TONE[TONE.check(method, key="isp.tone")]
+    x = np.linspace(0.0, 1.0, max(int(samples), 2))
+    y = x.copy() if entry.dng_curve is None else np.asarray(entry.dng_curve(x), dtype=np.float64)
+    if y.shape != x.shape or not np.all(np.isfinite(y)) or y.min() < 0 or y.max() > 1:
+        from ..errors import ConfigError
+
+        raise ConfigError(f"tone curve {method!r}: its dng_curve must map each linear value in [0, 1] to one in "
+                          f"[0, 1]; got shape {y.shape}, range [{np.nanmin(y):.4g}, {np.nanmax(y):.4g}]")
     return np.stack([x, y], axis=-1)
 
 
