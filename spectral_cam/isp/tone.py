@@ -411,9 +411,13 @@ class ToneEntry(Entry):
         the reader's output encoding (sRGB): what :func:`profile_tone_curve` samples into the DNG.
         None: the curve has no DNG form of its own, and the DNG carries the identity, so a reader
         shows its output encoding alone — never its own default curve, which an absent tag asks for.
+    sets_black : bool
+        The rendering places black itself (Adobe's: a reader's Auto black render is part of it),
+        so its DNGs say DefaultBlackRender = Auto (0); the others ask readers for none (1).
     """
 
     dng_curve: Callable[[np.ndarray], np.ndarray] | None = None
+    sets_black: bool = False
 
 
 class ToneRegistry(Registry):
@@ -422,18 +426,19 @@ class ToneRegistry(Registry):
     silently write another curve's (or the identity) into the RAWs rendered with it.
     """
 
-    def register(self, name: str, *, dng_curve=_UNDECLARED, options: tuple[str, ...] = (),
-                 description: str = ""):
+    def register(self, name: str, *, dng_curve=_UNDECLARED, sets_black: bool = False,
+                 options: tuple[str, ...] = (), description: str = ""):
         """Decorator: register the decorated rendering under ``name`` with its ``dng_curve``."""
 
         def decorate(function: Callable) -> Callable:
-            self.add(name, function, dng_curve=dng_curve, options=options, description=description)
+            self.add(name, function, dng_curve=dng_curve, sets_black=sets_black, options=options,
+                     description=description)
             return function
 
         return decorate
 
-    def add(self, name: str, function: Callable, *, dng_curve=_UNDECLARED, options: tuple[str, ...] = (),
-            description: str = "") -> ToneEntry:
+    def add(self, name: str, function: Callable, *, dng_curve=_UNDECLARED, sets_black: bool = False,
+            options: tuple[str, ...] = (), description: str = "") -> ToneEntry:
         """Register ``function(linear, *, ev)`` under ``name`` with its DNG curve.
 
         Raises
@@ -447,7 +452,7 @@ class ToneRegistry(Registry):
                              "before the reader's sRGB encoding>, or dng_curve=None for a curve with no DNG form "
                              f"(the DNG then carries the identity); got {dng_curve!r}")
         super().add(name, function, options=options, description=description)  # refuses a name twice
-        entry = ToneEntry(name, function, tuple(options), description, dng_curve)
+        entry = ToneEntry(name, function, tuple(options), description, dng_curve, bool(sets_black))
         self._entries[name] = entry
         return entry
 
@@ -455,7 +460,7 @@ class ToneRegistry(Registry):
 #: Tone curves by name: each maps linear sRGB and an exposure (stops) to display values in [0, 1], and
 #: declares the ProfileToneCurve its DNGs carry.
 TONE = ToneRegistry("tone curve")
-TONE.add("adobe", adobe, dng_curve=adobe_curve,
+TONE.add("adobe", adobe, dng_curve=adobe_curve, sets_black=True,
          description="Adobe's default rendering (DNG SDK: exposure ramp, ACR3 curve on "
                      "ProPhoto, hue-preserving), then sRGB encoding: a camera's look")
 # the reader's own sRGB encoding is the whole of this rendering: the identity is its curve, not a stand-in

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import SensorError
-from ..isp.tone import profile_tone_curve
+from ..isp.tone import TONE, profile_tone_curve
 from ..raw.image import RawImage
 from ..spectra import figure_record
 from .dng_colour import (
@@ -285,7 +285,7 @@ def _exposure_record(config, model, radiance, *, gain: float, exposure_s: float,
         "auto_reference_e_per_s": reference_rate,
         "auto_fraction": exposure.auto_fraction if auto and exposure.metering in ("highlight", "etr") else None,
         "exposure_index": index,
-        "tone_black_render": config.isp.tone == "adobe",
+        "tone_black_render": TONE[config.isp.tone].sets_black,  # the curve's entry says (DefaultBlackRender)
         "iso": exposure.iso,
         "base_iso": sensor.base_iso,
         "saturation_e": saturation_electrons(sensor, gain),

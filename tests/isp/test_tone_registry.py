@@ -71,6 +71,11 @@ def test_a_tone_curve_registered_from_outside_reaches_the_dngs_it_renders(regist
     np.testing.assert_allclose(pairs[:, 0], np.linspace(0, 1, 129), atol=1e-7)
     np.testing.assert_allclose(pairs[:, 1], pairs[:, 0] ** 0.8, atol=1e-6)  # float32 in the file
     assert black_render == 1
+    # a toy that places black itself, as Adobe's rendering does, asks readers for Auto (DNG 1.7.1 §6, 51110)
+    registry.add("toy_black", _toy, dng_curve=lambda x: x ** 0.8, sets_black=True, description="sets black")
+    black = sc.expose(image, scene.replace(**{"isp.tone": "toy_black"}))
+    with tifffile.TiffFile(write_dng(black, tmp_path / "black.dng")) as tif:
+        assert tif.pages[0].tags[51110].value == 0
 
 
 def test_a_tone_curve_that_does_not_say_what_its_dngs_carry_is_refused(registry):
