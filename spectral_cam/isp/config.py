@@ -135,7 +135,8 @@ class ISPConfig:
     shading: str = "off"
 
     def __post_init__(self) -> None:
-        _choice("white_balance", self.white_balance, WHITE_BALANCE_METHODS)
+        # the registries' names now, not tuples taken at import: an entry registered later counts
+        _choice("white_balance", self.white_balance, WHITE_BALANCE.names())
         gains = tuple(self.wb_gains)
         if self.white_balance == "manual":
             if len(gains) != 3 or not all(_number(g) and g > 0 for g in gains):
@@ -146,18 +147,18 @@ class ISPConfig:
         if gains and gains_problem(gains):  # refused at load, not as NaN in the tone stage (issue 39 #23)
             _fail("wb_gains", self.wb_gains, gains_problem(gains))
         object.__setattr__(self, "wb_gains", tuple(float(g) for g in gains))
-        _choice("demosaic", self.demosaic, DEMOSAIC_METHODS)
+        _choice("demosaic", self.demosaic, DEMOSAIC.names())
         if isinstance(self.denoise, str):
             if self.denoise not in ("off", "auto"):
                 _fail("denoise", self.denoise, "valid: 'off', 'auto' or a strength > 0 (e.g. 1.0)")
         elif not (_number(self.denoise) and self.denoise >= 0):
             _fail("denoise", self.denoise, "valid: 'off', 'auto' or a strength > 0 (e.g. 1.0)")
-        _choice("denoise_method", self.denoise_method, DENOISE_METHODS)
-        _choice("highlights", self.highlights, HIGHLIGHT_METHODS)
-        _choice("colour_matrix", self.colour_matrix, COLOUR_MATRIX_METHODS)
+        _choice("denoise_method", self.denoise_method, DENOISERS.names())
+        _choice("highlights", self.highlights, HIGHLIGHTS.names())
+        _choice("colour_matrix", self.colour_matrix, COLOUR_MATRIX.names())
         if not (_number(self.exposure_ev) and abs(self.exposure_ev) <= 20):
             _fail("exposure_ev", self.exposure_ev, "must be a number of stops in [-20, 20]")
-        _choice("tone", self.tone, TONE.names())  # live: an entry registered after import counts
+        _choice("tone", self.tone, TONE.names())
         if not (_number(self.sharpen) and 0 <= self.sharpen <= 10):
             _fail("sharpen", self.sharpen, "must be an unsharp-mask amount in [0, 10] (0 = off)")
         if not (_number(self.sharpen_radius_px) and 0 < self.sharpen_radius_px <= 50):
