@@ -45,6 +45,11 @@ def _pinhole_probe(mi, config: SceneConfig, lens: ThinLens, film: dict, integrat
     return scene, sensor, tiles
 
 
+#: The depth label's seed stream: the normals take the same one, so each pixel's one ray (a
+#: random point of the pixel) is the depth label's ray and meets the same surface.
+DEPTH_STREAM = 1 << 20
+
+
 def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     """Camera-space z (m) per pixel from the first hit's world position.
 
@@ -54,7 +59,7 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
     """
     width, height = lens.width_px, lens.height_px
     _, sensor, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height),
-                                      {"type": "aov", "aovs": "pos:position"}, spp=1, stream=1 << 20)
+                                      {"type": "aov", "aovs": "pos:position"}, spp=1, stream=DEPTH_STREAM)
     to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
     origin, axis = to_world[:3, 3], to_world[:3, 2] / np.linalg.norm(to_world[:3, 2])
     depth = np.empty((height, width), np.float32)
@@ -64,6 +69,51 @@ def render_depth(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray:
         hit = np.any(position != 0.0, axis=-1)  # the AOV is all zero where a ray escapes
         depth[first:end] = np.where(hit & (z > 0), z, np.inf)
     return depth
+
+
+def render_normals(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, np.ndarray]:
+    """Unit surface normals per pixel in OpenCV camera axes (+x right, +y down, +z forward),
+    turned to face the camera, and the camera-space z (m) of the same hit.
+
+    Mitsuba's ``sh_normal`` AOV (the shading normal: a mesh's interpolated vertex normal, a
+    plane's or sphere's exact one) is in world axes; it is rotated by the pinhole's world →
+    camera rotation and its Mitsuba axes (+x left, +y up) mapped to OpenCV's. A two-sided
+    surface seen from its back has its normal flipped so that n · view ray < 0. One ray per
+    pixel, the depth label's own (:data:`DEPTH_STREAM`): where a ray escapes, n = (0, 0, 0) and
+    z = inf.
+
+    Returns
+    -------
+    normals : (H, W, 3) float32
+    z : (H, W) float32, metres
+
+    References
+    ----------
+    .. [1] Jakob, W., et al. (2022). Mitsuba 3, plugin ``aov`` (sh_normal, position).
+    """
+    width, height = lens.width_px, lens.height_px
+    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
+            "pixel_format": "rgb", "component_format": "float32"}
+    _, sensor, tiles = _pinhole_probe(mi, config, lens, film, {"type": "aov", "aovs": "pos:position,nn:sh_normal"},
+                                      spp=1, stream=DEPTH_STREAM)
+    to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
+    axes = to_world[:3, :3] / np.linalg.norm(to_world[:3, :3], axis=0)  # camera (Mitsuba) axes in world
+    world_to_opencv = np.diag([-1.0, -1.0, 1.0]) @ axes.T
+    origin = to_world[:3, 3]
+    normals = np.zeros((height, width, 3), np.float32)
+    z = np.full((height, width), np.inf, np.float32)
+    for first, end, image in tiles():
+        channels = image.shape[-1]
+        position = image[..., channels - 6:channels - 3].astype(np.float64)
+        normal = image[..., channels - 3:].astype(np.float64) @ world_to_opencv.T
+        ray = (position - origin) @ world_to_opencv.T  # camera → point, OpenCV axes
+        hit = np.any(position != 0.0, axis=-1) & (ray[..., 2] > 0)
+        length = np.linalg.norm(normal, axis=-1, keepdims=True)
+        unit = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+        unit *= np.where(np.sum(unit * ray, axis=-1, keepdims=True) > 0, -1.0, 1.0)  # face the camera
+        normals[first:end] = np.where(hit[..., None], unit, 0.0)
+        z[first:end] = np.where(hit, ray[..., 2], np.inf)
+    return normals, z
 
 
 def render_shape_index(mi, config: SceneConfig, lens: ThinLens) -> tuple[np.ndarray, list[str]]:

@@ -4,11 +4,11 @@
 (:func:`spectral_cam.job.simulate`) and every entry it names writes its files into the item's
 staging folder. Adding a label is one entry here::
 
-    @LABELS.register("normals", options=("normals",), description="normals.exr: ...")
-    def _normals(item: Item, folder: Path) -> list[Path]:
-        ...                                       # write folder / "normals.exr"
-        item.records["normals"] = {"file": "normals.exr", ...}   # its meta.json entry
-        return [folder / "normals.exr"]
+    @LABELS.register("speed", options=("speed",), description="speed.exr: ...")
+    def _speed(item: Item, folder: Path) -> list[Path]:
+        ...                                       # write folder / "speed.exr"
+        item.records["speed"] = {"file": "speed.exr", ...}   # its meta.json entry
+        return [folder / "speed.exr"]
 
 An entry's ``options`` are the meta.json keys it records (each None in an item without the
 label). The physics of the labels lives here too: the signed defocus map
@@ -984,6 +984,41 @@ def _illuminant_map(item: Item, folder: Path) -> list[Path]:
         "pixels_unlit": int(mixture.unlit.sum())}
     item.timings["illuminant_map"] = time.perf_counter() - t0
     return [path]
+
+
+@LABELS.register("normals", options=("normals",),
+                 description="normals.exr: unit surface normal per pixel in camera space, OpenCV axes as camera.json's "
+                             "(channels X right, Y down, Z forward), facing the camera (n · view ray < 0), the same "
+                             "one ray per pixel as the depth label (0, 0, 0 where no surface); normals.png: its 8-bit "
+                             "preview, RGB = 255 (n + 1) / 2 (black where no surface)")
+def _normals(item: Item, folder: Path) -> list[Path]:
+    import cv2
+    import mitsuba as mi
+
+    from ...render.depth import render_normals
+    from ...render.variants import choose_variant
+
+    t0 = time.perf_counter()
+    mi.set_variant(choose_variant(item.config.render.variant))
+    normals, z = render_normals(mi, item.config, item.sim.lens)
+    exr = write_exr_channels({axis: normals[..., k] for k, axis in enumerate("XYZ")}, folder / "normals.exr",
+                             {"spectral_cam_units": "unit normal, camera space, OpenCV axes: X right, Y down, "
+                                                    "Z forward; facing the camera; 0 where no surface"})
+    hit = np.isfinite(z)
+    preview = np.where(hit[..., None], np.round((normals + 1.0) * 127.5), 0).astype(np.uint8)
+    png = folder / "normals.png"
+    if not cv2.imwrite(str(png), np.ascontiguousarray(preview[..., ::-1])):  # OpenCV writes BGR
+        raise OSError(f"could not write {png}")
+    item.records["normals"] = {
+        "files": ["normals.exr", "normals.png"], "channels": ["X", "Y", "Z"],
+        "axes": "camera space, OpenCV (camera.json's world_to_camera_opencv): +x right, +y down, +z forward",
+        "orientation": "facing the camera: n · (point - camera centre) < 0 (a surface seen from its back is flipped)",
+        "normal": "Mitsuba's shading normal (sh_normal): a mesh's interpolated vertex normal, an analytic shape's exact "
+                  "one; no normal or bump map is modelled",
+        "view": "ideal pinhole through the frame, one ray per pixel through a random point of it, the depth label's ray",
+        "png": "RGB = round(255 (n + 1) / 2), black (0, 0, 0) where no surface", "pixels_no_surface": int((~hit).sum())}
+    item.timings["normals"] = time.perf_counter() - t0
+    return [exr, png]
 
 
 #: Outputs whose ids classes.json names.

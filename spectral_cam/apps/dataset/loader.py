@@ -24,6 +24,8 @@ key                 value
 ``coverage``        (H, W, 3) int32 ranked instance ids under defocus (0: none); ``coverage_fraction``
                     (H, W, 3) float32 their shares of the pixel's rays
 ``flow``            (H, W, 2) float32 forward flow over the exposure, px (x right, y down)
+``normals``         (H, W, 3) float32 unit surface normals, camera space, OpenCV axes (x right, y down,
+                    z forward), facing the camera; (0, 0, 0) where no surface
 ``albedo``          (H, W, 3) float32 reflectance as camera RGB under the light's white (white = 1);
                     ``albedo_srgb`` the same as linear sRGB (D65); ``shading`` (H, W) irradiance
                     relative to the reference white's; ``illuminance_lux`` (H, W) the illuminance
@@ -179,6 +181,7 @@ _READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
     "semantic": ("semantic.png", lambda p: {"semantic": _image(p)}),
     "coverage": ("coverage.exr", _coverage),
     "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
+    "normals": ("normals.exr", lambda p: {"normals": _stack(p, ("X", "Y", "Z"))}),
     "albedo": ("albedo.exr", lambda p: {"albedo": _clean_rgb(p), "albedo_srgb": _stack(p, ("sRGB_R", "sRGB_G", "sRGB_B")),
                                         **_shading(p.with_name("shading.exr"))}),
     "illuminant_map": ("illuminant_map.exr", _illuminant_map),
@@ -358,7 +361,7 @@ FRAME_LABELS = {
     "image": "area", "all_in_focus": "area", "clean_rgb": "area", "radiance": "area", "albedo": "area",
     "albedo_srgb": "area", "shading": "area", "illuminance_lux": "area", "illuminant_map": "area",
     "light_shares": "area", "depth": "nearest", "defocus": "nearest", "segmentation": "nearest", "semantic": "nearest",
-    "coverage": "nearest", "coverage_fraction": "nearest", "health": "nearest", "flow": "nearest",
+    "normals": "nearest", "coverage": "nearest", "coverage_fraction": "nearest", "health": "nearest", "flow": "nearest",
     "undistortion": "nearest",
 }
 

@@ -30,6 +30,7 @@ SPEC = {
 #: EXR labels read independently: loader key → (file, channels).
 EXR_CHANNELS = {"depth": ("depth.exr", ["Z"]), "defocus": ("defocus.exr", ["CoC"]),
                 "clean_rgb": ("clean_rgb.exr", ["R", "G", "B"]), "flow": ("flow.exr", ["dx", "dy"]),
+                "normals": ("normals.exr", ["X", "Y", "Z"]),
                 "undistortion": ("undistortion.exr", ["map_x", "map_y"]), "albedo": ("albedo.exr", ["R", "G", "B"]),
                 "shading": ("shading.exr", ["S"]), "illuminant_map": ("illuminant_map.exr", ["R", "G", "B"])}
 
@@ -70,7 +71,8 @@ def test_every_label_is_a_typed_column(dataset, loaded):
         assert isinstance(features[name], datasets.Image), name
     for name in ("depth", "defocus", "raw", "shading"):
         assert isinstance(features[name], datasets.Array2D), name
-    for name in ("clean_rgb", "radiance", "flow", "albedo", "coverage", "illuminant_map", "undistortion"):
+    for name in ("clean_rgb", "radiance", "flow", "albedo", "coverage", "illuminant_map", "undistortion",
+                 "normals"):
         assert isinstance(features[name], datasets.Array3D), name
     assert isinstance(features["camera"]["K"], datasets.Array2D)
     folder = dataset / "items" / "000000"
