@@ -22,6 +22,10 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
                              "--sweep 'lens.f_number=[1.4, 2.8, 5.6]' (repeatable: their product)")
     parser.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
                         help="fix a scene key for every item (repeatable)")
+    parser.add_argument("--export", action="append", metavar="FORMAT",
+                        help="also write this export into DIR/exports/ at the end of the run (repeatable; "
+                             "coco, depth_png, flo: as `spectral-cam export`, default options; the spec's "
+                             "[dataset] exports sets options)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="Dask scheduler address (tcp://HOST:8786), or 'inline' to render in this "
                              "process; default: a new local Dask cluster")
@@ -45,13 +49,15 @@ def run(args: argparse.Namespace) -> int:
     """``spectral-cam dataset``: exit 0 when every item is done, 1 when some failed (they are
     listed in the manifest; finished items are kept), 130 when interrupted (Ctrl-C, SIGTERM:
     finished items are kept, and the message says how many and that the same command resumes)."""
-    from ..apps.dataset import DatasetInterrupted, generate_dataset, load_spec, plan_dataset
+    from ..apps.dataset import DatasetInterrupted, generate_dataset, load_spec, plan_dataset, with_exports
     from ..errors import ConfigError
     from ..progress import duration
 
     if args.scheduler and args.workers is not None:
         raise ConfigError("--workers sizes the local cluster; with --scheduler the cluster decides")
     spec = load_spec(args.spec, sweeps=args.sweep or [], overrides=args.set or [])
+    if args.export:
+        spec = with_exports(spec, args.export)
     if args.dry_run:
         print(plan_dataset(spec, n=args.n, workers=args.workers, scheduler=args.scheduler))
         return 0
@@ -68,6 +74,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"dataset {summary.output}: {summary.items} items, {summary.rendered} rendered, "
               f"{summary.resumed} resumed, {summary.failed} failed in {duration(summary.seconds)} "
               f"({summary.items_per_minute:.1f} items/min); manifest {summary.manifest}", file=sys.stderr)
+        if spec.exports:
+            print(f"  exports in {summary.output / 'exports'}: {', '.join(name for name, _ in spec.exports)}",
+                  file=sys.stderr)
         for item_id, error in list(summary.errors.items())[:5]:
             print(f"  failed {item_id}: {error}", file=sys.stderr)
         if len(summary.errors) > 5:

@@ -180,6 +180,7 @@ from .spec import (
                      load_spec,
                      parse_sweep,
                      spec_from_dict,
+                     with_exports,
 )
 
 __all__ = [
@@ -193,7 +194,7 @@ __all__ = [
     "write_card",
     "write_metadata",
     "DISTRIBUTIONS", "FORMAT_VERSION", "Distribution", "Sweep", "parse_sweep", "DatasetSpec", "ItemPlan",
-    "spec_from_dict", "load_spec",
+    "spec_from_dict", "load_spec", "with_exports",
     "LABELS", "DEFAULT_OUTPUTS", "BLUR_PRESETS", "Item", "write_item", "defocus_map_px", "clean_camera_rgb",
     "measure_scene_blur",
     "DatasetSummary", "DatasetInterrupted", "generate_dataset", "item_task", "render_item", "local_cluster", "default_workers", "plan_dataset",

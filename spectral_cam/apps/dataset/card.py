@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 from ...io import atomic_path
-from ...records import json_ready
+from ...records import json_ready, read_json
 from .hf import hf_configs, parquet_shards, webdataset_shards
 from .labels import LABELS
 
@@ -128,6 +128,33 @@ def _preview_lines(output: Path) -> list[str]:
     return lines
 
 
+def _scale_note(path: Path, name: str) -> str:
+    """The scale an export folder's record states (the depth PNGs': metres per unit), as the card says it."""
+    record = read_json(path / f"{name}.json") if path.is_dir() else None
+    if not isinstance(record, dict) or "scale_m_per_unit" not in record:
+        return ""
+    scale = float(record["scale_m_per_unit"])
+    return (f"; written here with **depth in metres = value × {scale:g}** ({record.get('convention', 'custom')} "
+            f"convention, camera-space z, steps of {scale:g} m up to {65535 * scale:g} m; 0 = no depth)")
+
+
+def _export_lines(output: Path, spec) -> list[str]:
+    """The card's "Exports" section: each export the spec names (``[dataset] exports``) that is
+    written, linked, with its units and conventions (the depth PNGs' scale as written)."""
+    from .exports import EXPORTS, EXPORTS_DIR, exported
+
+    found = {name: path for name, path in exported(output).items() if name in dict(spec.exports)}
+    if not found:
+        return []
+    lines = ["", "## Exports", "", f"Written by the run into `{EXPORTS_DIR}/` from the finished items (replaced at "
+             "each run; `spectral-cam export DIR --format NAME -o OUT` writes them anywhere):", ""]
+    for name, path in found.items():
+        link = path.relative_to(output).as_posix()
+        target = link if path.is_file() else f"{link}/README.md"
+        lines.append(f"- [`{link}`]({target}) (`{name}`): {EXPORTS[name].description}{_scale_note(path, name)}")
+    return lines
+
+
 def _in_order(shards: Mapping[str, list], splits: Sequence[str]) -> dict[str, list]:
     """Shards by split in the spec's split order (others after, by name)."""
     return {name: shards[name] for name in [*splits, *sorted(set(shards) - set(splits))] if name in shards}
@@ -202,6 +229,7 @@ def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) 
         lines.append("None: every item is the same scene with its own noise and sample seeds.")
     lines += _split_lines(spec, done)
     lines += _preview_lines(output)
+    lines += _export_lines(Path(output), spec)
     lines += ["", "## Layout", "", "    metadata.jsonl        one row per item: file_name (the image), id, split, seed, "
               "parameters, <label>_file paths",
               "    manifest.jsonl        every planned item: status, seed, parameters, files, errors",
@@ -209,7 +237,9 @@ def write_card(output: Path, spec, rows: Mapping[int, dict], *, spec_hash: str) 
               *(["    data/split=S/*.parquet  typed Hugging Face rows of split S: every label decoded (below)"]
                 if parquet else []),
               *(["    webdataset/split=S/*.tar  WebDataset shards of split S: each item's files as <id>.<file name>"]
-                if tars else []), "",
+                if tars else []),
+              *(["    exports/              COCO instances, 16-bit depth PNGs, .flo flow (Exports, above)"]
+                if spec.exports else []), "",
               "## Loading", "", *_hf_lines(parquet, tars), "```python",
               "from spectral_cam.apps.dataset import SyntheticDataset   # NumPy arrays per item",
               "item = SyntheticDataset('.')[0]                          # item['image'], item['depth'], ...",

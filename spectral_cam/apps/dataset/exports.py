@@ -4,9 +4,11 @@ instances (:func:`export_coco`), 16-bit depth PNGs (:func:`export_depth_png`, on
 :func:`write_flo`). Each reads the labels through :func:`~.loader.read_item` and writes its
 result whole or not at all (a JSON file through :func:`~spectral_cam.io.atomic_path`, a folder
 through :func:`~spectral_cam.io.staged_directory`); :data:`EXPORTS` names them for
-``spectral-cam export DATASET --format NAME -o OUT``.
+``spectral-cam export DATASET --format NAME -o OUT``, and a dataset run writes those its spec's
+``[dataset] exports`` names into ``DIR/exports/`` (:func:`export_into_dataset`).
 
-Surface normals are not exported: no dataset label holds them yet.
+Surface normals need no export: the ``normals`` label is already the common form (camera-space
+unit normals as float EXR, OpenCV axes, and an 8-bit PNG of (n + 1) / 2).
 
 References
 ----------
@@ -31,7 +33,7 @@ import datetime
 import json
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -40,11 +42,29 @@ from ...io import atomic_path, staged_directory
 from ...registry import Registry
 from .loader import SyntheticDataset, read_classes, read_item
 
-__all__ = ["EXPORTS", "export", "export_coco", "export_depth_png", "export_flo", "write_depth_png",
+__all__ = ["EXPORTS", "EXPORT_LABELS", "EXPORT_TARGETS", "EXPORTS_DIR", "export", "export_into_dataset",
+           "check_exports", "exported", "export_coco", "export_depth_png", "export_flo", "write_depth_png",
            "read_depth_png", "write_flo", "read_flo", "mask_to_rle", "DEPTH_SCALES"]
 
 #: Every export format: name → ``function(dataset_dir, out, *, force=False, **options)``.
 EXPORTS = Registry("export format")
+#: The label each format reads: format → ``[dataset] outputs`` name (filled by :func:`_export`).
+EXPORT_LABELS: dict[str, str] = {}
+#: Where a dataset run writes each format, relative to :data:`EXPORTS_DIR` (filled by :func:`_export`).
+EXPORT_TARGETS: dict[str, str] = {}
+#: The folder of a dataset holding the exports its spec names (``[dataset] exports``).
+EXPORTS_DIR = "exports"
+
+
+def _export(name: str, *, reads: str, target: str, options: tuple[str, ...] = (), description: str):
+    """Register an export format in :data:`EXPORTS` with the label it reads and its place in a
+    dataset folder."""
+    def decorate(function):
+        EXPORTS.add(name, function, options=options, description=description)
+        EXPORT_LABELS[name], EXPORT_TARGETS[name] = reads, target
+        return function
+
+    return decorate
 
 #: The two depth PNG conventions by name: metres per PNG unit.
 DEPTH_SCALES = {"nyu_mm": 0.001, "kitti": 1.0 / 256.0}
@@ -207,7 +227,7 @@ def coco_instances(dataset_dir: str | Path) -> dict:
     }
 
 
-@EXPORTS.register("coco", description="COCO instances JSON (RLE masks, boxes, areas, categories) of the "
+@_export("coco", reads="segmentation", target="coco.json", description="COCO instances JSON (RLE masks, boxes, areas, categories) of the "
                                       "segmentation label; OUT is the .json file")
 def export_coco(dataset_dir: str | Path, out_path: str | Path, *, force: bool = False) -> Path:
     """Write the dataset's segmentation as COCO instances (object detection and instance
@@ -366,8 +386,8 @@ def _describe_depth_pngs(folder: Path, scale: float, records: dict, dataset_dir:
         "```"]), encoding="utf-8")
 
 
-@EXPORTS.register("depth_png", options=("scale_m",),
-                  description="16-bit depth PNGs, one per item (OUT/<id>.png; value × scale m, 0 = none; default "
+@_export("depth_png", reads="depth", target="depth_png", options=("scale_m",),
+         description="16-bit depth PNGs, one per item (OUT/<id>.png; value × scale m, 0 = none; default "
                               "scale 0.001: millimetres, NYU; 1/256: KITTI) with depth_png.json and README.md; "
                               "OUT is a folder")
 def export_depth_png(dataset_dir: str | Path, out_dir: str | Path, *, scale_m: float = 0.001,
@@ -463,7 +483,7 @@ def read_flo(path: str | Path) -> np.ndarray:
     return np.where(np.abs(flow) > 1e9, np.nan, flow).astype(np.float32)
 
 
-@EXPORTS.register("flo", description="Middlebury .flo optical flow, one per item (OUT/<id>.flo; u right, v down, "
+@_export("flo", reads="flow", target="flo", description="Middlebury .flo optical flow, one per item (OUT/<id>.flo; u right, v down, "
                                      "px over the exposure) with flo.json and README.md; OUT is a folder")
 def export_flo(dataset_dir: str | Path, out_dir: str | Path, *, force: bool = False) -> Path:
     """Write every finished item's flow label as a Middlebury ``.flo`` file (:func:`write_flo`).
@@ -522,3 +542,56 @@ def export(dataset_dir: str | Path, out: str | Path, *, format: str, force: bool
     EXPORTS.check(format, key="--format")
     EXPORTS.check_options(format, options, where=f"export format {format!r}")
     return EXPORTS[format](dataset_dir, out, force=force, **options)
+
+
+def check_exports(exports: Mapping[str, Mapping[str, Any]], outputs: Sequence[str], *,
+                  key: str = "dataset.exports") -> dict[str, dict]:
+    """Check a dataset's exports before anything renders: known formats, their own options (a
+    depth scale > 0) and the labels they read among ``outputs``.
+
+    Returns
+    -------
+    dict
+        format → options, the depth scale as a number.
+
+    Raises
+    ------
+    ConfigError
+        Naming the valid formats, options or the label to add to ``[dataset] outputs``.
+    """
+    checked = {}
+    for name, options in exports.items():
+        EXPORTS.check(name, key=key)
+        if not isinstance(options, Mapping):
+            raise ConfigError(f"{key}.{name} = {options!r}: give a table of the format's options "
+                              f"({', '.join(EXPORTS[name].options) or 'none'}), e.g. {{ scale_m = 0.001 }}")
+        EXPORTS.check_options(name, options, where=f"{key}.{name}")
+        options = dict(options)
+        if "scale_m" in options:
+            options["scale_m"] = _check_scale(options["scale_m"])
+        if EXPORT_LABELS[name] not in outputs:
+            raise ConfigError(f"{key}: the {name!r} export reads the {EXPORT_LABELS[name]!r} label; add "
+                              f"{EXPORT_LABELS[name]!r} to [dataset] outputs (now {', '.join(outputs)})")
+        checked[name] = options
+    return checked
+
+
+def export_into_dataset(dataset_dir: str | Path, exports: Mapping[str, Mapping[str, Any]]) -> dict[str, Path]:
+    """Write each of ``exports`` (format → options) into ``dataset_dir/exports/`` from the
+    dataset's finished items, replacing the previous run's (each whole or not at all).
+
+    Returns
+    -------
+    dict
+        format → the file or folder written (:data:`EXPORT_TARGETS`).
+    """
+    folder = Path(dataset_dir) / EXPORTS_DIR
+    folder.mkdir(parents=True, exist_ok=True)
+    return {name: export(dataset_dir, folder / EXPORT_TARGETS[name], format=name, force=True, **options)
+            for name, options in exports.items()}
+
+
+def exported(dataset_dir: str | Path) -> dict[str, Path]:
+    """The exports a dataset folder holds: format → its file or folder under ``exports/``."""
+    folder = Path(dataset_dir) / EXPORTS_DIR
+    return {name: folder / target for name, target in EXPORT_TARGETS.items() if (folder / target).exists()}

@@ -41,6 +41,7 @@ from ...render.variants import set_render_threads
 from ...scene import scene_from_dict
 from .labels import CLASS_LABELS, file_check, spec_class_table, write_classes, write_item
 from .card import metadata_rows, write_card, write_metadata
+from .exports import export_into_dataset
 from .hf import datasets_installed, write_parquet_shards, write_webdataset_shards
 from .sheets import write_blur_chart, write_contact_sheet, write_label_preview
 from .spec import DatasetSpec, ItemPlan
@@ -743,7 +744,9 @@ def generate_dataset(
             if any(r["status"] == "done" for r in rows.values()):
                 _write_shards(output, spec, rows)
                 _write_summaries(output, sweeps=bool(spec.sweeps))
-        finally:  # last: it links the shards and previews (and lists the items should they fail)
+                if spec.exports:  # [dataset] exports: COCO, depth PNGs, .flo into DIR/exports/
+                    export_into_dataset(output, dict(spec.exports))
+        finally:  # last: it links the shards, previews and exports (and lists the items should they fail)
             write_card(output, spec, rows, spec_hash=spec.hash)
     summary.seconds = time.perf_counter() - started
     return summary

@@ -37,7 +37,7 @@ from .labels import DEFAULT_OUTPUTS, LABELS
 
 __all__ = ["DISTRIBUTIONS", "FORMAT_VERSION", "DEFAULT_SPLITS", "SHARD_ITEMS", "Distribution", "Sweep", "parse_sweep",
            "ItemPlan", "DatasetSpec",
-           "spec_from_dict", "load_spec"]
+           "spec_from_dict", "load_spec", "with_exports"]
 
 #: Distributions a spec value may take (an inline table with exactly one of these keys).
 DISTRIBUTIONS = ("uniform", "log_uniform", "choice")
@@ -48,7 +48,7 @@ DEFAULT_SPLITS = (("train", 1.0),)
 #: Items per Parquet and WebDataset shard by default (``[dataset] shard_items``).
 SHARD_ITEMS = 1000
 #: [dataset] keys that do not decide the items' pixels (not in the spec hash: they may change on resume).
-_UNHASHED = ("outputs", "count", "source", "splits", "split_seed", "webdataset", "shard_items")
+_UNHASHED = ("outputs", "count", "source", "splits", "split_seed", "webdataset", "shard_items", "exports")
 _SPLIT_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 _SWEEP_RANGE = re.compile(r"^\s*([^:\s]+)\s*:\s*([^:\s]+)\s*:\s*(\d+)\s*(?::\s*(lin|log)\s*)?$")
@@ -363,6 +363,7 @@ class DatasetSpec:
     split_seed: int | None = None
     webdataset: bool = False
     shard_items: int = SHARD_ITEMS
+    exports: tuple = ()
 
     def to_dict(self) -> dict:
         """The spec as JSON (what dataset.json records)."""
@@ -379,6 +380,7 @@ class DatasetSpec:
             "split_seed": self.effective_split_seed,
             "webdataset": self.webdataset,
             "shard_items": self.shard_items,
+            "exports": dict(self.exports),
         }
 
     @functools.cached_property
@@ -624,7 +626,8 @@ def spec_from_dict(
     base_dir = Path(base_dir).resolve()
     data = dict(data)
     settings = dict(data.pop("dataset", {}) or {})
-    valid_settings = ("scene", "seed", "n", "outputs", "sweep", "splits", "split_seed", "webdataset", "shard_items")
+    valid_settings = ("scene", "seed", "n", "outputs", "sweep", "splits", "split_seed", "webdataset", "shard_items",
+                      "exports")
     unknown = sorted(set(settings) - set(valid_settings))
     if unknown:
         raise ConfigError(f"unknown key(s) {', '.join('dataset.' + k for k in unknown)}; valid keys of "
@@ -703,9 +706,34 @@ def spec_from_dict(
         raise ConfigError(f"dataset.n = {count!r}: must be a whole number >= 1")
     ordered = tuple(name for name in LABELS if name in outputs)
     spec = DatasetSpec(fixed=fixed, distributions=distributions, sweeps=tuple(axes), outputs=ordered,
-                       seed=seed, count=count, base_dir=str(base_dir), source=source, **_sharding(settings))
+                       seed=seed, count=count, base_dir=str(base_dir), source=source, **_sharding(settings),
+                       exports=_exports(settings.get("exports", ()), ordered))
     spec.check_values()
     return spec
+
+
+def _exports(value: Any, outputs: Sequence[str]) -> tuple:
+    """``[dataset] exports``: a list of format names (their default options) or a table of
+    format = {options}, checked (:func:`~.exports.check_exports`) as (format, options) pairs."""
+    from .exports import EXPORTS, check_exports
+
+    example = (f"e.g. exports = [\"coco\", \"depth_png\"] or exports = {{ depth_png = {{ scale_m = 0.00390625 }} }}; "
+               f"formats: {', '.join(EXPORTS.names())}")
+    if isinstance(value, (list, tuple)):
+        if not all(isinstance(name, str) for name in value) or len(set(value)) != len(value):
+            raise ConfigError(f"dataset.exports = {value!r}: give each format name once, {example}")
+        value = {name: {} for name in value}
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"dataset.exports = {value!r}: {example}")
+    return tuple(check_exports(value, outputs).items())
+
+
+def with_exports(spec: DatasetSpec, names: Sequence[str]) -> DatasetSpec:
+    """``spec`` also writing the export formats ``names`` (default options), checked against its
+    outputs (``spectral-cam dataset --export``); formats it already names keep their options."""
+    exports = dict(spec.exports)
+    exports.update({name: {} for name in names if name not in exports})
+    return dataclasses.replace(spec, exports=_exports(exports, spec.outputs))
 
 
 def _sharding(settings: Mapping[str, Any]) -> dict:
