@@ -29,7 +29,7 @@ from .layered import render_layered
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
 from .variants import choose_variant
 
-__all__ = ["render", "execute", "render_layered", "render_shape_map", "render_coverage_map", "choose_variant", "SpectralImage", "LANES_PER_PASS",
+__all__ = ["render", "execute", "render_layered", "render_shape_map", "render_coverage_map", "render_normal_map", "render_shape_layer_map", "choose_variant", "SpectralImage", "LANES_PER_PASS",
            "SCALAR_LANES_PER_PASS"]
 
 
@@ -75,6 +75,32 @@ def render_albedo_map(config: SceneConfig, *, lens: ThinLens | None = None, spp:
     mi.set_variant(choose_variant(config.render.variant))
     lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
     return render_albedo(mi, config, lens, spp=spp), spectra.parse_bands(ALBEDO_BANDS)
+
+
+def render_shape_layer_map(config: SceneConfig, *, lens: ThinLens | None = None):
+    """The shapes each pixel's pinhole ray passes through (:func:`.depth.render_shape_layers`:
+    (H, W, AMODAL_LAYERS) indices into :func:`render_shape_map`'s shapes, nearest first, −1 for
+    none, on the segmentation's rays), or None in Mitsuba's scalar variants; the lens is the frame's."""
+    import mitsuba as mi
+
+    from .depth import render_shape_layers
+
+    mi.set_variant(choose_variant(config.render.variant))
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    return render_shape_layers(mi, config, lens)
+
+
+def render_normal_map(config: SceneConfig, *, lens: ThinLens | None = None) -> tuple:
+    """(H, W, 3) unit surface normals in OpenCV camera axes, facing the camera, and the z (m) of
+    the same hits, through the frame's pinhole on the depth label's rays
+    (:func:`.depth.render_normals`); the lens is the frame's."""
+    import mitsuba as mi
+
+    from .depth import render_normals
+
+    mi.set_variant(choose_variant(config.render.variant))
+    lens = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens
+    return render_normals(mi, config, lens)
 
 
 def render(

@@ -332,3 +332,64 @@ def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = ALBEDO_
     for first, end, image in tiles():
         out[first:end] = image
     return out
+
+
+#: Surfaces each pinhole ray is followed through for the amodal masks (a closed object takes two).
+AMODAL_LAYERS = 8
+_LAYERS_INTEGRATOR = "spectral_cam_shape_layers"
+_LAYERS_REGISTERED: set = set()
+
+
+def _register_shape_layers(mi) -> None:
+    """A Mitsuba integrator returning, along each camera ray, the shape and primitive of each of
+    the first :data:`AMODAL_LAYERS` surfaces it passes through (AOVs ``<k>_s``, ``<k>_p``; 0 past
+    the last): the ray is spawned on from every hit, whatever the material."""
+    import drjit as dr
+
+    if mi.variant() in _LAYERS_REGISTERED:
+        return
+
+    class ShapeLayers(mi.SamplingIntegrator):
+        def aov_names(self):
+            return [f"{k}_{c}" for k in range(AMODAL_LAYERS) for c in "sp"]
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            ray, alive, layers = mi.Ray3f(ray), mi.Bool(active), []
+            for _ in range(AMODAL_LAYERS):
+                si = scene.ray_intersect(ray, alive)
+                alive = alive & si.is_valid()
+                layers += [dr.select(alive, mi.Float(dr.reinterpret_array(mi.UInt32, si.shape)), 0.0),
+                           dr.select(alive, mi.Float(si.prim_index), 0.0)]
+                ray = si.spawn_ray(ray.d)
+            return mi.Spectrum(0.0), mi.Bool(True), layers
+
+    mi.register_integrator(_LAYERS_INTEGRATOR, lambda props: ShapeLayers(props))
+    _LAYERS_REGISTERED.add(mi.variant())
+
+
+def render_shape_layers(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray | None:
+    """The shapes each pixel's pinhole ray passes through: (H, W, :data:`AMODAL_LAYERS`) indices
+    into :func:`render_shapes`' shapes, nearest first (−1: none), on the
+    segmentation's own rays (the same random point of each pixel: layer 0 is its shape map).
+    None in Mitsuba's scalar variants, whose shapes have no registry ids to return.
+
+    References
+    ----------
+    .. [1] Everitt, C. (2001). Interactive order-independent transparency. NVIDIA (depth peeling).
+    .. [2] Jakob, W., et al. (2022). Mitsuba 3, ``Scene.ray_intersect``, ``SurfaceInteraction3f.spawn_ray``.
+    """
+    if mi.variant().startswith("scalar"):
+        return None
+    _register_shape_layers(mi)
+    width, height = lens.width_px, lens.height_px
+    # the shape map's stream and spp: the same rays as the segmentation's (render.depth.render_shapes)
+    scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height), {"type": _LAYERS_INTEGRATOR},
+                                     spp=1, stream=1 << 21, optimize=False)
+    lookup, shapes = _shape_ids(mi, scene)
+    instances = _Instances(config, lens, shapes)
+    out = np.empty((height, width, AMODAL_LAYERS), np.int64)
+    for first, end, image in tiles():
+        for k in range(AMODAL_LAYERS):
+            pair = image[..., -2 * AMODAL_LAYERS + 2 * k:][..., :2]  # (shape, primitive), as _index_of reads them
+            out[first:end, :, k] = instances(_index_of(lookup, pair), pair)
+    return out

@@ -42,6 +42,7 @@ from ...io import staged_directory
 from ...job import Simulation, result_meta, simulate, write_files
 from ...metrics.blur import measure_blur
 from ...records import write_json
+from ...render.depth import AMODAL_LAYERS
 from ...registry import Registry
 from ...scene import SceneConfig
 
@@ -629,71 +630,14 @@ class Instances:
         return self.of_shape[np.asarray(shape_index)]
 
 
-#: Surfaces each pinhole ray is followed through for the amodal masks (a closed object takes two).
-AMODAL_LAYERS = 8
-_LAYERS_INTEGRATOR = "spectral_cam_shape_layers"
-_LAYERS_REGISTERED: set = set()
-
-
-def _register_shape_layers(mi) -> None:
-    """A Mitsuba integrator returning, along each camera ray, the shape and primitive of each of
-    the first :data:`AMODAL_LAYERS` surfaces it passes through (AOVs ``<k>_s``, ``<k>_p``; 0 past
-    the last): the ray is spawned on from every hit, whatever the material."""
-    import drjit as dr
-
-    if mi.variant() in _LAYERS_REGISTERED:
-        return
-
-    class ShapeLayers(mi.SamplingIntegrator):
-        def aov_names(self):
-            return [f"{k}_{c}" for k in range(AMODAL_LAYERS) for c in "sp"]
-
-        def sample(self, scene, sampler, ray, medium=None, active=True):
-            ray, alive, layers = mi.Ray3f(ray), mi.Bool(active), []
-            for _ in range(AMODAL_LAYERS):
-                si = scene.ray_intersect(ray, alive)
-                alive = alive & si.is_valid()
-                layers += [dr.select(alive, mi.Float(dr.reinterpret_array(mi.UInt32, si.shape)), 0.0),
-                           dr.select(alive, mi.Float(si.prim_index), 0.0)]
-                ray = si.spawn_ray(ray.d)
-            return mi.Spectrum(0.0), mi.Bool(True), layers
-
-    mi.register_integrator(_LAYERS_INTEGRATOR, lambda props: ShapeLayers(props))
-    _LAYERS_REGISTERED.add(mi.variant())
-
-
 def shape_layers(config: SceneConfig, lens) -> np.ndarray | None:
-    """The shapes each pixel's pinhole ray passes through: (H, W, :data:`AMODAL_LAYERS`) indices
-    into :func:`spectral_cam.render.render_shape_map`'s shapes, nearest first (−1: none), on the
-    segmentation's own rays (the same random point of each pixel: layer 0 is its shape map).
-    None in Mitsuba's scalar variants, whose shapes have no registry ids to return.
+    """The shapes each pixel's pinhole ray passes through: (H, W, AMODAL_LAYERS) indices into
+    :func:`spectral_cam.render.render_shape_map`'s shapes, nearest first (−1: none), on the
+    segmentation's own rays (:func:`spectral_cam.render.render_shape_layer_map`); None in
+    Mitsuba's scalar variants."""
+    from ...render import render_shape_layer_map
 
-    References
-    ----------
-    .. [1] Everitt, C. (2001). Interactive order-independent transparency. NVIDIA (depth peeling).
-    .. [2] Jakob, W., et al. (2022). Mitsuba 3, ``Scene.ray_intersect``, ``SurfaceInteraction3f.spawn_ray``.
-    """
-    import mitsuba as mi
-
-    from ...render import choose_variant
-    from ...render.depth import _index_of, _Instances, _luminance_film, _pinhole_probe, _shape_ids
-
-    mi.set_variant(choose_variant(config.render.variant))
-    if mi.variant().startswith("scalar"):
-        return None
-    _register_shape_layers(mi)
-    width, height = lens.width_px, lens.height_px
-    # the shape map's stream and spp: the same rays as the segmentation's (render.depth.render_shapes)
-    scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height), {"type": _LAYERS_INTEGRATOR},
-                                     spp=1, stream=1 << 21, optimize=False)
-    lookup, shapes = _shape_ids(mi, scene)
-    instances = _Instances(config, lens, shapes)
-    out = np.empty((height, width, AMODAL_LAYERS), np.int64)
-    for first, end, image in tiles():
-        for k in range(AMODAL_LAYERS):
-            pair = image[..., -2 * AMODAL_LAYERS + 2 * k:][..., :2]  # (shape, primitive), as _index_of reads them
-            out[first:end, :, k] = instances(_index_of(lookup, pair), pair)
-    return out
+    return render_shape_layer_map(config, lens=lens)
 
 
 def amodal_pixels(layers: np.ndarray, objects: "Instances") -> np.ndarray:
@@ -993,14 +937,11 @@ def _illuminant_map(item: Item, folder: Path) -> list[Path]:
                              "preview, RGB = 255 (n + 1) / 2 (black where no surface)")
 def _normals(item: Item, folder: Path) -> list[Path]:
     import cv2
-    import mitsuba as mi
 
-    from ...render.depth import render_normals
-    from ...render.variants import choose_variant
+    from ...render import render_normal_map
 
     t0 = time.perf_counter()
-    mi.set_variant(choose_variant(item.config.render.variant))
-    normals, z = render_normals(mi, item.config, item.sim.lens)
+    normals, z = render_normal_map(item.config, lens=item.sim.lens)
     exr = write_exr_channels({axis: normals[..., k] for k, axis in enumerate("XYZ")}, folder / "normals.exr",
                              {"spectral_cam_units": "unit normal, camera space, OpenCV axes: X right, Y down, "
                                                     "Z forward; facing the camera; 0 where no surface"})

@@ -78,7 +78,7 @@ def test_an_item_writes_the_labels_it_is_asked_for(make_scene, tmp_path):
     assert meta["defocus"]["channel"] == "CoC"
     recorded = {key for entry in LABELS.values() for key in entry.options}
     assert recorded == {"defocus", "all_in_focus", "blur", "clean_rgb", "undistortion", "health", "segmentation", "albedo",
-                        "flow", "illuminant_map", "coverage", "semantic"}
+                        "flow", "illuminant_map", "coverage", "semantic", "normals"}
     assert all(meta[key] is None for key in recorded - {"defocus"})
     assert json.loads((tmp_path / "item" / "meta.json").read_text())["files"] == meta["files"]
 
