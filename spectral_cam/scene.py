@@ -628,10 +628,11 @@ class RenderSection:
     digits, docs/design.md). ``estimator`` turns the passes into a pixel's radiance: ``mean``, or
     ``amon`` (the adaptive median of 8 pass means: no fireflies, :mod:`spectral_cam.render.robust`);
     ``auto`` takes ``amon`` where the scene can make fireflies (glossy, metal or glass
-    materials, a user's XML scene) and ``spp`` is fixed. ``deterministic = true`` renders on
-    one thread, so the same scene.toml gives the same bytes under any load (multi-threaded,
-    a pixel's sample sums can move in their last bits with the threads' timing:
-    :func:`spectral_cam.render.variants.deterministic_threads`).
+    materials, a user's XML scene) and ``spp`` is fixed. The same scene.toml gives the same
+    bytes under load on the renderer's threads for the bundled presets (measured:
+    :func:`spectral_cam.render.variants.deterministic_threads`); ``deterministic = true``
+    renders on one thread, for what can still follow the threads' timing (an XML scene's
+    meshes without normals, a moving mesh), at the cost of the other cores.
     """
 
     spp: int | str = 64

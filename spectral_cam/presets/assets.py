@@ -457,12 +457,20 @@ def _mtl_material(obj: Path) -> tuple[str, tuple | None]:
     return texture, colour
 
 
+def _obj_has_normals(path: Path) -> bool:
+    """Whether the OBJ file gives vertex normals (``vn`` lines). Without them Mitsuba computes
+    them with a scatter-add whose order follows its threads (issue 39 #17), so
+    :func:`asset_mesh` computes them itself."""
+    with open(path, "rb") as handle:
+        return any(line.lstrip().startswith((b"vn ", b"vn\t")) for line in handle)
+
+
 def _read_obj(path: Path, mi) -> MeshData:
     mesh = mi.load_dict({"type": "obj", "filename": str(path), "face_normals": False})
     params = mi.traverse(mesh)
     vertices = np.asarray(params["vertex_positions"], dtype=np.float64).reshape(-1, 3)
     out = MeshData(vertices, np.asarray(params["faces"], dtype=np.int64).reshape(-1, 3))
-    if mesh.has_vertex_normals():
+    if mesh.has_vertex_normals() and _obj_has_normals(path):  # else Mitsuba summed them on its threads: ours
         out.normals = np.asarray(params["vertex_normals"], dtype=np.float64).reshape(-1, 3)
     if mesh.has_vertex_texcoords():
         out.uv = np.asarray(params["vertex_texcoords"], dtype=np.float64).reshape(-1, 2)  # flipped by Mitsuba
@@ -579,8 +587,10 @@ def asset_mesh(mi, name: str, data: MeshData, bsdf: dict, matrix: np.ndarray | N
         unit = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
         params["vertex_normals"] = floats(np.ascontiguousarray(unit, dtype=np.float32).ravel())
         params.update()
-    else:
-        mesh.recompute_vertex_normals()
+    else:  # ours, in a fixed order: Mitsuba's sums follow its threads' timing (issue 39 #17)
+        from .meshes import set_vertex_normals, vertex_normals
+
+        set_vertex_normals(mi, mesh, vertex_normals(vertices, data.faces))
     return mesh
 
 

@@ -7,14 +7,17 @@ normals come from Mitsuba (averaged face normals), so curved objects shade smoot
 References
 ----------
 .. [1] Jakob, W., et al. (2022). Mitsuba 3, ``mi.Mesh`` built from Python (vertex_positions,
-   faces, vertex_texcoords, ``add_attribute`` read by the ``mesh_attribute`` texture).
+   faces, vertex_texcoords, ``add_attribute`` read by the ``mesh_attribute`` texture), and
+   ``Mesh::recompute_vertex_normals`` (src/render/mesh.cpp).
+.. [2] Thürmer, G., & Wüthrich, C. A. (1998). Computing vertex normals from polygonal facets.
+   Journal of Graphics Tools 3(1), 43–46.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["lathe", "torus", "vase", "mitsuba_mesh"]
+__all__ = ["lathe", "torus", "vase", "vertex_normals", "set_vertex_normals", "mitsuba_mesh"]
 
 
 def lathe(radius: np.ndarray, height: np.ndarray, segments: int = 48, *, closed_loop: bool = False):
@@ -53,6 +56,66 @@ def vase(height_m: float, segments: int = 48, points: int = 24):
     return lathe(radius, height, segments)
 
 
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit vertex normals of a triangle mesh: each face's unit normal weighted by the angle of
+    its corner at the vertex, summed and normalised ([2]_, Mitsuba's rule [1]_), in float64 and
+    a fixed order, so the same mesh always gets the same bits (Mitsuba's scatter-add on its
+    threads does not, see the module docstring).
+
+    Parameters
+    ----------
+    vertices : numpy.ndarray
+        (n, 3) positions (any unit).
+    faces : numpy.ndarray
+        (m, 3) vertex indices, counter-clockwise seen from the front.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 3) float64 unit normals. A degenerate (zero-area) face adds nothing; a vertex that
+        only such faces use (or none) gets +z, as no visible triangle interpolates it.
+
+    References
+    ----------
+    .. [1] Mitsuba 3, ``Mesh::recompute_vertex_normals``.
+    .. [2] Thürmer, G., & Wüthrich, C. A. (1998). J. Graphics Tools 3(1), 43–46.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    >>> vertex_normals(square, np.array([[0, 1, 2], [0, 2, 3]])).tolist()[0]
+    [0.0, 0.0, 1.0]
+    """
+    points = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    corners = points[faces]  # (m, 3 corners, 3)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    total = np.zeros_like(points)
+    for corner in range(3):
+        edges = [corners[:, (corner + k) % 3] - corners[:, corner] for k in (1, 2)]
+        edges = [np.divide(e, n, out=np.zeros_like(e), where=n > 0)
+                 for e in edges for n in [np.linalg.norm(e, axis=1, keepdims=True)]]
+        angle = np.arccos(np.clip(np.einsum("ij,ij->i", *edges), -1.0, 1.0))
+        for axis in range(3):  # bincount adds in index order: the same sum every time
+            total[:, axis] += np.bincount(faces[:, corner], weights=normal[:, axis] * angle, minlength=len(points))
+    length = np.linalg.norm(total, axis=1, keepdims=True)
+    out = np.divide(total, length, out=np.zeros_like(total), where=length > 0)
+    out[length[:, 0] == 0] = (0.0, 0.0, 1.0)
+    return out
+
+
+def set_vertex_normals(mi, mesh, normals: np.ndarray) -> None:
+    """Store (n, 3) unit ``normals`` in a Mitsuba ``mesh`` built with ``has_vertex_normals``
+    (in the variant's own buffer type), instead of ``mesh.recompute_vertex_normals()``."""
+    params = mi.traverse(mesh)
+    floats = type(params["vertex_positions"])
+    params["vertex_normals"] = floats(np.ascontiguousarray(normals, dtype=np.float32).ravel())
+    params.update()
+
+
 def mitsuba_mesh(mi, name: str, vertices: np.ndarray, faces: np.ndarray, bsdf: dict, to_world=None, *,
                  texcoords: np.ndarray | None = None, attributes: dict | None = None):
     """A Mitsuba mesh of these triangles with ``bsdf`` (a scene-dict entry), placed by
@@ -77,5 +140,5 @@ def mitsuba_mesh(mi, name: str, vertices: np.ndarray, faces: np.ndarray, bsdf: d
     for key, values in (attributes or {}).items():
         values = np.asarray(values, dtype=np.float32).reshape(len(vertices), -1)
         mesh.add_attribute(key, values.shape[1], floats(np.ascontiguousarray(values).ravel()))
-    mesh.recompute_vertex_normals()
+    set_vertex_normals(mi, mesh, vertex_normals(vertices, faces))  # not Mitsuba's: its sums follow the threads
     return mesh

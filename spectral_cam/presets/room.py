@@ -53,6 +53,7 @@ import numpy as np
 
 from .. import spectra
 from .common import PRESETS, reflectance_spectrum, spectrum_dict
+from .meshes import set_vertex_normals, vertex_normals
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
@@ -704,8 +705,8 @@ def room(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
             loaded[piece.material] = mi.load_dict(layout.materials[piece.material](mi))
         lathe_piece = piece.texcoords is None
         mesh = _mesh(mi, piece, loaded[piece.material], view, texcoords=not lathe_piece)
-        if lathe_piece:
-            mesh.recompute_vertex_normals()  # curved: smooth shading
+        if lathe_piece:  # curved: smooth shading, with normals summed in a fixed order (issue 39 #17)
+            set_vertex_normals(mi, mesh, vertex_normals(view.to_camera(piece.vertices), piece.faces))
         objects[piece.name] = mesh
     objects["ceiling_lamp"] = ceiling_lamp(config, view, mi)
     objects.update(lamp_diffusers(config, view, mi, layout.lamp_m))

@@ -191,4 +191,13 @@ def execute(plan, *, progress: Callable[[int, int, float], None] | None = None) 
     image.meta["illuminant_spd"] = config.illuminant.spd  # what white balance and the truth assume
     image.meta["illuminant_emitter"] = config.illuminant.emitter
     image.meta["plan"] = plan.record()
+    image.meta["threads"] = _render_threads()  # meta.json: what the sums' order depended on
     return image
+
+
+def _render_threads() -> int:
+    """The renderer's worker threads (Dr.Jit's pool, 1 under ``render.deterministic``), which
+    meta.json records: the order of a multi-threaded sum follows them (docs/design.md)."""
+    import drjit
+
+    return int(drjit.thread_count())

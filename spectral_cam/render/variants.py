@@ -442,20 +442,27 @@ def deterministic_threads(enabled: bool):
     """Run the block on one renderer thread when ``enabled`` (``render.deterministic``), then
     restore the thread count.
 
-    Mitsuba's JIT film adds each sample into its pixel with an atomic scatter-add, and Dr.Jit
-    hands blocks of samples to its threads as they come free: when a pixel's samples fall in
-    two blocks, the order of its float additions (and so its last bits) follows the threads'
-    timing. On a quiet machine the order repeats; under contention it does not: measured on
-    the tabletop (480 × 320, 64 spp, 2 cores with 8 other processes), 1 in 4 re-renders moved
-    most pixels by up to 7.7e-5 relative (no RAW DN moved in that case; the metered exposure
-    time's last digits did, so the DNG bytes differ). Dr.Jit's reduction modes do not remove
-    it (``Expand``, ``Local`` and ``Direct`` all differed with 8 threads on 2 cores). On one
-    thread the blocks run in order: the same scene.toml gives the same bytes under any load.
+    What Dr.Jit's threads sum in their own order can differ in its last bits from run to run
+    under contention, and a path tracer turns a last bit into another path where a choice
+    (a BSDF lobe, Russian roulette) sits on a threshold. Measured on the tabletop (96 × 64,
+    16 spp, two busy processes, 8 renderer threads on 2 cores): Mitsuba's own vertex normals
+    (``Mesh::recompute_vertex_normals``, an atomic scatter-add) changed in 6 % of a torus's
+    values at each scene load, and ~1 % of the pixels by up to 50 % (up to 3 % after the
+    adaptive median of means); the presets now give their own normals
+    (:func:`spectral_cam.presets.meshes.vertex_normals`), and 8 of 8 renders per estimator,
+    10 of 10 at 480 × 320 and 64 spp, and 3 re-renders of a job's scene.toml (DNG bytes) were
+    identical. The film's scatter-add does not move: a pass's 2^k samples of a pixel stay in
+    one of Dr.Jit's blocks with the box filter (:func:`.scene_dict.power_of_two_at_most`).
+    What can still follow the threads' timing: a user's XML scene whose meshes come without
+    normals, and a moving mesh (``motion.object``: Mitsuba recomputes its normals each
+    sub-frame). On one thread the blocks run in order: the same scene.toml then gives the
+    same bytes under any load, at the cost of the other cores.
 
     References
     ----------
     .. [1] drjit documentation, ``drjit.ReduceMode`` and ``drjit.set_thread_count``;
-       Mitsuba 3, ``ImageBlock::put`` (``scatter_reduce(ReduceOp::Add, ...)``).
+       Mitsuba 3, ``ImageBlock::put`` and ``Mesh::recompute_vertex_normals``
+       (``scatter_reduce(ReduceOp::Add, ...)``).
     """
     if not enabled:
         yield
