@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     plan = load_plan(args.plan, overrides=args.set or [])
     result = run_plan(plan, args.output, force=args.force, progress=progress.log)
     failed = [c for c in result.cells if c.status != "pass"]
-    progress.log(f"wrote {args.output}/report.html: {len(result.cells) - len(failed)}/{len(result.cells)} cells "
+    report = Path(args.output) / "report.html"  # "-o report/" must not print report//report.html
+    progress.log(f"wrote {report}: {len(result.cells) - len(failed)}/{len(result.cells)} cells "
                  f"pass in {result.elapsed_s:.1f} s")
     return 0 if not failed else 1
