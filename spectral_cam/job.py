@@ -21,6 +21,7 @@ References
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -202,10 +203,16 @@ def _write_image(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     return write_outputs(sim.developed, folder, isp.outputs, stem=stem, quality=isp.jpeg_quality)
 
 
+#: The name of a light spectrum a result folder keeps beside its scene.toml (:func:`_write_scene`).
+_LIGHT_COPY = re.compile(r"light_[0-9a-f]{16}\.csv")
+
+
 def _write_scene(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     """scene.toml, the resolved scene; a light spectrum the render read from a scene's emitter
-    (kept in the user's cache folder) is copied beside it and named relatively, so the folder
-    renders again anywhere (issue 25 #2: deleting the cache broke it)."""
+    (kept in the user's cache folder, or beside an earlier result's scene.toml that this job
+    renders again) is copied beside it and named relatively, so the folder renders again
+    anywhere (issue 25 #2: deleting the cache broke it) and a re-render writes the same
+    scene.toml bytes (issue 39 #17: it named the earlier folder's copy)."""
     import json
     import shutil
 
@@ -214,8 +221,9 @@ def _write_scene(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     if spd.lower().endswith(".csv") and Path(spd).is_file() and Path(spd).resolve().parent != folder.resolve():
         from .render.variants import probe_cache_path
 
-        if Path(spd).resolve().is_relative_to(probe_cache_path().parent.resolve()):
-            local = folder / f"light_{Path(spd).name}"
+        cached = Path(spd).resolve().is_relative_to(probe_cache_path().parent.resolve())
+        if cached or _LIGHT_COPY.fullmatch(Path(spd).name):
+            local = folder / (f"light_{Path(spd).name}" if cached else Path(spd).name)
             with atomic_path(local) as tmp:
                 shutil.copyfile(spd, tmp)
             text = text.replace(f"spd = {json.dumps(spd, ensure_ascii=False)}", f"spd = {json.dumps(local.name)}")

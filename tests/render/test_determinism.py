@@ -170,8 +170,9 @@ def test_the_renderers_thread_count_gives_the_same_bits_under_contention(content
 @pytest.mark.timeout(600)
 def test_scene_toml_renders_the_same_dng_under_contention(contention, tmp_path):
     """A job's scene.toml, rendered again twice on 8 renderer threads with two busy processes on
-    the cores, gives the same raw.dng and image.png bytes (before the presets gave their own
-    normals, the tabletop's differed; the scene.toml test of test_plan.py runs on one thread)."""
+    the cores, gives the same raw.dng, image.png and scene.toml bytes (before the presets gave
+    their own normals, the tabletop's DNG differed; the re-render's scene.toml named the first
+    folder's copy of the sky's spectrum, not its own; test_plan.py's runs on one thread)."""
     import spectral_cam as sc
     from spectral_cam.job import run_render_job
 
@@ -180,5 +181,5 @@ def test_scene_toml_renders_the_same_dng_under_contention(contention, tmp_path):
     run_render_job(config, tmp_path / "first")
     for again in ("a", "b"):
         run_render_job(sc.load_scene(tmp_path / "first" / "scene.toml"), tmp_path / again)
-        for name in ("raw.dng", "image.png", "depth.exr"):
+        for name in ("raw.dng", "image.png", "depth.exr", "scene.toml"):  # scene.toml named the first folder's light
             assert (tmp_path / again / name).read_bytes() == (tmp_path / "first" / name).read_bytes(), name
