@@ -197,12 +197,53 @@ def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrato
         loaded = mi.load_file(config.scene.mitsuba_xml, optimize=optimize)
     except Exception as exc:
         raise RenderError(f"Mitsuba could not load {config.scene.mitsuba_xml}: {exc}") from None
+    fix_computed_normals(mi, loaded)
     pose = mi.ScalarTransform4f()
     if loaded.sensors():
         matrix = np.asarray(loaded.sensors()[0].world_transform().matrix, dtype=np.float64)
         pose = mi.ScalarTransform4f(matrix.reshape(4, 4, -1)[..., 0])
     camera = dict(camera, to_world=pose @ camera_move(mi, config))
     return loaded, load_dict(mi, camera), load_dict(mi, integrator)
+
+
+#: Loaded normals within this of the angle-weighted rule's (any component) were computed by
+#: Mitsuba, not given by the file: its float32 sums differ from ours by ~1.5e-7.
+COMPUTED_NORMALS_ATOL = 1e-5
+
+
+def fix_computed_normals(mi, scene) -> int:
+    """Replace the vertex normals Mitsuba computed for a loaded scene's meshes (a PLY or OBJ
+    file without normals) by :func:`spectral_cam.presets.meshes.vertex_normals`, the same
+    rule summed in a fixed order: Mitsuba's atomic scatter-add on its threads gives other last
+    bits under load, and a grazing path then another turn (issue 39 #17). A mesh whose normals
+    differ from the rule by more than :data:`COMPUTED_NORMALS_ATOL` keeps them: the file gave
+    them. Returns the number of meshes changed.
+
+    References
+    ----------
+    .. [1] Mitsuba 3, ``Mesh::recompute_vertex_normals`` (PLY and OBJ loaders without normals).
+    """
+    from ..presets.meshes import vertex_normals
+
+    params = mi.traverse(scene)
+    changed = 0
+    for key in [k for k in params.keys() if k.endswith(".vertex_normals")]:
+        owner = key[:-len("vertex_normals")]
+        if f"{owner}vertex_positions" not in params.keys() or f"{owner}faces" not in params.keys():
+            continue
+        given = np.asarray(params[key], dtype=np.float64).reshape(-1, 3)
+        positions = np.asarray(params[f"{owner}vertex_positions"], dtype=np.float64).reshape(-1, 3)
+        if not given.size or len(given) != len(positions):
+            continue
+        ours = vertex_normals(positions, np.asarray(params[f"{owner}faces"], dtype=np.int64).reshape(-1, 3))
+        finite = np.isfinite(given).all(axis=1)  # a vertex only degenerate faces use: NaN in Mitsuba's
+        if not np.allclose(given[finite], ours[finite], rtol=0.0, atol=COMPUTED_NORMALS_ATOL):
+            continue
+        params[key] = type(params[key])(np.ascontiguousarray(ours, dtype=np.float32).ravel())
+        changed += 1
+    if changed:
+        params.update()
+    return changed
 
 
 def camera_move(mi, config: SceneConfig):

@@ -451,11 +451,11 @@ def deterministic_threads(enabled: bool):
     adaptive median of means); the presets now give their own normals
     (:func:`spectral_cam.presets.meshes.vertex_normals`), and 8 of 8 renders per estimator,
     10 of 10 at 480 × 320 and 64 spp, and 3 re-renders of a job's scene.toml (DNG bytes) were
-    identical. The film's scatter-add does not move: a pass's 2^k samples of a pixel stay in
-    one of Dr.Jit's blocks with the box filter (:func:`.scene_dict.power_of_two_at_most`).
-    What can still follow the threads' timing: a user's XML scene whose meshes come without
-    normals, and a moving mesh (``motion.object``: Mitsuba recomputes its normals each
-    sub-frame). On one thread the blocks run in order: the same scene.toml then gives the
+    identical; an XML scene's PLY or OBJ meshes without normals get the same
+    (:func:`.scene_dict.fix_computed_normals`). The film's scatter-add does not move: a pass's
+    2^k samples of a pixel stay in one of Dr.Jit's blocks with the box filter
+    (:func:`.scene_dict.power_of_two_at_most`). What can still follow the threads' timing: a
+    moving mesh (``motion.object``: Mitsuba recomputes its normals each sub-frame). On one thread the blocks run in order: the same scene.toml then gives the
     same bytes under any load, at the cost of the other cores.
 
     References

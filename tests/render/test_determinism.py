@@ -87,8 +87,9 @@ def test_render_deterministic_gives_the_same_bits_under_contention(contention):
 
 
 
-def _scene_normals(config) -> dict:
-    """Every mesh's vertex normals (exact float32 values) of ``config``'s scene, loaded once."""
+def _scene_normals(config, suffixes=(".vertex_normals",)) -> dict:
+    """Every mesh's vertex normals (exact float32 values) of ``config``'s scene, loaded once
+    (with ``suffixes``, those parameters instead)."""
     import mitsuba as mi
 
     from spectral_cam.optics import ThinLens
@@ -101,7 +102,7 @@ def _scene_normals(config) -> dict:
     camera = configured_camera(mi, config, lens, "pinhole", render_film(config, False, lens.width_px, lens.height_px), 4)
     scene, _, _ = build_scene(mi, config, lens, camera, {"type": "path"}, optimize=False)
     params = mi.traverse(scene)
-    return {key: np.asarray(params[key]) for key in params.keys() if key.endswith(".vertex_normals")}
+    return {key: np.asarray(params[key]) for key in params.keys() if key.endswith(tuple(suffixes))}
 
 
 def test_mesh_normals_are_the_torus_normals_and_mitsubas_rule():
@@ -183,3 +184,47 @@ def test_scene_toml_renders_the_same_dng_under_contention(contention, tmp_path):
         run_render_job(sc.load_scene(tmp_path / "first" / "scene.toml"), tmp_path / again)
         for name in ("raw.dng", "image.png", "depth.exr", "scene.toml"):  # scene.toml named the first folder's light
             assert (tmp_path / again / name).read_bytes() == (tmp_path / "first" / name).read_bytes(), name
+
+
+def _obj(vertices, faces, normals=None) -> str:
+    lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in vertices]
+    if normals is None:
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    else:
+        lines += [f"vn {x:.9g} {y:.9g} {z:.9g}" for x, y, z in normals]
+        lines += [f"f {a + 1}//{a + 1} {b + 1}//{b + 1} {c + 1}//{c + 1}" for a, b, c in faces]
+    return "\n".join(lines) + "\n"
+
+
+XML = """<scene version="3.0.0">
+  <shape type="obj" id="computed"><string name="filename" value="plain.obj"/>
+    <transform name="to_world"><translate value="-0.5, 0, 3"/></transform></shape>
+  <shape type="obj" id="given"><string name="filename" value="normals.obj"/>
+    <transform name="to_world"><translate value="0.5, 0, 3"/></transform></shape>
+  <emitter type="constant"/>
+</scene>
+"""
+
+
+@pytest.mark.timeout(600)
+def test_an_xml_scenes_computed_normals_are_the_same_under_contention(contention, tmp_path):
+    """An XML scene's OBJ without normals gets the angle-weighted normals summed in a fixed order
+    (Mitsuba's loader sums them on its threads: other last bits at each load under contention),
+    the same at every load; an OBJ that gives its own normals keeps them."""
+    from spectral_cam.presets.meshes import torus, vertex_normals
+
+    vertices, faces = torus(0.35, 0.15)
+    tilted = np.tile([[0.0, 0.6, 0.8]], (len(vertices), 1))  # not what the rule would give
+    (tmp_path / "plain.obj").write_text(_obj(vertices, faces))
+    (tmp_path / "normals.obj").write_text(_obj(vertices, faces, tilted))
+    (tmp_path / "scene.xml").write_text(XML)
+    config = scene_from_dict({"scene": {"mitsuba_xml": str(tmp_path / "scene.xml")},
+                              "sensor": {"width_px": 32, "height_px": 24}, "render": {"spp": 4}})
+    first = _scene_normals(config, (".vertex_normals", ".vertex_positions", ".faces"))
+    loaded = [first[f"computed.{name}"].reshape(-1, 3) for name in ("vertex_positions", "faces")]  # re-indexed
+    np.testing.assert_allclose(first["computed.vertex_normals"].reshape(-1, 3), vertex_normals(*loaded), atol=1e-7)
+    np.testing.assert_allclose(first["given.vertex_normals"].reshape(-1, 3), tilted, atol=1e-7)
+    for _ in range(3):
+        again = _scene_normals(config)
+        for name, normals in again.items():
+            np.testing.assert_array_equal(normals, first[name], err_msg=name)
