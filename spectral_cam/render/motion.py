@@ -307,7 +307,14 @@ class ObjectMotion:
             raise ConfigError(f"motion.object = {name!r} is no movable shape of the scene (shapes with a "
                               f"to_world or vertices: {listed})")
         self.keys = [f"{o}.to_world" if f"{o}.to_world" in self.params else f"{o}.vertex_positions" for o in moving]
+        # a translated mesh keeps its normals: given back with the vertices, or Mitsuba recomputes them
+        # with a scatter-add whose order follows its threads (issue 39 #17: last bits move under load)
+        self.normals = [f"{k[:-len('.vertex_positions')]}.vertex_normals" for k in self.keys
+                        if k.endswith(".vertex_positions")]
+        self.normals = [k for k in self.normals if k in self.params and len(self.params[k]) > 0]
         self.original = {k: type(self.params[k])(self.params[k]) for k in self.keys}
+        # as NumPy: handed back as a new buffer each time (the same buffer would not mark the key changed)
+        self.original_normals = {k: np.array(self.params[k], dtype=np.float32) for k in self.normals}
         pose = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
         self.velocity = pose[:3, :3] @ np.asarray(config.motion.object_velocity_mps, dtype=float)
 
@@ -321,6 +328,8 @@ class ObjectMotion:
             else:
                 vertices = np.asarray(self.original[key], dtype=np.float64).reshape(-1, 3) + offset
                 self.params[key] = self.mi.Float(vertices.astype(np.float32).ravel())
+        for key, normals in self.original_normals.items():
+            self.params[key] = type(self.params[key])(normals)
         self.params.update()
 
     def restore(self) -> None:

@@ -125,3 +125,28 @@ def test_a_preset_object_moves_whatever_its_kind(make_scene):
     assert shapes and all(key.startswith("object_1") for key in shapes)
     changed = np.abs(moving.data[..., :3].sum(-1) - still.data[..., :3].sum(-1)) > 0.2 * still.data[..., :3].sum(-1)
     assert 0.001 < changed.mean() < 0.5
+
+
+def test_a_moving_mesh_keeps_its_own_normals(variant, make_scene):
+    """Issue 39 #17: moving a mesh by its vertices must not hand its normals to Mitsuba's recompute
+    (a scatter-add ordered by its threads' timing): a translation leaves the normals as they were,
+    bit for bit — the angle-weighted normals the mesh was built with (Thürmer & Wüthrich 1998)."""
+    import mitsuba as mi
+
+    from spectral_cam.presets.meshes import mitsuba_mesh, torus, vertex_normals
+    from spectral_cam.render.motion import ObjectMotion
+
+    mi.set_variant(variant)
+    vertices, faces = torus(0.3, 0.1)
+    mesh = mitsuba_mesh(mi, "object_1", vertices, faces, {"type": "diffuse"})
+    scene = mi.load_dict({"type": "scene", "object_1": mesh,
+                          "sensor": {"type": "perspective", "film": {"type": "hdrfilm", "width": 8, "height": 8}}})
+    config = make_scene(motion={"object": "object_1", "object_velocity_mps": [2.0, 0.0, 0.0]},
+                        exposure={"time_s": 0.01})
+    moving = ObjectMotion(mi, scene, scene.sensors()[0], config)
+    expected = vertex_normals(vertices, faces).astype(np.float32)
+    for index in range(3):
+        moving.place(index, 3)
+        normals = np.asarray(mi.traverse(scene)["object_1.vertex_normals"]).reshape(-1, 3)
+        np.testing.assert_array_equal(normals, expected)
+    moving.restore()
