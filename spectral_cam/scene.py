@@ -631,8 +631,8 @@ class RenderSection:
     materials, a user's XML scene) and ``spp`` is fixed. The same scene.toml gives the same
     bytes under load on the renderer's threads for the bundled presets (measured:
     :func:`spectral_cam.render.variants.deterministic_threads`); ``deterministic = true``
-    renders on one thread, for what can still follow the threads' timing (a moving mesh,
-    ``motion.object``), at the cost of the other cores.
+    renders on one thread, for anything else that may follow the threads' timing (a user's
+    Python plugin), at the cost of the other cores.
     """
 
     spp: int | str = 64

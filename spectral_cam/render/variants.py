@@ -454,9 +454,11 @@ def deterministic_threads(enabled: bool):
     identical; an XML scene's PLY or OBJ meshes without normals get the same
     (:func:`.scene_dict.fix_computed_normals`). The film's scatter-add does not move: a pass's
     2^k samples of a pixel stay in one of Dr.Jit's blocks with the box filter
-    (:func:`.scene_dict.power_of_two_at_most`). What can still follow the threads' timing: a
-    moving mesh (``motion.object``: Mitsuba recomputes its normals each sub-frame). On one thread the blocks run in order: the same scene.toml then gives the
-    same bytes under any load, at the cost of the other cores.
+    (:func:`.scene_dict.power_of_two_at_most`), and a moving mesh is handed its own normals back
+    with each sub-frame's vertices (:class:`.motion.ObjectMotion`). What can still follow the
+    threads' timing is what we do not build (a user's Python plugin): on one thread the blocks run
+    in order, so the same scene.toml gives the same bytes under any load, at the cost of the other
+    cores.
 
     References
     ----------
