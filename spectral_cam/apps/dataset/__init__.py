@@ -93,7 +93,8 @@ the records that do not batch, meta.json and the whole camera.json, through ``re
 with :class:`~.loader.Crop` and :class:`~.loader.Resize` transforms that keep K consistent.
 
 Modules: :mod:`.spec` (the spec, distributions, sweeps, item plans), :mod:`.labels` (what an
-item writes: :data:`~.labels.LABELS`, the defocus map, clean camera RGB, blur against depth),
+item writes, one module per label: :data:`~.labels.LABELS` entries with writer, reader, description
+and size; the defocus map, clean camera RGB, blur against depth, the class map),
 :mod:`.run` (the run: executor, Dask cluster, manifest, resume, retries, lock), :mod:`.sheets`
 (contact sheet, blur chart), :mod:`.card` (metadata.jsonl, the dataset card), :mod:`.loader`
 (reading items back). The command line is :mod:`spectral_cam.cli.dataset`.

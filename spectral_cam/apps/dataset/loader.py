@@ -3,7 +3,8 @@ the dataset as a map-style sequence (:class:`SyntheticDataset`) whose items PyTo
 ``DataLoader`` batches with its default collate (a map-style dataset is anything with
 ``__len__`` and ``__getitem__``).
 
-Each label becomes one or more keys of :func:`read_item`'s item (units as the dataset card and
+Each label becomes one or more keys of :func:`read_item`'s item, read by the label's own reader
+(its :data:`~spectral_cam.apps.dataset.labels.LABELS` entry; units as the dataset card and
 docs/design.md, "Dataset layouts", state them):
 
 ==================  ==========================================================================
@@ -82,114 +83,14 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from ...errors import RawFormatError
+from .labels import LABELS
 
 __all__ = ["SyntheticDataset", "read_item", "read_classes", "batchable", "Crop", "Resize", "LOADABLE_LABELS",
            "FRAME_LABELS"]
 
-#: Image formats read as images (the developed image and the all-in-focus view).
-_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
-
-
-def _exr_channels(path: Path) -> dict[str, np.ndarray]:
-    from ...spectral_exr import read_exr
-
-    return read_exr(path)[1]
-
-
-def _image(path: Path) -> np.ndarray:
-    import cv2
-
-    pixels = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        raise RawFormatError(f"{path} is not a readable image")
-    return pixels[..., ::-1].copy() if pixels.ndim == 3 else pixels  # OpenCV's BGR -> RGB
-
-
-def _stack(path: Path, names: tuple[str, ...]) -> np.ndarray:
-    channels = _exr_channels(path)
-    missing = [n for n in names if n not in channels]
-    if missing:
-        raise RawFormatError(f"{path} lacks channel(s) {', '.join(missing)}; it holds {', '.join(sorted(channels))}")
-    return np.stack([channels[n] for n in names], axis=-1).astype(np.float32)
-
-
-def _clean_rgb(path: Path) -> np.ndarray:
-    """R, G, B (a monochrome sensor's single Y as (H, W, 1))."""
-    names = ("Y",) if "Y" in _exr_channels(path) else ("R", "G", "B")
-    return _stack(path, names)
-
-
-def _shading(path: Path) -> dict[str, np.ndarray]:
-    """S and, where written, the illuminance in lux."""
-    channels = _exr_channels(path)
-    found = {"shading": _stack(path, ("S",))[..., 0]}
-    if "E_lux" in channels:
-        found["illuminance_lux"] = _stack(path, ("E_lux",))[..., 0]
-    return found
-
-
-def _illuminant_map(path: Path) -> dict[str, np.ndarray]:
-    """The per-pixel illuminant and the shares, share_0 … share_{N-1} in order."""
-    channels = _exr_channels(path)
-    count = sum(1 for name in channels if name.startswith("share_"))
-    return {"illuminant_map": _stack(path, ("R", "G", "B")),
-            "light_shares": _stack(path, tuple(f"share_{k}" for k in range(count)))}
-
-
-def _coverage(path: Path) -> dict[str, np.ndarray]:
-    channels = _exr_channels(path)
-    ranks = sum(1 for name in channels if name.startswith("id_"))
-    return {"coverage": _stack(path, tuple(f"id_{k}" for k in range(ranks))).astype(np.int32),
-            "coverage_fraction": _stack(path, tuple(f"coverage_{k}" for k in range(ranks)))}
-
-
-def _camera(path: Path) -> dict:
-    record = json.loads(path.read_text(encoding="utf-8"))
-    for key in ("K", "distortion", "world_to_camera_opencv", "world_to_camera_opengl", "camera_to_world_opencv"):
-        if key in record:
-            record[key] = np.asarray(record[key], dtype=np.float64)
-    return record
-
-
-def _raw(path: Path) -> np.ndarray:
-    import tifffile
-
-    try:
-        return tifffile.imread(str(path))
-    except Exception as exc:  # tifffile raises several types on corrupt files
-        raise RawFormatError(f"{path} is not a readable DNG: {exc}") from None
-
-
-def _radiance(path: Path) -> dict[str, np.ndarray]:
-    from ...spectral_exr import read_spectral_exr
-
-    image = read_spectral_exr(path)
-    return {"radiance": np.asarray(image.data, dtype=np.float32),
-            "radiance_nm": np.asarray(image.wavelengths_nm, dtype=np.float64)}
-
-
-#: label → (file stem, reader of the file into the item's keys)
-_READERS: dict[str, tuple[str, Callable[[Path], dict]]] = {
-    "raw": ("raw.dng", lambda p: {"raw": _raw(p)}),
-    "depth": ("depth.exr", lambda p: {"depth": _stack(p, ("Z",))[..., 0]}),
-    "defocus": ("defocus.exr", lambda p: {"defocus": _stack(p, ("CoC",))[..., 0]}),
-    "clean_rgb": ("clean_rgb.exr", lambda p: {"clean_rgb": _clean_rgb(p)}),
-    "radiance": ("radiance.exr", _radiance),
-    "undistortion": ("undistortion.exr", lambda p: {"undistortion": _stack(p, ("map_x", "map_y"))}),
-    "health": ("health.exr", lambda p: {"health": _stack(p, ("cab", "state"))}),
-    "segmentation": ("segmentation.png", lambda p: {"segmentation": _image(p)}),
-    "semantic": ("semantic.png", lambda p: {"semantic": _image(p)}),
-    "coverage": ("coverage.exr", _coverage),
-    "flow": ("flow.exr", lambda p: {"flow": _stack(p, ("dx", "dy"))}),
-    "normals": ("normals.exr", lambda p: {"normals": _stack(p, ("X", "Y", "Z"))}),
-    "albedo": ("albedo.exr", lambda p: {"albedo": _clean_rgb(p), "albedo_srgb": _stack(p, ("sRGB_R", "sRGB_G", "sRGB_B")),
-                                        **_shading(p.with_name("shading.exr"))}),
-    "illuminant_map": ("illuminant_map.exr", _illuminant_map),
-    "camera": ("camera.json", lambda p: {"camera": _camera(p)}),
-    "illuminant": ("illuminant.json", lambda p: {"illuminant": json.loads(p.read_text(encoding="utf-8"))}),
-}
-#: Labels :func:`read_item` reads (every dataset output; the images in whichever format was written).
-LOADABLE_LABELS = ("raw", "image", "all_in_focus", *[k for k in _READERS if k != "raw"])
+#: Labels :func:`read_item` reads (every dataset output with a reader, :data:`~.labels.LABELS`;
+#: the images in whichever format was written). A label registered later is read too.
+LOADABLE_LABELS = LABELS.loadable()
 
 
 def _read(path: Path, reader: Callable[[Path], Any]) -> Any:
@@ -202,14 +103,6 @@ def _read(path: Path, reader: Callable[[Path], Any]) -> Any:
         raise RawFormatError(f"{path} cannot be read ({type(exc).__name__}: {detail})") from None
 
 
-def _image_file(folder: Path, stem: str, files: Iterable[str]) -> Path | None:
-    for name in files:
-        path = Path(name)
-        if path.stem == stem and path.suffix.lower() in _IMAGE_SUFFIXES:
-            return folder / name
-    return None
-
-
 def read_item(folder: str | Path, labels: Iterable[str] | None = None) -> dict[str, Any]:
     """The arrays and records of one dataset item (see the module's table of keys).
 
@@ -218,7 +111,8 @@ def read_item(folder: str | Path, labels: Iterable[str] | None = None) -> dict[s
     folder : str or path-like
         An item folder (``DIR/items/000042``).
     labels : iterable of str, optional
-        The labels to read (:data:`LOADABLE_LABELS`); default every label the item holds.
+        The labels to read (those of :data:`~.labels.LABELS` with a reader, :data:`LOADABLE_LABELS`
+        and any registered since); default every label the item holds.
         ``meta`` is always included.
 
     Returns
@@ -238,21 +132,18 @@ def read_item(folder: str | Path, labels: Iterable[str] | None = None) -> dict[s
         raise RawFormatError(f"{folder} is not a dataset item: its meta.json cannot be read ({exc})") from None
     files = list(meta.get("files", []))
     wanted = list(labels) if labels is not None else None
-    unknown = [name for name in (wanted or []) if name not in LOADABLE_LABELS]
+    loadable = LABELS.loadable()
+    unknown = [name for name in (wanted or []) if name not in loadable]
     if unknown:
-        raise RawFormatError(f"unknown label(s) {', '.join(unknown)}; valid: {', '.join(LOADABLE_LABELS)}")
+        raise RawFormatError(f"unknown label(s) {', '.join(unknown)}; valid: {', '.join(loadable)}")
     item: dict[str, Any] = {"meta": meta}
-    for label in LOADABLE_LABELS:
+    for label in loadable:
         if wanted is not None and label not in wanted:
             continue
-        if label in ("image", "all_in_focus"):
-            path = _image_file(folder, label, files)
-            if path is not None:
-                item[label] = _read(path, _image)
-        else:
-            name, reader = _READERS[label]
-            if name in files:
-                item.update(_read(folder / name, reader))
+        entry = LABELS[label]
+        path = entry.locate(folder, files)
+        if path is not None:
+            item.update(_read(path, entry.reader))
         if wanted is not None and label not in item:
             raise RawFormatError(f"{folder} has no {label!r} label; it holds {', '.join(files)}")
     return item
@@ -604,7 +495,7 @@ class SyntheticDataset:
         and ``illuminant`` (illuminant.json) where the item holds them."""
         wanted = ["camera", "illuminant"]
         files = set(self._read(index, []).get("meta", {}).get("files", []))
-        present = [label for label in wanted if _READERS[label][0] in files]
+        present = [label for label in wanted if LABELS[label].locate(self.root, files) is not None]
         return self._read(index, present)
 
     @property

@@ -39,7 +39,7 @@ from ...progress import ProgressLine, duration
 from ...records import json_ready, read_json, write_json
 from ...render.variants import set_render_threads
 from ...scene import scene_from_dict
-from .labels import CLASS_LABELS, file_check, spec_class_table, write_classes, write_item
+from .labels import CLASS_LABELS, LABELS, file_check, spec_class_table, write_classes, write_item
 from .card import metadata_rows, write_card, write_metadata
 from .exports import export_into_dataset
 from .hf import datasets_installed, write_parquet_shards, write_webdataset_shards
@@ -854,7 +854,8 @@ def plan_dataset(spec: DatasetSpec, *, n: int | None = None, workers: int | None
         raise ConfigError(f"none of the first items has a valid scene: {'; '.join(errors[:3])}")
     time_s = sum(p.budget["time_s"] for _, p in plans) / len(plans)
     memory = max(p.budget["memory_bytes"] for _, p in plans)
-    files = sum(sum(p.budget["outputs_bytes"].values()) for _, p in plans) / len(plans)
+    files = sum(sum(p.budget["outputs_bytes"].values()) + _label_bytes(item.scene, spec.outputs)
+                for item, p in plans) / len(plans)
     lines = [f"item {item.id} {item.params}:\n  " + plan.summary().replace("\n", "\n  ") for item, plan in plans]
     parallel = 1 if scheduler == "inline" else (None if scheduler else (workers or default_workers()))
     where = (f"{parallel} worker process{'es' if parallel != 1 else ''}" if parallel else
@@ -864,7 +865,7 @@ def plan_dataset(spec: DatasetSpec, *, n: int | None = None, workers: int | None
                  + (" per item" if not parallel else f" ({time_s:.3g} s an item)")
                  + f", peak memory about {memory / 1e9:.2g} GB a worker"
                  + (f" ({memory * parallel / 1e9:.2g} GB in all)" if parallel else "")
-                 + f", files about {files * total / 1e9:.3g} GB (labels beyond the render's files not counted); "
+                 + f", files about {files * total / 1e9:.3g} GB (uncompressed: the labels' EXRs and PNGs compress); "
                  f"from the plans of {len(plans)} item(s)"
                  + (f"; {len(errors)} of the first {len(plans) + len(errors)} items invalid (recorded as failed, "
                     f"never rendered):" if errors else ""))
@@ -872,6 +873,14 @@ def plan_dataset(spec: DatasetSpec, *, n: int | None = None, workers: int | None
     if len(errors) > 5:
         lines.append(f"  ... {len(errors) - 5} more")
     return "\n".join(lines)
+
+
+def _label_bytes(scene: Mapping[str, Any], outputs) -> float:
+    """Bytes of an item's labels beyond the render job's own files (which its plan sizes from the
+    scene): each label's :meth:`~.labels.registry.Label.estimate_bytes` at the item's frame."""
+    sensor = scene_from_dict(scene).sensor
+    return sum(LABELS[name].estimate_bytes(sensor.width_px, sensor.height_px)
+               for name in outputs if name not in RESULT_FILES)
 
 
 def _check_disk(task: Mapping[str, Any], items: int, output: Path) -> None:
