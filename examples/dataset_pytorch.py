@@ -84,7 +84,8 @@ def data_only(folder: Path) -> float:
 
 
 def train(folder: Path, steps: int) -> tuple[float, float]:
-    """A few Adam steps of a small CNN from image to CoC; returns the first and last batch loss (px)."""
+    """A few Adam steps of a small CNN from image to CoC; returns the mean loss (px) of the first
+    and of the last epoch (every item once: one batch's loss depends on which items it drew)."""
     import torch
     from torch.utils.data import DataLoader
 
@@ -103,14 +104,16 @@ def train(folder: Path, steps: int) -> tuple[float, float]:
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
-            losses.append(float(loss))
+            losses.append(loss.item())
             if len(losses) == 1:
                 print(f"batch: image {tuple(batch['image'].shape)}, defocus {tuple(batch['defocus'].shape)}, "
                       f"K {tuple(batch['camera']['K'].shape)}")
             if len(losses) == steps:
                 break
-    print(f"CoC L1 loss: first step {losses[0]:.3f} px, last step {losses[-1]:.3f} px over {steps} steps")
-    return losses[0], losses[-1]
+    epoch = len(loader)
+    first, last = sum(losses[:epoch]) / epoch, sum(losses[-epoch:]) / epoch
+    print(f"CoC L1 loss: first epoch {first:.3f} px, last epoch {last:.3f} px over {steps} steps")
+    return first, last
 
 
 def main(argv: list[str] | None = None) -> int:
