@@ -568,7 +568,8 @@ class SensorSection:
 
 @dataclass(frozen=True)
 class ExposureSection:
-    """Exposure time (s, or ``"auto"``: metered as a camera does, ``metering``), ISO, the
+    """Exposure time (s, or ``"auto"``: metered as a camera does, ``metering``), ISO (a scene file
+    that leaves it unset gets the sensor's ``base_iso``: a named camera's own), the
     exposure index's definition (``iso_definition``: ``sos`` renders a metered grey at 118/255,
     ``saturation`` leaves the rendering alone), ``compensation_ev``, and ``auto_fraction``
     (where ``highlight`` and ``etr`` metering put the brightest 1 %)."""
@@ -907,7 +908,13 @@ def scene_from_dict(
             )
         merged.setdefault(section, {})[key] = value
     merged["sensor"] = _sensor_table(merged.get("sensor", {}), data, overrides)
-    sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS if name != "lens"}
+    sections = {name: section_from_table(name, merged.get(name, {}), base_dir) for name in _SECTIONS
+                if name not in ("lens", "exposure")}
+    # an ISO left unset is the sensor's base ISO (a named camera's own: 64 for a D850), as a camera
+    # leaves it until the light asks for more; the generic sensor's base is 100, as before
+    exposure = dict(merged.get("exposure", {}))
+    exposure.setdefault("iso", sections["sensor"].base_iso)
+    sections["exposure"] = section_from_table("exposure", exposure, base_dir)
     # the prescription first: it sees what the user gave, not a default filled in for an XML camera
     lens_table = _lens_for_prescription(dict(merged.get("lens", {})), base_dir)
     lens_table = _lens_for_xml_camera(lens_table, sections["scene"], sections["sensor"])

@@ -210,3 +210,15 @@ def test_asset_and_scatter_tables_round_trip_and_override(tmp_path):
     assert none.scene.assets == () and none.scene.scatter == ()
     with pytest.raises(ConfigError, match="array of tables"):
         config.replace(**{"scene.assets": "rock"})
+
+
+def test_an_unset_iso_is_the_named_cameras_base_iso():
+    """Issue 39 #9: a scene that names a camera and leaves the ISO unset exposes at that camera's
+    published base ISO (data/cameras/sensor_figures.csv: the D850's is 64), as before for the
+    generic sensor (100); an ISO given is kept."""
+    from spectral_cam import spectra
+
+    d850 = scene_from_dict({"sensor": {"model": "nikon_d850"}})
+    assert d850.exposure.iso == spectra.camera_figures("nikon_d850")["base_iso"].value == 64
+    assert scene_from_dict({"sensor": {"model": "ideal"}}).exposure.iso == 100
+    assert scene_from_dict({"sensor": {"model": "nikon_d850"}, "exposure": {"iso": 400}}).exposure.iso == 400

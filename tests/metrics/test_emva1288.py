@@ -34,8 +34,10 @@ def photons_per_radiance(wavelength_nm):
 def sensor_config(**sensor):
     iso = sensor.pop("iso", 100.0)
     return scene_from_dict({
+        # base ISO 100 whatever camera's curves are named: the references below are at ISO 100
         "sensor": {"pixel_pitch_um": PITCH_UM, "read_noise_e": READ_E, "dark_current_e_per_s": DARK_E_PER_S,
-                   "dsnu_e": DSNU_E, "prnu": PRNU, "peak_qe": 0.7, "vignetting": False, "seed": 7, **sensor},
+                   "dsnu_e": DSNU_E, "prnu": PRNU, "peak_qe": 0.7, "vignetting": False, "seed": 7,
+                   "base_iso": 100.0, **sensor},
         "exposure": {"time_s": T_S, "iso": iso},
         "lens": {"f_number": F_NUMBER},
     })
