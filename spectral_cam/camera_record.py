@@ -45,7 +45,7 @@ def intrinsics_matrix(lens: ThinLens, focal_length_m: float | None = None) -> np
 
 def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0, 0.0, 0.0),
                   lens_model: str = "thin", exposure_s: float | None = None, iso: float | None = None,
-                  fitted: dict | None = None) -> dict:
+                  fitted: dict | None = None, intrinsics: dict | None = None) -> dict:
     """The content of ``camera.json``.
 
     Parameters
@@ -62,6 +62,11 @@ def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0,
         A prescription's fit (:meth:`spectral_cam.optics.prescription.Prescription.opencv_distortion`):
         its traced focal scale sets K, its coefficients the distortion, its residual (in pixels)
         is recorded.
+    intrinsics
+        A lens model's own optics (its entry's ``intrinsics``,
+        :data:`spectral_cam.render.lens_models.LENS_MODELS`): ``focal_length_m`` (None: the image
+        distance) sets K; ``coefficients``, ``source`` and ``residual_m`` the distortion. Overrides
+        ``distortion`` and ``fitted``.
     exposure_s, iso
         The exposure the sensor used.
 
@@ -73,19 +78,18 @@ def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0,
         optics (focal length, f-number, aperture, focus distance, pixel pitch, exposure).
     """
     frame = lens.layout_lens
+    optics = intrinsics if intrinsics is not None else _given_optics(distortion, fitted)
     to_world = np.asarray(camera_to_world, dtype=np.float64).reshape(4, 4)
     world_to_mitsuba = np.linalg.inv(to_world)
     opencv = MITSUBA_TO_OPENCV @ world_to_mitsuba
     opengl = MITSUBA_TO_OPENGL @ world_to_mitsuba
     return {
-        "K": intrinsics_matrix(frame, None if fitted is None else fitted["focal_length_m"]).tolist(),
+        "K": intrinsics_matrix(frame, optics["focal_length_m"]).tolist(),
         "image_size": [int(frame.width_px), int(frame.height_px)],
-        "distortion": [float(c) for c in (distortion if fitted is None else fitted["coefficients"])],
+        "distortion": [float(c) for c in optics["coefficients"]],
         "distortion_model": "opencv (k1, k2, p1, p2, k3)",
-        "distortion_source": ("fitted to the prescription's chief rays (least squares over the field to the "
-                              "sensor's corner)" if fitted is not None else
-                              "the configured lens.distortion (exact: the renderer applies this model)"),
-        "distortion_residual_px": None if fitted is None else fitted["residual_m"] / frame.pixel_pitch_m,
+        "distortion_source": optics["source"],
+        "distortion_residual_px": None if optics["residual_m"] is None else optics["residual_m"] / frame.pixel_pitch_m,
         "world_to_camera_opencv": opencv.tolist(),
         "world_to_camera_opengl": opengl.tolist(),
         "camera_to_world_opencv": np.linalg.inv(opencv).tolist(),
@@ -106,23 +110,29 @@ def camera_record(lens: ThinLens, camera_to_world, *, distortion=(0.0, 0.0, 0.0,
     }
 
 
+def _given_optics(distortion, fitted: dict | None) -> dict:
+    """:func:`camera_record`'s ``intrinsics`` from its ``distortion`` or a prescription's ``fitted``."""
+    if fitted is None:
+        return {"focal_length_m": None, "coefficients": distortion, "residual_m": None,
+                "source": "the configured lens.distortion (exact: the renderer applies this model)"}
+    return {"focal_length_m": fitted["focal_length_m"], "coefficients": fitted["coefficients"],
+            "residual_m": fitted["residual_m"],
+            "source": "fitted to the prescription's chief rays (least squares over the field to the sensor's corner)"}
+
+
 def capture_camera_record(radiance, config, raw) -> dict | None:
     """:func:`camera_record` of a capture: the rendered image's lens and pose
     (``meta["camera_to_world"]``), the config's distortion, the RAW's exposure. None for an
     image rendered before poses were recorded."""
     if "camera_to_world" not in radiance.meta:
         return None
-    lens_model = radiance.meta.get("lens_model", config.lens.model)
-    fitted = None
-    if lens_model == "prescription":
-        from .optics.prescription import load_prescription
+    from .render.lens_models import LENS_MODELS
 
-        frame = radiance.lens.layout_lens
-        fitted = load_prescription(config.lens.prescription).opencv_distortion(
-            frame.focus_distance_m, 0.5 * float(np.hypot(frame.sensor_width_m, frame.sensor_height_m)))
-    record = camera_record(radiance.lens, radiance.meta["camera_to_world"], distortion=config.lens.distortion,
-                           lens_model=lens_model, exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso"),
-                           fitted=fitted)
+    lens_model = radiance.meta.get("lens_model", config.lens.model)
+    # the model's own optics: its focal scale and distortion (a prescription's fitted to its rays)
+    optics = LENS_MODELS[lens_model].intrinsics(config, radiance.lens.layout_lens)
+    record = camera_record(radiance.lens, radiance.meta["camera_to_world"], lens_model=lens_model,
+                           exposure_s=raw.meta.get("exposure_s"), iso=raw.meta.get("iso"), intrinsics=optics)
     motion = config.motion
     record["pose_time"] = "the exposure's middle (a moving camera's motion blur spans ±exposure/2 about it)"
     if motion.moving:

@@ -26,6 +26,7 @@ from ..scene import SceneConfig
 from ..presets import white_reference_mask
 from .depth import ALBEDO_SPP
 from .layered import render_layered
+from .lens_models import LENS_MODELS
 from .trace import LANES_PER_PASS, SCALAR_LANES_PER_PASS, trace
 from .variants import choose_variant
 
@@ -176,17 +177,15 @@ def execute(plan, *, progress: Callable[[int, int, float], None] | None = None) 
                           f"(it has {', '.join(v for v in mi.variants() if 'spectral' in v)}); plan it here")
     mi.set_variant(plan.variant)
     config = plan.config
-    if plan.lens_model == "layered":
-        image = render_layered(config, plan=plan, progress=progress)
+    model = LENS_MODELS[plan.lens_model]
+    if model.render is not None:  # a model with a render of its own (the layered model's)
+        image = model.render(config, plan, progress)
     else:
         image = trace(config, plan.capture_lens, plan.lens_model, variant=plan.variant, camera_film=plan.camera_film,
                       diffraction=plan.diffraction, groups=plan.estimator_passes, subframes=plan.subframes,
                       depth=plan.depth_m, depth_s=plan.depth_s, decisions=dict(plan.decisions), progress=progress)
-    if plan.lens_model == "prescription":  # what the trace says the lens is (focal length, f-number, field)
-        from ..optics.prescription import load_prescription
-
-        design = load_prescription(config.lens.prescription, f_number=config.lens.f_number)  # stop closed to N
-        image.meta["prescription"] = design.describe(plan.lens.focus_distance_m, plan.lens.sensor_width_m)
+    model.post_render(image, plan)  # what the model records (a prescription's traced optics)
+    image.meta["lens_shading"] = model.shading(config)  # what the sensor's shading reads of the render
     image.white_reference = white_reference_mask(config, plan.capture_lens)
     image.meta["illuminant_spd"] = config.illuminant.spd  # what white balance and the truth assume
     image.meta["illuminant_emitter"] = config.illuminant.emitter

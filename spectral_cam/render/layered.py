@@ -30,6 +30,7 @@ from ..image import SpectralImage
 from ..optics import ThinLens
 from ..optics.layered_defocus import defocus_layers
 from .depth import render_depth
+from .lens_models import LENS_MODELS, pinhole_camera
 from .trace import frame_optics, trace
 from .variants import choose_variant
 
@@ -185,3 +186,28 @@ def aperture_fraction(config, lens: ThinLens | None = None) -> float:
     return float(min(1.0, (config.scene.source_radius_m * zf / (abs(z - zf) * lens.aperture_radius_m)) ** 2))
 
 
+
+
+def _layered_render(config, plan, progress):
+    return render_layered(config, plan=plan, progress=progress)
+
+
+def _layered_margin(lens: ThinLens, depth: np.ndarray) -> int:
+    from .plan import layered_margin
+
+    return layered_margin(lens, depth)
+
+
+def _layered_memory(channels: int) -> float:
+    """Bytes a pixel holds beyond the radiance cube: the defocus's extra cubes and its depths."""
+    from .memory import LAYERED_DEPTH_BYTES_PER_PIXEL, LAYERED_EXTRA_CUBES
+
+    return LAYERED_EXTRA_CUBES * 4.0 * channels + LAYERED_DEPTH_BYTES_PER_PIXEL
+
+
+# registered here, beside its render: the registry (read by plan.py) cannot import this module,
+# which plans through plan.py
+LENS_MODELS.add("layered", pinhole_camera, render=_layered_render, memory_bytes_per_pixel=_layered_memory,
+                margin=_layered_margin, needs_depth=True,
+                description="a pinhole render defocused per depth layer (thin-lens depth of field without its "
+                            "Monte-Carlo noise)")

@@ -34,6 +34,7 @@ import numpy as np
 from ..budget import estimate_result_bytes, measured_budget
 from ..optics import ThinLens
 from ..scene import SceneConfig
+from .lens_models import LENS_MODELS
 
 __all__ = ["CapturePlan", "make_plan", "layered_margin", "clamp_margin", "warn_wide_view", "xml_field_of_view_record",
            "WIDEST_RECTILINEAR_DEG"]
@@ -313,8 +314,8 @@ def measure_cost(config: SceneConfig, traced: ThinLens, lens_model: str, variant
     for width in dict.fromkeys(widths):  # one size where the frame is no wider than the first
         height = max(1, round(width * traced.height_px / traced.width_px))
         probe = dataclasses.replace(traced, width_px=width, height_px=height, frame_lens=traced.layout_lens)
-        camera = configured_camera(mi, config, probe, "pinhole" if lens_model == "layered" else lens_model,
-                                   render_film(config, camera_film, width, height), spp)
+        camera = configured_camera(mi, config, probe, lens_model, render_film(config, camera_film, width, height),
+                                   spp)  # the layered model's camera is the pinhole it renders through
         started = time.perf_counter()
         scene, sensor, integrator = build_scene(mi, config, probe, camera,
                                                 {"type": "path", "max_depth": config.render.max_depth})
@@ -373,7 +374,8 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     from .depth import render_depth
     from .focus import resolve_focus
     from .lights import resolve_light
-    from .memory import available_bytes, check_render_memory, estimate_render_bytes, sensor_bytes_per_pixel
+    from .memory import (available_bytes, check_render_memory, estimate_render_bytes, lens_bytes_per_pixel,
+                         sensor_bytes_per_pixel)
     from .scene_dict import frame_tiles
     from .trace import check_tiling
     from .variants import choose_variant_record
@@ -406,15 +408,15 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     # the camera film is asked; the layered model only where asked: auto's choice is checked again)
     bands = parse_bands(config.render.spectral_bands)
     most = 6 if config.render.bands == "camera" else len(bands)
-    check_render_memory(capture.width_px, capture.height_px, channels=most, layered=config.lens.model == "layered",
+    check_render_memory(capture.width_px, capture.height_px, channels=most, lens_model=config.lens.model,
                         robust_passes=groups, config=config)  # with a QIS's count frames, an event sensor's events
     depth, depth_s = None, 0.0
-    if with_depth or config.lens.model in ("auto", "layered"):
+    if with_depth or config.lens.model == "auto" or LENS_MODELS[config.lens.model].needs_depth:
         t0 = time.perf_counter()
         depth = render_depth(mi, config, capture)
         depth_s = time.perf_counter() - t0
     lens_model, decisions["lens_model"] = _lens_model_decision(config, capture, depth)
-    margin = layered_margin(capture, depth) if lens_model == "layered" else 0
+    margin = LENS_MODELS[lens_model].margin(capture, depth)  # the layered model's defocus margin
     traced = capture.widened(margin)
 
     diffract, decisions["diffraction"] = decide_diffraction(capture, bands, config.render.diffraction)
@@ -428,12 +430,12 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
         subframes, decisions["motion"] = plan_subframes(config, capture, depth, spp)
 
     sensor_bytes = sensor_bytes_per_pixel(config)
-    memory = estimate_render_bytes(traced.width_px, traced.height_px, channels, layered=lens_model == "layered",
+    memory = estimate_render_bytes(traced.width_px, traced.height_px, channels, lens_model=lens_model,
                                    robust_passes=groups, sensor_bytes=sensor_bytes)
-    if lens_model == "layered" and config.lens.model == "auto":  # the choice made, before its render starts
-        check_render_memory(traced.width_px, traced.height_px, channels=channels, layered=True, robust_passes=groups,
-                            config=config,
-                            what="this frame with the layered lens model that lens.model = \"auto\" chose")
+    if config.lens.model == "auto" and lens_bytes_per_pixel(lens_model, channels):  # the choice, before its render
+        check_render_memory(traced.width_px, traced.height_px, channels=channels, lens_model=lens_model,
+                            robust_passes=groups, config=config,
+                            what=f"this frame with the {lens_model} lens model that lens.model = \"auto\" chose")
     check_tiling(config, traced)  # after the margin, which can push the frame into tiles; before any radiance
 
     choices = {"lens.model": lens_model, "render.variant": variant,

@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import RenderError
 from ..optics import ThinLens
 from ..scene import RENDER_SAMPLERS, SceneConfig
+from .lens_models import FAR_CLIP_M, LENS_MODELS, camera_options  # noqa: F401  (FAR_CLIP_M: its old home)
 
 
 #: Mitsuba samplers a render may use (``render.sampler``, validated in scene.py). Each keeps some
@@ -123,59 +124,25 @@ def moved_sensor(mi, sensor, camera: dict, move):
     return load_dict(mi, dict(camera, film=film, to_world=mi.ScalarTransform4f(matrix) @ move))
 
 
-#: How far our Mitsuba cameras see (m). Mitsuba's default, 10 km, clipped the far ground (to 20 km)
-#: and the clouds near the horizon, which then showed the sky instead.
-FAR_CLIP_M = 1e5
-
-
 def camera_dict(mi, lens: ThinLens, model: str, film: dict, spp: int, sampler: str = "independent",
                 glass: str = "N-BK7", prescription: str = "dgauss_50mm", blades: int = 0,
                 blade_rotation_deg: float = 0.0, blade_rounding: float = 0.0,
                 distortion=(0.0, 0.0, 0.0, 0.0, 0.0)) -> dict:
-    """Our camera as a Mitsuba sensor dict: ``model`` ``"thin"`` (Mitsuba's ``thinlens``),
-    ``"spectral_thin"`` (a thin lens of ``glass``, dispersive: :mod:`spectral_cam.render.spectral_lens`)
-    or ``"prescription"`` (real surfaces: :mod:`spectral_cam.render.prescription_lens`), or a
-    pinhole (``perspective``) with the lens's field of view."""
-    pose = mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0])
-    if model == "prescription":
-        from ..optics.prescription import load_prescription
-        from .prescription_lens import plugin_dict as prescription_dict, register as register_prescription
-
-        register_prescription(mi)
-        return dict(prescription_dict(load_prescription(prescription), lens, lens.focus_distance_m, blades=blades,
-                                      blade_rotation_deg=blade_rotation_deg, blade_rounding=blade_rounding),
-                    to_world=pose, film=film, sampler={"type": sampler, "sample_count": spp})
-    if model == "spectral_thin":
-        from .spectral_lens import plugin_dict, register
-
-        register(mi)
-        return dict(plugin_dict(lens, glass, blades=blades, blade_rotation_deg=blade_rotation_deg,
-                                blade_rounding=blade_rounding, distortion=distortion), to_world=pose, film=film,
-                    sampler={"type": sampler, "sample_count": spp})
-    camera = {
-        "type": "thinlens" if model == "thin" else "perspective",
-        "fov": lens.fov_x_deg,
-        "fov_axis": "x",
-        "to_world": pose,
-        "film": film,
-        "sampler": {"type": sampler, "sample_count": spp},
-        "near_clip": min(1e-3, lens.focus_distance_m / 10),
-        "far_clip": FAR_CLIP_M,
-    }
-    if model == "thin":
-        camera["aperture_radius"] = lens.aperture_radius_m
-        camera["focus_distance"] = lens.focus_distance_m
-    return camera
+    """Our camera as a Mitsuba sensor dict for the lens model ``model`` (an entry of
+    :data:`~spectral_cam.render.lens_models.LENS_MODELS`: ``"pinhole"``, ``"thin"``,
+    ``"spectral_thin"``, ``"prescription"``, …) with the ``[lens]`` keys given, for a camera built
+    without a scene (probes, tests)."""
+    options = camera_options(sampler, glass=glass, prescription=prescription, blades=blades,
+                             blade_rotation_deg=blade_rotation_deg, blade_rounding=blade_rounding,
+                             distortion=distortion)
+    return LENS_MODELS[model].camera(mi, options, lens, film, spp)
 
 
 def configured_camera(mi, config: SceneConfig, lens: ThinLens, model: str, film: dict, spp: int) -> dict:
-    """:func:`camera_dict` with ``render.sampler`` and the ``[lens]`` section's glass,
-    prescription, aperture blades and distortion: the camera a render of ``config`` traces."""
-    section = config.lens
-    return camera_dict(mi, lens, model, film, spp, config.render.sampler, glass=section.glass,
-                       prescription=section.prescription, blades=section.blades,
-                       blade_rotation_deg=section.blade_rotation_deg, blade_rounding=section.blade_rounding,
-                       distortion=section.distortion)
+    """The camera a render of ``config`` traces through the lens model ``model``: its entry's
+    ``camera`` with ``render.sampler`` and the ``[lens]`` section's glass, prescription, aperture
+    blades and distortion."""
+    return LENS_MODELS[model].camera(mi, config, lens, film, spp)
 
 
 def build_scene(mi, config: SceneConfig, lens: ThinLens, camera: dict, integrator: dict, *, optimize: bool = True):

@@ -169,8 +169,9 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         The scene.
     lens : ThinLens
         The job's lens.
-    lens_model : {"thin", "pinhole"}
-        Geometry of the camera rays.
+    lens_model : str
+        Geometry of the camera rays: an entry of
+        :data:`~spectral_cam.render.lens_models.LENS_MODELS` that path-traces (its ``camera``).
     variant : str
         The Mitsuba variant in use (recorded).
     camera_film : bool

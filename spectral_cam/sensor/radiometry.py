@@ -588,6 +588,19 @@ def lens_of(radiance: "SpectralImage | None", config: "SceneConfig") -> "ThinLen
     return lens if lens is not None else ThinLens.from_config(config.lens, config.sensor)
 
 
+def lens_shading(radiance: "SpectralImage | None", config: "SceneConfig") -> dict:
+    """How the render's lens model shades the image (``meta["lens_shading"]``, its entry's
+    ``shading`` in :data:`spectral_cam.render.lens_models.LENS_MODELS`): ``traced_vignetting``
+    (the render holds the falloff already) and ``chief_ray_prescription`` (whose real chief rays
+    set the pixels' angle; None: the thin lens's). An image without it (a synthetic chart, an
+    older render): the configured model's, a prescription's traced, any other's the thin lens's."""
+    recorded = getattr(radiance, "meta", {}).get("lens_shading") if radiance is not None else None
+    if recorded is not None:
+        return recorded
+    traced = config.lens.model == "prescription"
+    return {"traced_vignetting": traced, "chief_ray_prescription": config.lens.prescription if traced else None}
+
+
 def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalModel:
     """The :class:`SignalModel` of a radiance image (spectral bands or camera channels).
 
@@ -602,8 +615,9 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
     n_w = lens.working_f_number
     area = (sensor.pixel_pitch_um * 1e-6) ** 2
     trans_specs = (lens_cfg.transmission, sensor.ir_cut)
+    shading = lens_shading(radiance, config)
     # a prescription's render already holds its vignetting (natural and mechanical): traced
-    cos4 = _cos4(lens) if sensor.vignetting and lens_cfg.model != "prescription" else None
+    cos4 = _cos4(lens) if sensor.vignetting and not shading["traced_vignetting"] else None
     channels = getattr(radiance, "channels", None)
     if channels:
         if tuple(channels) != CAMERA_CHANNELS:
@@ -619,7 +633,7 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
         qe = np.zeros_like(weights)
         qe[:3, :3] = np.eye(3)
         return SignalModel(weights, cos4, qe, n_w, area, trans_specs, True, *_olpf(sensor),
-                           _channel_gain(lens, config, 3))
+                           _channel_gain(lens, config, 3, shading["chief_ray_prescription"]))
     wavelengths = np.asarray(radiance.wavelengths_nm, dtype=float)
     transmission = _transmission_at(trans_specs, tuple(wavelengths.tolist()))
     qe = quantum_efficiency(sensor.model, wavelengths, peak_qe=sensor.peak_qe, monochrome=sensor.cfa == "none")
@@ -627,7 +641,7 @@ def signal_model(radiance: "SpectralImage", config: "SceneConfig") -> SignalMode
         qe = np.column_stack([qe, white_quantum_efficiency(qe)])
     weights = band_weights(wavelengths, qe, working_f_number=n_w, pixel_area_m2=area, transmission=transmission)
     return SignalModel(weights, cos4, qe, n_w, area, trans_specs, False, *_olpf(sensor),
-                       _channel_gain(lens, config, weights.shape[1]))
+                       _channel_gain(lens, config, weights.shape[1], shading["chief_ray_prescription"]))
 
 
 @functools.lru_cache(maxsize=4)
@@ -639,14 +653,14 @@ def _channel_gain_cached(lens: "ThinLens", prescription: str | None, halves: tup
     return gains
 
 
-def _channel_gain(lens: "ThinLens", config: "SceneConfig", channels: int) -> np.ndarray | None:
+def _channel_gain(lens: "ThinLens", config: "SceneConfig", channels: int,
+                  prescription: str | None) -> np.ndarray | None:
     """The pixels' acceptance per channel (:mod:`spectral_cam.sensor.shading`), None when off."""
     from .shading import parse_angular_response
 
     halves = parse_angular_response(config.sensor.angular_response_deg, channels)
     if halves is None:
         return None
-    prescription = config.lens.prescription if config.lens.model == "prescription" else None
     return _channel_gain_cached(lens, prescription, halves)
 
 
@@ -679,9 +693,7 @@ def electrons_per_band_radiance(config: "SceneConfig", wavelength_nm: float) -> 
     ----------
     .. [1] EMVA 1288 Release 4.0, §2.1 eqs. (1)–(2).
     """
-    from ..scene import SPECTRAL_BANDS_DEFAULT
-
-    wl = np.asarray(spectra.parse_bands(SPECTRAL_BANDS_DEFAULT).centres_nm, float)
+    wl = np.asarray(spectra.parse_bands(spectra.SPECTRAL_BANDS_DEFAULT).centres_nm, float)
     qe = quantum_efficiency(config.sensor.model, wl, peak_qe=config.sensor.peak_qe, monochrome=True)
     lens = lens_of(None, config)
     weights = band_weights(wl, qe, working_f_number=lens.working_f_number,
