@@ -29,8 +29,10 @@ _IMAGE_BYTES_PER_PIXEL = {"png": 3, "png16": 6, "jpeg": 3, "tiff": 6, "exr": 12}
 def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str, float]:
     """Bytes each named result file (:data:`spectral_cam.job.RESULT_FILES`) will take, from the config alone,
     before rendering: radiance.exr uncompressed (bands × ``render.radiance_precision``), depth
-    float32, the DNG's 16-bit mosaic with its crop margin, the developed images uncompressed.
+    float32, the DNG's 16-bit mosaic with its crop margin, the developed images uncompressed, a
+    sensor kind's own files as its entry sizes them (:data:`spectral_cam.sensor.kinds.SENSOR_KINDS`).
     An upper bound within a few percent for the EXR and DNG (tests/test_output_size.py)."""
+    from .sensor.kinds import sensor_file
     from .spectra import parse_bands
 
     sensor = config.sensor
@@ -48,9 +50,8 @@ def estimate_result_bytes(config: SceneConfig, names: Iterable[str]) -> dict[str
             sizes[name] = header + (sensor.width_px + margin) * (sensor.height_px + margin) * 2.0
         elif name == "image":
             sizes[name] = pixels * sum(_IMAGE_BYTES_PER_PIXEL.get(f, 12) for f in config.isp.outputs)
-        elif name == "photon_counts":  # packed bits (or a byte a count), before compression
-            per_frame = (sensor.width_px + margin) * (sensor.height_px + margin) / (8.0 if sensor.jot_bits == 1 else 1.0)
-            sizes[name] = header + sensor.jot_frames * per_frame
+        elif sensor_file(name) is not None:  # a sensor kind's own files, as its entry sizes them
+            sizes[name] = float(sensor_file(name).size_bytes(config))
         else:
             sizes[name] = 64e3  # scene.toml and a light's CSV
     return sizes

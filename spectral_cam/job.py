@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable
 
@@ -56,6 +56,9 @@ class Simulation:
         The ISP's result.
     timings_s : dict
         Seconds per stage (``render_*``, ``sensor``, ``isp``).
+    sensor_outputs : dict
+        The sensor kind's own outputs by result-file name (:class:`spectral_cam.sensor.kinds.SensorFile`):
+        ``photon_counts`` for a QIS or SPAD, ``events`` for an event sensor; empty for a CMOS.
     """
 
     config: SceneConfig
@@ -64,8 +67,17 @@ class Simulation:
     raw: "RawImage"  # noqa: F821
     developed: "DevelopedImage"  # noqa: F821
     timings_s: dict
-    photon_counts: "PhotonCountingCapture | None" = None  # noqa: F821  (sensor.kind "qis" or "spad")
-    events: "EventStream | None" = None  # noqa: F821  (sensor.kind "event")
+    sensor_outputs: dict = field(default_factory=dict)
+
+    @property
+    def photon_counts(self) -> "PhotonCountingCapture | None":  # noqa: F821
+        """A QIS or SPAD capture's frames (``sensor_outputs["photon_counts"]``), else None."""
+        return self.sensor_outputs.get("photon_counts")
+
+    @property
+    def events(self) -> "EventStream | None":  # noqa: F821
+        """An event sensor's stream (``sensor_outputs["events"]``), else None."""
+        return self.sensor_outputs.get("events")
 
 
 def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, float], None] | None = None,
@@ -109,57 +121,31 @@ def simulate(config: SceneConfig, *, lens=None, progress: Callable[[int, int, fl
 
 
 def _simulate_plan(plan, progress) -> Simulation:
-    """:func:`simulate` after its plan: render, expose, develop."""
+    """:func:`simulate` after its plan: render, expose (the sensor kind's capture,
+    :func:`spectral_cam.sensor.kinds.capture`), develop."""
     from .isp import develop
     from .render import render
-    from .sensor import expose
+    from .render.plan import make_plan
+    from .sensor.kinds import capture
 
     config, lens = plan.config, plan.lens  # the resolved config: what was done, what scene.toml writes
     timings: dict[str, float] = {}
     captured = render(plan, progress=progress)
     timings.update({f"render_{k}": v for k, v in captured.meta["timings_s"].items()})
-    t0 = time.perf_counter()
-    counts = events = None
-    if config.sensor.kind == "event":
-        events = _event_capture(config, lens, progress)
-        timings["events"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-    if config.sensor.kind in ("cmos", "event"):  # an event camera's frame: its APS frame, as a DAVIS gives
-        config_aps = config if config.sensor.kind == "cmos" else config.replace(**{"sensor.kind": "cmos"})
-        raw = expose(captured, config_aps)
-    else:  # a single-photon sensor: its frames, and their reconstruction as the RAW the ISP develops
-        from .sensor.photon_counting import expose_photon_counting
 
-        counts = expose_photon_counting(captured, config)
-        raw = counts.to_raw()
+    def render_pose(frame: SceneConfig):
+        """One more pose of the scene through the job's lens (an event sensor's span): no margin, no depth."""
+        return render(make_plan(frame, with_margin=False, with_depth=False, lens=lens), progress=progress)
+
+    t0 = time.perf_counter()
+    sensed = capture(captured, config, render_pose=render_pose)
     radiance = captured.framed()
-    timings["sensor"] = time.perf_counter() - t0
+    timings.update(sensed.timings_s)
+    timings["sensor"] = time.perf_counter() - t0 - sum(sensed.timings_s.values())
     t0 = time.perf_counter()
-    developed = develop(raw, config.isp)
+    developed = develop(sensed.raw, config.isp)
     timings["isp"] = time.perf_counter() - t0
-    return Simulation(config, lens, radiance, raw, developed, timings, counts, events)
-
-
-def _event_capture(config: SceneConfig, lens, progress=None):
-    """An event sensor's capture: ``sensor.event_frames`` renders spread over ``exposure.time_s`` (each a
-    pose of the motion at its time, no blur), their log intensities, and the events between them."""
-    from .render import render
-    from .render.plan import make_plan
-    from .sensor.events import log_intensity, simulate_events
-
-    if config.exposure.time_s == "auto":
-        raise ConfigError("an event capture needs exposure.time_s: the span its frames cover, in seconds")
-    span, count = float(config.exposure.time_s), int(config.sensor.event_frames)
-    times = np.linspace(0.0, span, count)
-    logs = []
-    for t in times:
-        frame = config.replace(**{"exposure.start_s": float(config.exposure.start_s) + t - span / 2,
-                                  "exposure.time_s": span / (count - 1), "motion.subframes": 1,
-                                  "sensor.kind": "cmos"})
-        image = render(make_plan(frame, with_margin=False, with_depth=False, lens=lens), progress=progress)
-        logs.append(log_intensity(image, frame))
-    # the light's clock as the poses': the frames are t − span/2 after exposure.start_s
-    return simulate_events(logs, times, config, flicker_origin_s=float(config.exposure.start_s) - span / 2)
+    return Simulation(config, lens, radiance, sensed.raw, developed, timings, sensed.outputs)
 
 
 def _write_radiance(sim: Simulation, folder: Path, stem: str) -> list[Path]:
@@ -179,21 +165,6 @@ def _write_raw(sim: Simulation, folder: Path, stem: str) -> list[Path]:
     from .raw import write_dng
 
     return [write_dng(sim.raw, folder / "raw.dng")]
-
-
-def _write_photon_counts(sim: Simulation, folder: Path, stem: str) -> list[Path]:
-    if sim.photon_counts is None:
-        return []
-    return [sim.photon_counts.save(folder / "photon_counts.npz")]
-
-
-def _write_events(sim: Simulation, folder: Path, stem: str) -> list[Path]:
-    if sim.events is None:
-        return []
-    from .isp.encode import write_png
-
-    return [sim.events.save(folder / "events.npz"),
-            write_png(sim.events.frame_rgb().astype(np.float32) / 255.0, folder / "events.png")]
 
 
 def _write_image(sim: Simulation, folder: Path, stem: str) -> list[Path]:
@@ -255,11 +226,21 @@ def _write_illuminant(sim: Simulation, folder: Path, stem: str) -> list[Path]:
 
 
 _WRITERS = {"radiance": _write_radiance, "depth": _write_depth, "raw": _write_raw, "image": _write_image,
-            "camera": _write_camera, "illuminant": _write_illuminant, "scene": _write_scene,
-            "photon_counts": _write_photon_counts, "events": _write_events}
+            "camera": _write_camera, "illuminant": _write_illuminant, "scene": _write_scene}
+
+
+def result_files() -> tuple[str, ...]:
+    """The files :func:`write_files` can write now: :data:`RESULT_FILES` and every registered sensor
+    kind's own (:data:`spectral_cam.sensor.kinds.SENSOR_KINDS`, a kind registered later included)."""
+    from .sensor.kinds import SENSOR_KINDS
+
+    return tuple(_WRITERS) + tuple(name for name in SENSOR_KINDS.files() if name not in _WRITERS)
+
+
 #: The files :func:`write_files` can write: radiance.exr, depth.exr, raw.dng,
-#: ``<stem>.<isp.outputs>``, camera.json, illuminant.json and scene.toml.
-RESULT_FILES = tuple(_WRITERS)
+#: ``<stem>.<isp.outputs>``, camera.json, illuminant.json, scene.toml and the bundled sensor kinds'
+#: own files (photon_counts.npz; events.npz and events.png).
+RESULT_FILES = result_files()
 
 
 def write_files(sim: Simulation, folder: str | Path, names: Iterable[str], *, image_stem: str = "image") -> list[Path]:
@@ -291,12 +272,18 @@ def write_files(sim: Simulation, folder: str | Path, names: Iterable[str], *, im
     ConfigError
         For a name not in :data:`RESULT_FILES`.
     """
+    from .sensor.kinds import sensor_file
+
     folder = Path(folder)
     written: list[Path] = []
     for name in names:
-        if name not in _WRITERS:
-            raise ConfigError(f"unknown result file {name!r}; valid: {', '.join(RESULT_FILES)}")
-        written += _WRITERS[name](sim, folder, image_stem)
+        if name in _WRITERS:
+            written += _WRITERS[name](sim, folder, image_stem)
+        elif sensor_file(name) is not None:  # a sensor kind's own file: nothing where this kind made none
+            if name in sim.sensor_outputs:
+                written += sensor_file(name).write(sim.sensor_outputs[name], folder)
+        else:
+            raise ConfigError(f"unknown result file {name!r}; valid: {', '.join(result_files())}")
     return written
 
 
@@ -341,13 +328,12 @@ def write_meta(sim: Simulation, folder: str | Path, files: Iterable[str | Path],
 def render_job_files(config: SceneConfig, spectral_output: bool | None = None) -> list[str]:
     """The result files (:data:`RESULT_FILES`) a render job writes: radiance.exr when a spectral
     output is asked (``render.spectral_output``, or ``spectral_output`` given) and the film can
-    hold one, then depth, RAW, image, camera.json, illuminant.json and scene."""
+    hold one, then depth, RAW, the sensor kind's own files, image, camera.json, illuminant.json and scene."""
+    from .sensor.kinds import SENSOR_KINDS
+
     spectral_output = config.render.spectral_output if spectral_output is None else spectral_output
     names = ["depth", "raw", "image", "camera", "illuminant", "scene"]
-    if config.sensor.kind in ("qis", "spad"):
-        names.insert(2, "photon_counts")
-    if config.sensor.kind == "event":
-        names.insert(2, "events")
+    names[2:2] = [f.name for f in SENSOR_KINDS[config.sensor.kind].files]
     if spectral_output and config.render.bands != "camera":
         names.insert(0, "radiance")
     return names

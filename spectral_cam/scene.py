@@ -56,7 +56,7 @@ __all__ = [
 DIFFRACTION_MODES = ("auto", "on", "off")
 #: render.bands besides "start:stop:step"; "auto" resolves to this grid or "camera".
 BAND_MODES = ("auto", "camera")
-SPECTRAL_BANDS_DEFAULT = "400:700:10"
+SPECTRAL_BANDS_DEFAULT = spectra.SPECTRAL_BANDS_DEFAULT
 #: scene.light: "auto" is each preset's own light ("sunsky" for the outdoor presets, else
 #: "illuminant"); "sunsky" is Mitsuba's sun and sky per [sky] (presets that declare "light").
 SCENE_LIGHTS = ("auto", "sunsky", "illuminant", "overcast")
@@ -337,38 +337,13 @@ class IlluminantSection:
 
 
 def _check_photon_counting(sensor) -> None:
-    """``sensor.kind`` and the single-photon keys (:mod:`spectral_cam.sensor.photon_counting`)."""
-    def whole(value, low, high):
-        return isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
+    """``sensor.kind`` and every kind's own keys, as the kind's registry entry declares them
+    (:data:`spectral_cam.sensor.kinds.SENSOR_KINDS`)."""
+    from .sensor.kinds import validate_sensor_keys
 
-    def number(value, low, high):
-        return isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high
-
-    if sensor.kind not in ("cmos", "qis", "spad", "event"):
-        _fail("sensor.kind", sensor.kind, "valid: 'cmos' (integrating, the EMVA 1288 model), 'qis' (a quanta image "
-              "sensor: binary or few-bit jots), 'spad' (single-photon avalanche diodes: dead time, afterpulsing), "
-              "'event' (brightness changes, from a sequence's frames)")
-    for key, low, high, what in (("event_threshold", 0.01, 5.0, "the contrast threshold in log units"),
-                                 ("event_threshold_sigma", 0.0, 1.0, "the threshold's per-pixel σ in log units"),
-                                 ("event_refractory_s", 0.0, 1.0, "the refractory period in seconds"),
-                                 ("event_leak_hz", 0.0, 1e4, "the leak event rate per pixel in Hz"),
-                                 ("event_shot_noise_hz", 0.0, 1e4, "the shot-noise event rate per pixel in Hz")):
-        if not number(getattr(sensor, key), low, high):
-            _fail(f"sensor.{key}", getattr(sensor, key), f"{what}, a number in {low:g}..{high:g}")
-    if not whole(sensor.event_frames, 2, 4096):
-        _fail("sensor.event_frames", sensor.event_frames, "the renders an event capture interpolates between, a whole "
-              "number in 2..4096")
-    if not whole(sensor.jot_frames, 1, 65536):
-        _fail("sensor.jot_frames", sensor.jot_frames, "the frames of a single-photon capture, a whole number in 1..65536")
-    if not whole(sensor.jot_bits, 1, 8):
-        _fail("sensor.jot_bits", sensor.jot_bits, "bits per jot and frame, a whole number in 1..8")
-    if not number(sensor.dead_time_s, 0.0, 1.0):
-        _fail("sensor.dead_time_s", sensor.dead_time_s, "a SPAD's dead time in 0..1 s (tens of ns are typical)")
-    if not number(sensor.afterpulsing, 0.0, 1.0):
-        _fail("sensor.afterpulsing", sensor.afterpulsing, "a SPAD's afterpulsing probability in 0..1")
-    if sensor.kind != "spad" and (sensor.dead_time_s or sensor.afterpulsing):
-        _fail("sensor.dead_time_s" if sensor.dead_time_s else "sensor.afterpulsing",
-              sensor.dead_time_s or sensor.afterpulsing, "dead time and afterpulsing belong to sensor.kind = 'spad'")
+    problem = validate_sensor_keys(sensor)
+    if problem:
+        _fail(*problem)
 
 
 def _flicker_check(light) -> None:

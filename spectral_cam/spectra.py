@@ -80,6 +80,9 @@ __all__ = [
 MITSUBA_RANGE_NM = (360.0, 830.0)
 #: Most bands a render may ask for (one per 0.5 nm over Mitsuba's range).
 MAX_BANDS = 941
+#: The band grid ``render.bands = "auto"`` resolves to (``scene.SPECTRAL_BANDS_DEFAULT``; here so the sensor
+#: reads it without importing the scene).
+SPECTRAL_BANDS_DEFAULT = "400:700:10"
 #: Maximum luminous efficacy of photopic vision (lm/W), CIE 15:2004.
 K_M_LM_PER_W = 683.0
 COLORCHECKER_SET = "BabelColor Average"

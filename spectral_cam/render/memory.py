@@ -14,7 +14,10 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from ..machine import available_bytes
-from ..sensor.events import BYTES_PER_EVENT, expected_events_per_pixel
+from ..sensor.events import BYTES_PER_EVENT, expected_events_per_pixel  # noqa: F401  (named here as before)
+from ..sensor.kinds import (  # noqa: F401  (the sensor kinds' memory figures, named here as before)
+    EVENT_WORK_BYTES_PER_PIXEL, NPZ_CHUNK_BYTES, PHOTON_COUNTING_BYTES_PER_PIXEL, SENSOR_KINDS,
+    SPAD_BYTES_PER_PIXEL_PER_LEVEL)
 
 __all__ = ["estimate_render_bytes", "available_bytes", "check_render_memory", "sensor_bytes_per_pixel",
            "expected_events_per_pixel", "sensor_remedy"]
@@ -39,61 +42,22 @@ LAYERED_EXTRA_CUBES = 6
 LAYERED_DEPTH_BYTES_PER_PIXEL = 64.0
 
 
-#: Bytes a single-photon capture holds per jot besides its frames: rates, per-frame means and draws,
-#: the reconstruction and its RAW (measured 280–1180 B at 128 × 128, the larger with SciPy's first
-#: import); a SPAD with a dead time adds its survival table, 8 B per count level and its comparison.
-PHOTON_COUNTING_BYTES_PER_PIXEL = 320.0
-SPAD_BYTES_PER_PIXEL_PER_LEVEL = 16.0
-#: NumPy writes an array into an NPZ in buffered chunks of at most this (``numpy.lib.format.write_array``).
-NPZ_CHUNK_BYTES = 16.0 * 2 ** 20
-#: Bytes per pixel of the event model's working arrays (levels, thresholds, times: ~20 float64 planes),
-#: besides the frames' log intensities (8 B a pixel a frame).
-EVENT_WORK_BYTES_PER_PIXEL = 160.0
 def sensor_bytes_per_pixel(config) -> float:
-    """Bytes per pixel the sensor's own outputs hold beyond a CMOS frame's: a single-photon capture's
-    ``jot_frames`` count frames (1 B a jot a frame, and the packed bits written for one bit) with their
-    working arrays; an event capture's events (:func:`expected_events_per_pixel` ×
-    :data:`BYTES_PER_EVENT`) and its frames' log intensities. 0 for a CMOS sensor or a capture whose span
+    """Bytes per pixel the sensor's own outputs hold beyond a CMOS frame's, as its kind's entry
+    estimates them (:data:`spectral_cam.sensor.kinds.SENSOR_KINDS`, ``memory_bytes_per_pixel``): a
+    single-photon capture's ``jot_frames`` count frames (1 B a jot a frame, and the packed bits written
+    for one bit) with their working arrays; an event capture's events (:func:`expected_events_per_pixel`
+    × ``BYTES_PER_EVENT``) and its frames' log intensities. 0 for a CMOS sensor or a capture whose span
     is metered."""
-    sensor = config.sensor
-    if sensor.kind in ("qis", "spad"):
-        frames = float(sensor.jot_frames)
-        per_pixel = frames * (1.0 + (0.125 if sensor.jot_bits == 1 else 0.0)) + PHOTON_COUNTING_BYTES_PER_PIXEL
-        if sensor.kind == "spad" and sensor.dead_time_s > 0 and sensor.jot_bits > 1:
-            per_pixel += SPAD_BYTES_PER_PIXEL_PER_LEVEL * (2 ** int(sensor.jot_bits) - 1)
-        return per_pixel
-    if sensor.kind == "event" and config.exposure.time_s != "auto":
-        return (expected_events_per_pixel(config) * BYTES_PER_EVENT + 8.0 * float(sensor.event_frames)
-                + EVENT_WORK_BYTES_PER_PIXEL)
-    return 0.0
+    return float(SENSOR_KINDS[config.sensor.kind].memory_bytes_per_pixel(config))
 
 
 def sensor_remedy(config, pixels: float, room_bytes: float) -> str | None:
-    """What setting of the sensor fits ``room_bytes`` for its outputs over ``pixels`` pixels: the
-    ``jot_frames`` or the event capture's ``exposure.time_s``; None when nothing of it would."""
-    sensor = config.sensor
-    room = room_bytes / pixels
-    if sensor.kind in ("qis", "spad"):
-        frames = int((room - (sensor_bytes_per_pixel(config) - float(sensor.jot_frames)
-                              * (1.0 + (0.125 if sensor.jot_bits == 1 else 0.0))))
-                     / (1.0 + (0.125 if sensor.jot_bits == 1 else 0.0)))
-        return f"sensor.jot_frames = {frames} fits ({sensor.jot_frames} asked)" if frames >= 1 else None
-    if sensor.kind == "event" and config.exposure.time_s != "auto":
-        span = float(config.exposure.time_s)
-        rate = expected_events_per_pixel(config, upper=False) / span
-        fixed = 8.0 * float(sensor.event_frames) + EVENT_WORK_BYTES_PER_PIXEL
-        lo, hi = 0.0, span  # the longest span whose events fit (the count is monotone in it)
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            if expected_events_per_pixel(config, mid) * BYTES_PER_EVENT + fixed <= room:
-                lo = mid
-            else:
-                hi = mid
-        if lo <= 0:
-            return None
-        return (f"exposure.time_s = {lo:.3g} s fits (about {rate:.3g} events a pixel a second from "
-                f"event_shot_noise_hz, event_leak_hz and the light's flicker; or lower those)")
-    return None
+    """What setting of the sensor fits ``room_bytes`` for its outputs over ``pixels`` pixels (its kind's
+    ``memory_remedy``: the ``jot_frames`` or the event capture's ``exposure.time_s``); None when nothing
+    of it would."""
+    remedy = SENSOR_KINDS[config.sensor.kind].memory_remedy
+    return remedy(config, room_bytes / pixels) if remedy else None
 
 
 def estimate_render_bytes(width_px: int, height_px: int, channels: int = 31, *, layered: bool = False,

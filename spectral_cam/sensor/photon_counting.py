@@ -40,10 +40,9 @@ import numpy as np
 from ..errors import ConfigError, SensorError
 
 __all__ = ["PhotonCountingCapture", "expose_photon_counting", "expected_count", "saturation_count",
-           "metered_frame_time", "SENSOR_KINDS"]
+           "metered_frame_time"]
 
-#: ``sensor.kind`` choices.
-SENSOR_KINDS = ("cmos", "qis", "spad")
+# the ``sensor.kind`` choices are the registry's: spectral_cam.sensor.kinds.SENSOR_KINDS
 
 
 def expected_count(h, *, bits: int, frame_s: float, dead_time_s: float = 0.0) -> np.ndarray:

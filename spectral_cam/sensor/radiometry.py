@@ -693,9 +693,7 @@ def electrons_per_band_radiance(config: "SceneConfig", wavelength_nm: float) -> 
     ----------
     .. [1] EMVA 1288 Release 4.0, §2.1 eqs. (1)–(2).
     """
-    from ..scene import SPECTRAL_BANDS_DEFAULT
-
-    wl = np.asarray(spectra.parse_bands(SPECTRAL_BANDS_DEFAULT).centres_nm, float)
+    wl = np.asarray(spectra.parse_bands(spectra.SPECTRAL_BANDS_DEFAULT).centres_nm, float)
     qe = quantum_efficiency(config.sensor.model, wl, peak_qe=config.sensor.peak_qe, monochrome=True)
     lens = lens_of(None, config)
     weights = band_weights(wl, qe, working_f_number=lens.working_f_number,

@@ -143,21 +143,13 @@ def bayer_stats(raw) -> np.ndarray:
 
 
 def _capture(image, config: SceneConfig, *, frame_seed: int):
-    """The frame's RAW: the CMOS model's, or a single-photon sensor's reconstruction (its frames are a
-    capture's, the RAW what the camera loop reads). An event sensor has no frame here: a sequence's
-    frames are hours apart (a time-lapse), and an event capture is a render job's span of poses."""
-    from ...sensor import expose
+    """The frame's RAW: the sensor kind's capture (:func:`spectral_cam.sensor.kinds.capture`, the render
+    job's too): the CMOS model's, or a single-photon sensor's reconstruction (its frames are a capture's,
+    the RAW what the camera loop reads). A kind whose entry takes no sequence (an event sensor: a
+    sequence's frames are hours apart, an event capture is a render job's span of poses) is refused."""
+    from ...sensor.kinds import capture
 
-    kind = config.sensor.kind
-    if kind == "event":
-        raise ConfigError("sensor.kind = 'event' in a sequence: its frames are hours apart (a time-lapse); render an "
-                          "event capture with `spectral-cam render` over exposure.time_s, or use 'cmos', 'qis' or "
-                          "'spad' here")
-    if kind in ("qis", "spad"):
-        from ...sensor.photon_counting import expose_photon_counting
-
-        return expose_photon_counting(image, config, frame_seed=frame_seed).to_raw()
-    return expose(image, config, frame_seed=frame_seed)
+    return capture(image, config, frame_seed=frame_seed, sequence=True).raw
 
 
 def _initial_exposure(image, config: SceneConfig, ae: AutoExposure) -> ExposureState:

@@ -1,0 +1,440 @@
+"""The sensor kinds (``sensor.kind``): one registry entry each, the one place a kind is named.
+
+An entry (:class:`SensorKind`) declares everything the rest of the package asks of a kind:
+
+- ``capture``: radiance → what the job writes (:class:`SensorCapture`: the RAW the ISP develops,
+  plus the kind's own outputs such as a QIS's count frames or an event stream);
+- ``keys``: the ``sensor.*`` keys it owns and their checks (:class:`KeyCheck`), and the keys
+  whose non-zero value belongs to it alone (``exclusive_keys``);
+- ``files``: its extra result files (:class:`SensorFile`: file names, writer, reader, size);
+- ``memory_bytes_per_pixel`` (and ``memory_remedy``): what its outputs hold in memory;
+- ``sequences``: whether a time-lapse sequence (:mod:`spectral_cam.apps.sequence`) takes it.
+
+:func:`capture` is the one capture function of the render job (:func:`spectral_cam.job.simulate`)
+and the sequence; :func:`validate_sensor_keys` is what ``SensorSection`` calls. Adding a kind is
+one :meth:`SensorKinds.add` call (docs/design.md, "Where to make a change"); a kind that needs
+new ``sensor.*`` keys also adds them to ``SensorSection`` (spectral_cam/scene.py).
+
+References
+----------
+.. [1] colour-science, method mappings (``colour.SPECTRAL_SHAPES``-style named entries with
+   their functions): one mapping per extension point.
+.. [2] docs/design.md, "Sensor kinds".
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..registry import Entry, Registry
+
+__all__ = ["SensorKind", "SensorKinds", "SensorFile", "SensorCapture", "KeyCheck", "SENSOR_KINDS", "capture",
+           "validate_sensor_keys", "sensor_file", "PHOTON_COUNTING_BYTES_PER_PIXEL",
+           "SPAD_BYTES_PER_PIXEL_PER_LEVEL", "NPZ_CHUNK_BYTES", "EVENT_WORK_BYTES_PER_PIXEL"]
+
+#: Bytes a single-photon capture holds per jot besides its frames: rates, per-frame means and draws,
+#: the reconstruction and its RAW (measured 280–1180 B at 128 × 128, the larger with SciPy's first
+#: import); a SPAD with a dead time adds its survival table, 8 B per count level and its comparison.
+PHOTON_COUNTING_BYTES_PER_PIXEL = 320.0
+SPAD_BYTES_PER_PIXEL_PER_LEVEL = 16.0
+#: NumPy writes an array into an NPZ in buffered chunks of at most this (``numpy.lib.format.write_array``).
+NPZ_CHUNK_BYTES = 16.0 * 2 ** 20
+#: Bytes per pixel of the event model's working arrays (levels, thresholds, times: ~20 float64 planes),
+#: besides the frames' log intensities (8 B a pixel a frame).
+EVENT_WORK_BYTES_PER_PIXEL = 160.0
+#: A result file's tags, attributes and offset tables (as :func:`spectral_cam.budget.estimate_result_bytes`).
+_HEADER_BYTES = 16e3
+
+
+@dataclass(frozen=True)
+class KeyCheck:
+    """One ``sensor.*`` key a kind owns: a number in ``low..high`` (a whole number with ``whole``).
+
+    ``what`` says what the key is, for the error message (``sensor.<key> = <value>: <what>, a
+    number in <low>..<high>``); ``rule`` replaces that whole message when given.
+    """
+
+    key: str
+    low: float
+    high: float
+    what: str
+    whole: bool = False
+    rule: str = ""
+
+    def problem(self, sensor) -> tuple[str, Any, str] | None:
+        """``(key, value, rule)`` when the sensor's value breaks the check, else None."""
+        value = getattr(sensor, self.key)
+        kinds = int if self.whole else (int, float)
+        if isinstance(value, kinds) and not isinstance(value, bool) and self.low <= value <= self.high:
+            return None
+        rule = self.rule or f"{self.what}, a {'whole number' if self.whole else 'number'} in {self.low:g}..{self.high:g}"
+        return f"sensor.{self.key}", value, rule
+
+
+@dataclass(frozen=True)
+class SensorFile:
+    """An extra result file a kind writes (a name among :data:`spectral_cam.job.RESULT_FILES`).
+
+    Attributes
+    ----------
+    name : str
+        The result-file name (``"photon_counts"``), the key of the capture's ``outputs``.
+    files : tuple of str
+        The file names written in the folder.
+    write : callable
+        ``write(output, folder) -> list[Path]``: the capture's output into the folder.
+    read : callable
+        ``read(folder) -> object``: the file(s) back from a result folder.
+    size_bytes : callable
+        ``size_bytes(config) -> float``: the files' size from the config alone, before rendering
+        (an upper bound for the disk check, :func:`spectral_cam.budget.estimate_result_bytes`).
+    description : str
+        One line for help texts.
+    """
+
+    name: str
+    files: tuple[str, ...]
+    write: Callable[[Any, Path], list]
+    read: Callable[[Path], Any]
+    size_bytes: Callable[[Any], float]
+    description: str = ""
+
+
+@dataclass
+class SensorCapture:
+    """What a capture made: the RAW the ISP develops, the kind's own outputs (by :class:`SensorFile`
+    name) and seconds of stages besides the sensor's own (``{"events": ...}``)."""
+
+    raw: Any
+    outputs: dict = field(default_factory=dict)
+    timings_s: dict = field(default_factory=dict)
+
+
+def _no_bytes(config) -> float:
+    return 0.0
+
+
+@dataclass(frozen=True)
+class SensorKind(Entry):
+    """One ``sensor.kind``: :class:`~spectral_cam.registry.Entry` whose function is its capture,
+    ``capture(radiance, config, *, frame_seed=None, render_pose=None) -> SensorCapture``.
+
+    ``render_pose(frame_config) -> SpectralImage`` renders one more pose of the scene (no margin,
+    no depth): the job passes it for a kind that needs renders of its own (an event sensor's span);
+    it is None in a sequence. :func:`spectral_cam.sensor.expose` is the integrating (CMOS) model and
+    takes ``sensor.kind = "cmos"`` only: a kind built on it exposes ``config.replace(**{"sensor.kind":
+    "cmos"})`` (as the event sensor's APS frame does). ``outputs_noun`` names its outputs in a memory
+    message (``"count frames"``).
+    """
+
+    keys: tuple[KeyCheck, ...] = ()
+    exclusive_keys: tuple[str, ...] = ()
+    exclusive_rule: str = ""
+    files: tuple[SensorFile, ...] = ()
+    sequences: bool = True
+    sequence_refusal: str = ""
+    memory_bytes_per_pixel: Callable[[Any], float] = _no_bytes
+    memory_remedy: Callable[[Any, float], str | None] | None = None
+    outputs_noun: str = "outputs"
+
+
+class SensorKinds(Registry):
+    """The registry of :class:`SensorKind` entries (a :class:`~spectral_cam.registry.Registry`)."""
+
+    def add_kind(self, kind: SensorKind) -> SensorKind:
+        """Register a :class:`SensorKind` (a name can be registered once)."""
+        if kind.name in self._entries:
+            raise ValueError(f"{self.kind} {kind.name!r} is registered twice")
+        self._entries[kind.name] = kind
+        return kind
+
+    def remove(self, name: str) -> None:
+        """Unregister a kind (a test's toy entry)."""
+        self._entries.pop(name, None)
+
+    def files(self) -> dict[str, SensorFile]:
+        """Every kind's extra files by name, in registration order."""
+        out: dict[str, SensorFile] = {}
+        for entry in self._entries.values():
+            out.update({f.name: f for f in entry.files if f.name not in out})
+        return out
+
+
+#: ``sensor.kind`` → :class:`SensorKind`.
+SENSOR_KINDS = SensorKinds("sensor kind")
+
+
+def capture(radiance, config, *, frame_seed: int | None = None, render_pose: Callable | None = None,
+            sequence: bool = False) -> SensorCapture:
+    """Expose ``config.sensor.kind`` to a rendered radiance image: the one capture of the render job and
+    the sequence.
+
+    Parameters
+    ----------
+    radiance : SpectralImage
+        The render (with the sensor's crop margin).
+    config : SceneConfig
+        The resolved scene.
+    frame_seed : int, optional
+        The noise draw (default ``render.seed``): a sequence's frame index.
+    render_pose : callable, optional
+        Renders one more pose of the scene (see :class:`SensorKind`); None where none can be made.
+    sequence : bool
+        The capture is a sequence's frame: a kind with ``sequences = False`` is refused.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown kind, or a kind a sequence does not take.
+    """
+    entry = SENSOR_KINDS[config.sensor.kind]
+    if sequence and not entry.sequences:
+        raise ConfigError(entry.sequence_refusal or f"sensor.kind = {entry.name!r} cannot be a sequence's frame")
+    return entry.function(radiance, config, frame_seed=frame_seed, render_pose=render_pose)
+
+
+def validate_sensor_keys(sensor) -> tuple[str, Any, str] | None:
+    """The first problem ``(key, value, rule)`` of ``sensor.kind`` and every kind's keys (each key's
+    default must be valid whatever the kind), then of a key set for a kind it does not belong to."""
+    if sensor.kind not in SENSOR_KINDS:
+        return "sensor.kind", sensor.kind, "valid: " + ", ".join(
+            f"{name!r} ({entry.description})" for name, entry in SENSOR_KINDS.items())
+    seen: set[str] = set()
+    for entry in SENSOR_KINDS.values():
+        for check in entry.keys:
+            if check.key not in seen:
+                seen.add(check.key)
+                problem = check.problem(sensor)
+                if problem:
+                    return problem
+    for entry in SENSOR_KINDS.values():
+        stray = [key for key in entry.exclusive_keys if getattr(sensor, key)]
+        if sensor.kind != entry.name and stray:
+            return f"sensor.{stray[0]}", getattr(sensor, stray[0]), entry.exclusive_rule
+    return None
+
+
+def sensor_file(name: str) -> SensorFile | None:
+    """The :class:`SensorFile` called ``name`` among every kind's, or None."""
+    return SENSOR_KINDS.files().get(name)
+
+
+# ----------------------------------------------------------------------------- cmos
+def _capture_cmos(radiance, config, *, frame_seed=None, render_pose=None) -> SensorCapture:
+    from . import expose
+
+    return SensorCapture(expose(radiance, config, frame_seed=frame_seed))
+
+
+SENSOR_KINDS.add_kind(SensorKind("cmos", _capture_cmos, description="integrating, the EMVA 1288 model"))
+
+
+# ----------------------------------------------------------------------------- qis, spad
+def _capture_photon_counting(radiance, config, *, frame_seed=None, render_pose=None) -> SensorCapture:
+    """Its frames, and their reconstruction as the RAW the ISP develops."""
+    from .photon_counting import expose_photon_counting
+
+    counts = expose_photon_counting(radiance, config, frame_seed=frame_seed)
+    return SensorCapture(counts.to_raw(), {"photon_counts": counts})
+
+
+def _photon_counts_bytes(config) -> float:
+    """packed bits (or a byte a count) of every frame with the crop margin, before compression"""
+    sensor = config.sensor
+    margin = 2 * sensor.crop_margin_px
+    per_frame = (sensor.width_px + margin) * (sensor.height_px + margin) / (8.0 if sensor.jot_bits == 1 else 1.0)
+    return _HEADER_BYTES + sensor.jot_frames * per_frame
+
+
+def _read_photon_counts(folder) -> dict:
+    """photon_counts.npz: ``counts`` (frames, H, W) uint8 (unpacked) and ``meta`` (its record)."""
+    with np.load(Path(folder) / "photon_counts.npz") as npz:
+        meta = json.loads(str(npz["meta"]))
+        if "bits" in npz:
+            counts = np.unpackbits(npz["bits"], axis=-1, count=meta["shape"][1])
+        else:
+            counts = npz["counts"]
+    return {"counts": counts, "meta": meta}
+
+
+def _jot_bytes_per_frame(sensor) -> float:
+    return 1.0 + (0.125 if sensor.jot_bits == 1 else 0.0)
+
+
+def _photon_counting_memory(config) -> float:
+    """``jot_frames`` count frames (1 B a jot a frame, and the packed bits written for one bit) with their
+    working arrays."""
+    sensor = config.sensor
+    return float(sensor.jot_frames) * _jot_bytes_per_frame(sensor) + PHOTON_COUNTING_BYTES_PER_PIXEL
+
+
+def _spad_memory(config) -> float:
+    """A QIS's, and with a dead time and several bits the survival table of every count level."""
+    sensor = config.sensor
+    table = sensor.dead_time_s > 0 and sensor.jot_bits > 1
+    return _photon_counting_memory(config) + (SPAD_BYTES_PER_PIXEL_PER_LEVEL * (2 ** int(sensor.jot_bits) - 1)
+                                              if table else 0.0)
+
+
+def _photon_counting_remedy(config, room_per_pixel: float) -> str | None:
+    """The ``jot_frames`` that fit ``room_per_pixel`` bytes."""
+    sensor = config.sensor
+    per_frame = _jot_bytes_per_frame(sensor)
+    frames = int((room_per_pixel - (SENSOR_KINDS[sensor.kind].memory_bytes_per_pixel(config) - float(sensor.jot_frames) * per_frame))
+                 / per_frame)
+    return f"sensor.jot_frames = {frames} fits ({sensor.jot_frames} asked)" if frames >= 1 else None
+
+
+_PHOTON_COUNTS = SensorFile("photon_counts", ("photon_counts.npz",),
+                            lambda counts, folder: [counts.save(Path(folder) / "photon_counts.npz")],
+                            _read_photon_counts, _photon_counts_bytes,
+                            "a QIS or SPAD capture's frames (packed bits) and record")
+_JOT_KEYS = (KeyCheck("jot_frames", 1, 65536, "", whole=True,
+                      rule="the frames of a single-photon capture, a whole number in 1..65536"),
+             KeyCheck("jot_bits", 1, 8, "", whole=True, rule="bits per jot and frame, a whole number in 1..8"))
+SENSOR_KINDS.add_kind(SensorKind(
+    "qis", _capture_photon_counting, options=("jot_frames", "jot_bits"),
+    description="a quanta image sensor: binary or few-bit jots", keys=_JOT_KEYS, files=(_PHOTON_COUNTS,),
+    memory_bytes_per_pixel=_photon_counting_memory, memory_remedy=_photon_counting_remedy,
+    outputs_noun="count frames"))
+SENSOR_KINDS.add_kind(SensorKind(
+    "spad", _capture_photon_counting, options=("jot_frames", "jot_bits", "dead_time_s", "afterpulsing"),
+    description="single-photon avalanche diodes: dead time, afterpulsing",
+    keys=_JOT_KEYS + (KeyCheck("dead_time_s", 0.0, 1.0, "", rule="a SPAD's dead time in 0..1 s (tens of ns are typical)"),
+                      KeyCheck("afterpulsing", 0.0, 1.0, "", rule="a SPAD's afterpulsing probability in 0..1")),
+    exclusive_keys=("dead_time_s", "afterpulsing"),
+    exclusive_rule="dead time and afterpulsing belong to sensor.kind = 'spad'", files=(_PHOTON_COUNTS,),
+    memory_bytes_per_pixel=_spad_memory, memory_remedy=_photon_counting_remedy,
+    outputs_noun="count frames"))
+
+
+# ----------------------------------------------------------------------------- event
+def _event_stream(config, render_pose: Callable):
+    """``sensor.event_frames`` renders spread over ``exposure.time_s`` (each a pose of the motion at its
+    time, no blur), their log intensities, and the events between them."""
+    from .events import log_intensity, simulate_events
+
+    if config.exposure.time_s == "auto":
+        raise ConfigError("an event capture needs exposure.time_s: the span its frames cover, in seconds")
+    if render_pose is None:
+        raise ConfigError("sensor.kind = 'event' renders its own span of poses: capture it through "
+                          "spectral_cam.job.simulate or `spectral-cam render`")
+    span, count = float(config.exposure.time_s), int(config.sensor.event_frames)
+    times = np.linspace(0.0, span, count)
+    logs = []
+    for t in times:
+        frame = config.replace(**{"exposure.start_s": float(config.exposure.start_s) + t - span / 2,
+                                  "exposure.time_s": span / (count - 1), "motion.subframes": 1,
+                                  "sensor.kind": "cmos"})
+        logs.append(log_intensity(render_pose(frame), frame))
+    # the light's clock as the poses': the frames are t − span/2 after exposure.start_s
+    return simulate_events(logs, times, config, flicker_origin_s=float(config.exposure.start_s) - span / 2)
+
+
+def _capture_event(radiance, config, *, frame_seed=None, render_pose=None) -> SensorCapture:
+    """The events over the span, and the APS frame a DAVIS gives beside them (the CMOS model's RAW)."""
+    from . import expose
+
+    started = time.perf_counter()
+    events = _event_stream(config, render_pose)
+    took = time.perf_counter() - started
+    raw = expose(radiance, config.replace(**{"sensor.kind": "cmos"}), frame_seed=frame_seed)
+    return SensorCapture(raw, {"events": events}, {"events": took})
+
+
+def _write_events(events, folder) -> list:
+    """events.npz, and events.png: the event frame as 8-bit RGB (OpenCV's PNG encoder; the ISP's
+    encoders are above the sensor, and this frame is no developed image)."""
+    import cv2
+
+    from ..io import atomic_path
+
+    folder = Path(folder)
+    ok, png = cv2.imencode(".png", np.ascontiguousarray(events.frame_rgb()[..., ::-1]))
+    if not ok:
+        raise OSError("OpenCV could not encode events.png")
+    with atomic_path(folder / "events.png") as tmp:
+        tmp.write_bytes(png.tobytes())
+    return [events.save(folder / "events.npz"), folder / "events.png"]
+
+
+def _read_events(folder) -> dict:
+    """events.npz: ``x``, ``y`` (px), ``t`` (µs), ``p`` (1 ON, 0 OFF) and ``meta`` (its record)."""
+    with np.load(Path(folder) / "events.npz") as npz:
+        return {**{k: npz[k] for k in ("x", "y", "t", "p")}, "meta": json.loads(str(npz["meta"]))}
+
+
+#: Bytes an event takes in events.npz before compression: x, y (uint16), t (int64), p (uint8).
+_EVENT_FILE_BYTES = 13.0
+
+
+def _events_bytes(config) -> float:
+    """events.npz (the expected events, :func:`~spectral_cam.sensor.events.expected_events_per_pixel`) and
+    events.png (8-bit RGB), uncompressed; a metered span has no count yet."""
+    from .events import expected_events_per_pixel
+
+    pixels = float(config.sensor.width_px) * config.sensor.height_px
+    events = 0.0 if config.exposure.time_s == "auto" else expected_events_per_pixel(config)
+    return 2 * _HEADER_BYTES + pixels * (events * _EVENT_FILE_BYTES + 3.0)
+
+
+def _event_memory(config) -> float:
+    """The events (:func:`expected_events_per_pixel` × ``BYTES_PER_EVENT``) and the frames' log
+    intensities; 0 for a metered span."""
+    from .events import BYTES_PER_EVENT, expected_events_per_pixel
+
+    if config.exposure.time_s == "auto":
+        return 0.0
+    return (expected_events_per_pixel(config) * BYTES_PER_EVENT + 8.0 * float(config.sensor.event_frames)
+            + EVENT_WORK_BYTES_PER_PIXEL)
+
+
+def _event_remedy(config, room_per_pixel: float) -> str | None:
+    """The longest ``exposure.time_s`` whose events fit ``room_per_pixel`` bytes (the count is monotone in it)."""
+    from .events import BYTES_PER_EVENT, expected_events_per_pixel
+
+    if config.exposure.time_s == "auto":
+        return None
+    span = float(config.exposure.time_s)
+    rate = expected_events_per_pixel(config, upper=False) / span
+    fixed = 8.0 * float(config.sensor.event_frames) + EVENT_WORK_BYTES_PER_PIXEL
+    lo, hi = 0.0, span
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if expected_events_per_pixel(config, mid) * BYTES_PER_EVENT + fixed <= room_per_pixel:
+            lo = mid
+        else:
+            hi = mid
+    if lo <= 0:
+        return None
+    return (f"exposure.time_s = {lo:.3g} s fits (about {rate:.3g} events a pixel a second from "
+            f"event_shot_noise_hz, event_leak_hz and the light's flicker; or lower those)")
+
+
+SENSOR_KINDS.add_kind(SensorKind(
+    "event", _capture_event,
+    options=("event_threshold", "event_threshold_sigma", "event_refractory_s", "event_leak_hz",
+             "event_shot_noise_hz", "event_frames"),
+    description="brightness changes, from a sequence's frames",
+    keys=(KeyCheck("event_threshold", 0.01, 5.0, "the contrast threshold in log units"),
+          KeyCheck("event_threshold_sigma", 0.0, 1.0, "the threshold's per-pixel σ in log units"),
+          KeyCheck("event_refractory_s", 0.0, 1.0, "the refractory period in seconds"),
+          KeyCheck("event_leak_hz", 0.0, 1e4, "the leak event rate per pixel in Hz"),
+          KeyCheck("event_shot_noise_hz", 0.0, 1e4, "the shot-noise event rate per pixel in Hz"),
+          KeyCheck("event_frames", 2, 4096, "", whole=True,
+                   rule="the renders an event capture interpolates between, a whole number in 2..4096")),
+    files=(SensorFile("events", ("events.npz", "events.png"), _write_events, _read_events, _events_bytes,
+                      "an event capture's (x, y, t µs, p) and its event frame"),),
+    sequences=False,
+    sequence_refusal=("sensor.kind = 'event' in a sequence: its frames are hours apart (a time-lapse); render an "
+                      "event capture with `spectral-cam render` over exposure.time_s, or use 'cmos', 'qis' or "
+                      "'spad' here"),
+    memory_bytes_per_pixel=_event_memory, memory_remedy=_event_remedy,
+    outputs_noun="events"))
