@@ -139,7 +139,7 @@ def check_render_memory(width_px: int, height_px: int, *, channels: int = 31, la
             remedies.append(f"render.bands = \"camera\" (6 values a pixel instead of {channels}: about "
                             f"{need(width_px, height_px, 6) / 1e9:.1f} GB)")
         outputs = (f" ({sensor * width_px * height_px / 1e9:.3g} GB of it the {config.sensor.kind} sensor's "
-                   f"{'count frames' if config.sensor.kind != 'event' else 'events'})") if sensor else ""
+                   f"{SENSOR_KINDS[config.sensor.kind].outputs_noun})") if sensor else ""
         raise ConfigError(
             f"{what} ({width_px} × {height_px} px) needs about {need(width_px, height_px) / 1e9:.1f} GB of memory"
             f"{outputs} and {have / 1e9:.1f} GB are available; {', or '.join(remedies)}; or free memory")
