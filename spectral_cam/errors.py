@@ -6,7 +6,8 @@ its message without a traceback and programs can catch one base class.
 
 from __future__ import annotations
 
-__all__ = ["SpectralCamError", "ConfigError", "RenderError", "SensorError", "RawFormatError", "SceneWarning"]
+__all__ = ["SpectralCamError", "ConfigError", "OutputPathError", "RenderError", "SensorError", "RawFormatError",
+           "SceneWarning"]
 
 
 class SpectralCamError(Exception):
@@ -15,6 +16,12 @@ class SpectralCamError(Exception):
 
 class ConfigError(SpectralCamError, ValueError):
     """A scene file, override or argument is invalid; the message says what would be valid."""
+
+
+class OutputPathError(ConfigError, NotADirectoryError):
+    """An output path cannot be made: a file or a dangling link stands where its folder must be.
+    A :class:`ConfigError` for the user, and an ``OSError`` for code that treats any file-system
+    refusal alike (a cache that cannot be written only costs its recomputation)."""
 
 
 class RenderError(SpectralCamError, RuntimeError):

@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 from typing import Iterator
 
-from .errors import ConfigError
+from .errors import ConfigError, OutputPathError
 
 __all__ = ["atomic_path", "staged_directory", "discard_in_progress", "exchange_paths", "recover_interrupted",
            "remove_abandoned_partials", "check_free_disk"]
@@ -156,8 +156,8 @@ def _make_parent(path: Path) -> None:
     except (FileExistsError, NotADirectoryError):
         blocker = next((p for p in (path.parent, *path.parent.parents) if os.path.lexists(p) and not p.is_dir()), None)
         where = f"{blocker}{_what_is_there(blocker)}" if blocker else str(path.parent)
-        raise ConfigError(f"cannot write {path}: {where} is in the way of its folder; choose another path "
-                          "or remove it") from None
+        raise OutputPathError(f"cannot write {path}: {where} is in the way of its folder; choose another path "
+                              "or remove it") from None
 
 
 def _publish(stage: Path, target: Path, *, force: bool) -> None:

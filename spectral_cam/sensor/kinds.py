@@ -19,7 +19,7 @@ References
 ----------
 .. [1] colour-science, method mappings (``colour.SPECTRAL_SHAPES``-style named entries with
    their functions): one mapping per extension point.
-.. [2] docs/design.md, "Sensor kinds".
+.. [2] docs/design.md, "Sensor (`sensor/`)" (its "Sensor kinds" entry).
 """
 
 from __future__ import annotations

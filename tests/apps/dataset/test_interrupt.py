@@ -30,8 +30,13 @@ f_number = { uniform = [2.0, 8.0] }
 """
 
 
+#: Items per run: enough that Ctrl-C after the second lands mid-run on a quiet machine too (8 items of
+#: 24 × 16 px took 3 s there, so the run had finished before the signal arrived)
+ITEMS = 40
+
+
 def _dataset(spec: Path, out: Path) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "dataset", str(spec), "-n", "8", "-o", str(out),
+    return subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "dataset", str(spec), "-n", str(ITEMS), "-o", str(out),
                              "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)  # its own process group, as a terminal's job
 
@@ -60,7 +65,7 @@ def test_ctrl_c_keeps_the_finished_items_says_so_and_the_same_command_resumes(tm
     done = [row["id"] for row in rows if row["status"] == "done"]
     assert done == kept and len(kept) >= 2  # every complete folder counted, no half-written one counted
     last = err.strip().splitlines()[-1]
-    assert last == f"spectral-cam: interrupted: {len(kept)}/8 items done, kept in {out}; rerun the same command to resume"
+    assert last == f"spectral-cam: interrupted: {len(kept)}/{ITEMS} items done, kept in {out}; rerun the same command to resume"
     for noise in ("Traceback", "CancelledError", "killing", "no partial output was kept", "WARNING", "ERROR"):
         assert noise not in err, err
     assert not [p.name for p in (out / "items").iterdir() if p.name.startswith(".")]
@@ -70,6 +75,6 @@ def test_ctrl_c_keeps_the_finished_items_says_so_and_the_same_command_resumes(tm
     again = _dataset(spec, out)
     _, err = again.communicate(timeout=400)
     assert again.returncode == 0, err
-    assert f"8 items, {8 - len(kept)} rendered, {len(kept)} resumed, 0 failed" in err
+    assert f"{ITEMS} items, {ITEMS - len(kept)} rendered, {len(kept)} resumed, 0 failed" in err
     assert before == {name: (out / "items" / name / "raw.dng").stat().st_mtime_ns for name in kept}
-    assert [row["status"] for row in read_manifest(out)] == ["done"] * 8
+    assert [row["status"] for row in read_manifest(out)] == ["done"] * ITEMS
