@@ -113,6 +113,8 @@ def _bsdf_class(mi):
     def texture(props, name):
         return props.get_texture(name) if name in props else None
 
+    # defined per variant: its base class is the active variant's (mi.BSDF), which exists only once a variant is set
+    # (and each variant registers its own class: mi.register_*)
     class Leaf(mi.BSDF):
         def __init__(self, props):
             mi.BSDF.__init__(self, props)

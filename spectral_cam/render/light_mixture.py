@@ -123,6 +123,8 @@ def _register_white_bounce(mi) -> None:
     if mi.variant() in _REGISTERED:
         return
 
+    # defined per variant: its base class is the active variant's (mi.SamplingIntegrator), which exists only once a variant is set
+    # (and each variant registers its own class: mi.register_*)
     class WhiteBounce(mi.SamplingIntegrator):
         def __init__(self, props):
             super().__init__(props)

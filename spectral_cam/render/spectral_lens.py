@@ -62,6 +62,8 @@ def register(mi) -> None:
 def _sensor_class(mi):
     import drjit as dr
 
+    # defined per variant: its base class is the active variant's (mi.Sensor), which exists only once a variant is set
+    # (and each variant registers its own class: mi.register_*)
     class SpectralThinLens(mi.Sensor):
         """Thin lens whose focal length follows a spectrum ``focal_length`` (m per nm)."""
 
