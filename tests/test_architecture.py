@@ -107,6 +107,93 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
     return out
 
 
+#: The package's floors, lowest first, by top-level module or package ("__init__" is
+#: spectral_cam's own public face). A module may import its own floor or a lower one. The order is
+#: that of the imports, not of the data: the renderer asks the sensor model what it needs
+#: (``spp = "auto"``), the sensor writes RawImage and the ISP's tone curves into its DNG, and the
+#: scene file validates the keys its presets, ISP stages and sensor kinds declare.
+FLOORS: tuple[tuple[str, ...], ...] = (
+    ("errors", "registry", "io", "records", "machine", "progress", "viz", "_lazy_colour"),
+    ("cfa", "image", "exr", "spectral_exr", "xml_scene", "solar", "metering"),
+    ("spectrum", "cie", "spectra", "colour_ground_truth", "reflectance_sets", "leaves",
+     "soil_moisture", "textures"),
+    ("optics",),
+    ("metrics",),
+    ("presets",),
+    ("raw",),
+    ("isp",),
+    ("sensor",),
+    ("control",),
+    ("scene",),
+    ("budget", "radiance_targets"),
+    ("render",),
+    ("camera_record", "job", "__init__"),
+    ("apps",),
+    ("cli", "data"),
+)
+
+#: Every import that climbs to a higher floor: (module, imported module, why). Any other fails.
+ALLOWED_UPWARD: tuple[tuple[str, str, str], ...] = (
+    ("spectral_cam.scene", "spectral_cam.render.lens_models",
+     "lens.model is checked against LENS_MODELS (a user's module may add to it)"),
+)
+
+
+def _floor_name(module: str) -> str:
+    parts = module.split(".")
+    return "__init__" if len(parts) == 1 else parts[1]
+
+
+def _floor_of() -> dict[str, int]:
+    return {name: i for i, floor in enumerate(FLOORS) for name in floor}
+
+
+def upward_imports(graph: dict[str, set[str]]) -> set[tuple[str, str]]:
+    """Every (module, imported module) whose target sits on a higher floor."""
+    floor = _floor_of()
+    return {(m, t) for m, targets in graph.items() for t in targets
+            if floor[_floor_name(t)] > floor[_floor_name(m)]}
+
+
+def layering_block() -> str:
+    """The floors and the allowed upward imports as design.md's "Layering" shows them."""
+    lines = ["floors, lowest first (a module imports its own floor or a lower one):"]
+    lines += [f"{i:3d}  " + " ".join(floor) for i, floor in enumerate(FLOORS, start=1)]
+    lines.append("imports up a floor, each allowed by name (any other fails the test):")
+    for module, target, reason in ALLOWED_UPWARD:
+        lines.append(f"  {module.removeprefix(PACKAGE + '.')} → {target.removeprefix(PACKAGE + '.')}: "
+                     f"{reason}")
+    return "\n".join(lines)
+
+
+def test_every_module_sits_on_a_floor():
+    unplaced = sorted({_floor_name(m) for m in import_graph()} - set(_floor_of()))
+    assert not unplaced, f"add these to a floor in FLOORS (and design.md's Layering): {unplaced}"
+
+
+def test_every_upward_import_is_named_and_every_named_one_exists():
+    graph = import_graph()
+    found = upward_imports(graph)
+    allowed = {(m, t) for m, t, _ in ALLOWED_UPWARD}
+    assert not found - allowed, "imports up a floor not in ALLOWED_UPWARD: " + ", ".join(
+        f"{m} -> {t}" for m, t in sorted(found - allowed))
+    assert not allowed - found, "ALLOWED_UPWARD entries no longer in the code (remove them): " + \
+        ", ".join(f"{m} -> {t}" for m, t in sorted(allowed - found))
+
+
+def test_an_upward_import_is_found_where_there_is_one():
+    # the checker itself, on a made-up edge: the sensor importing the renderer
+    graph = {"spectral_cam.sensor.noise": {"spectral_cam.render.trace", "spectral_cam.errors"}}
+    assert upward_imports(graph) == {("spectral_cam.sensor.noise", "spectral_cam.render.trace")}
+
+
+def test_the_design_shows_the_layering_the_test_enforces():
+    design = (ROOT.parent / "docs" / "design.md").read_text(encoding="utf-8")
+    assert f"```\n{layering_block()}\n```" in design, (
+        "docs/design.md's Layering block differs from FLOORS/ALLOWED_UPWARD; it should read:\n"
+        + layering_block())
+
+
 def test_the_import_graph_has_no_cycle():
     cycles = [c for c in strongly_connected(import_graph()) if len(c) > 1]
     assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
