@@ -1,6 +1,6 @@
 """docs/design.md's folder map against the package on disk.
 
-Every module and subpackage under ``spectral_cam/`` (each ``.py`` file, excluding
+Every module and subpackage under ``spectral_cam/`` (each ``.py`` file, by its file name, excluding
 ``__init__``/``__main__`` and ``data/``) is named in the "Folder map" block, and every file or
 folder the block names exists: the map cannot silently fall behind the package (issue 41 listed 7
 of 12 sensor modules).
@@ -70,7 +70,7 @@ def _unnamed() -> list[str]:
                 missing.append(rel.as_posix())
             continue
         _, text = _package_entry(path.parent, table)
-        if not re.search(rf"(?<![\w.]){re.escape(path.stem)}(\.py)?\b", text):
+        if not re.search(rf"(?<![\w./]){re.escape(path.name)}\b", text):
             missing.append(rel.as_posix())
     for init in sorted(PACKAGE.rglob("__init__.py")):
         folder = init.parent
