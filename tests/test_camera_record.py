@@ -18,39 +18,16 @@ import spectral_cam as sc
 from spectral_cam.job import run_render_job
 from spectral_cam.spectral_exr import read_spectral_exr
 
+from .support.dots import POINTS, centroids, dots_xml
+
 pytestmark = pytest.mark.timeout(300)
 
-#: World positions (m) of the sphere centres.
-POINTS = np.array([[0.0, 0.0, 0.0], [0.35, 0.2, 0.3], [-0.4, -0.25, 0.1], [0.3, -0.3, -0.4], [-0.3, 0.3, -0.2]])
-RADIUS = 0.008
-
-
-def _xml(path):
-    spheres = "".join(f'''
-    <shape type="sphere" id="dot{i}">
-        <point name="center" x="{x}" y="{y}" z="{z}"/><float name="radius" value="{RADIUS}"/>
-        <emitter type="area"><rgb name="radiance" value="20"/></emitter>
-    </shape>''' for i, (x, y, z) in enumerate(POINTS))
-    path.write_text(f'''<scene version="3.0.0">
-    <sensor type="perspective">
-        <float name="fov" value="40"/>
-        <transform name="to_world"><lookat origin="1.2, 0.7, -2.6" target="0, 0, 0" up="0, 1, 0"/></transform>
-    </sensor>{spheres}
-</scene>''')
-    return path
-
-
-def _centroids(radiance: np.ndarray) -> np.ndarray:
-    light = radiance.sum(axis=-1)
-    labels, count = ndimage.label(light > 0.05 * light.max())
-    # (column, row) with pixel centres at integers, as OpenCV counts them
-    return np.array([c[::-1] for c in ndimage.center_of_mass(light, labels, range(1, count + 1))])
 
 
 @pytest.mark.parametrize("model, distortion", [("pinhole", [0.0] * 5), ("thin", [0.0] * 5),
                                                ("spectral_thin", [-0.12, 0.03, 0.001, -0.002, 0.0])])
 def test_opencv_projects_world_points_where_they_render(tmp_path, model, distortion):
-    scene = {"scene": {"mitsuba_xml": str(_xml(tmp_path / "dots.xml"))},
+    scene = {"scene": {"mitsuba_xml": str(dots_xml(tmp_path / "dots.xml"))},
              "sensor": {"width_px": 192, "height_px": 144, "pixel_pitch_um": 6.0},
              "lens": {"model": model, "distortion": distortion, "f_number": 8.0, "focus_distance_m": 2.9},
              "illuminant": {"emitter": "dot0"}, "render": {"spp": 64, "diffraction": "off"}}
@@ -61,7 +38,7 @@ def test_opencv_projects_world_points_where_they_render(tmp_path, model, distort
     rvec, _ = cv2.Rodrigues(pose[:3, :3])
     projected, _ = cv2.projectPoints(POINTS, rvec, pose[:3, 3], np.array(camera["K"]), np.array(camera["distortion"]))
     projected = projected.reshape(-1, 2)
-    found = _centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
+    found = centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
     assert len(found) == len(POINTS)
     distances = np.linalg.norm(projected[:, None, :] - found[None, :, :], axis=-1)
     assert distances.min(axis=1).max() < 0.5, distances.min(axis=1)
@@ -82,7 +59,7 @@ def test_our_python_cameras_follow_an_xml_cameras_pose(tmp_path, model):
     lens = {"model": model, "f_number": 8.0, "focus_distance_m": 2.9}
     if model == "spectral_thin":
         lens["glass"] = "ideal"
-    scene = {"scene": {"mitsuba_xml": str(_xml(tmp_path / "dots.xml"))}, "sensor": {"width_px": 96, "height_px": 72},
+    scene = {"scene": {"mitsuba_xml": str(dots_xml(tmp_path / "dots.xml"))}, "sensor": {"width_px": 96, "height_px": 72},
              "lens": lens, "illuminant": {"emitter": "dot0"}, "render": {"spp": 16, "diffraction": "off"}}
     with pytest.warns() if model == "prescription" else contextlib.nullcontext():
         ours = sc.render(sc.scene_from_dict(scene))
@@ -128,7 +105,7 @@ def test_a_prescriptions_fitted_distortion_projects_where_its_real_rays_render(t
     assert camera["distortion"][0] < -0.03 and camera["distortion_residual_px"] < 0.05
     pose = np.array(camera["world_to_camera_opencv"])
     rvec, _ = cv2.Rodrigues(pose[:3, :3])
-    found = _centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
+    found = centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
     assert len(found) == len(WIDE_POINTS)
 
     def miss(distortion):
@@ -143,7 +120,7 @@ def test_a_prescriptions_fitted_distortion_projects_where_its_real_rays_render(t
 def test_a_moving_cameras_pose_is_its_pose_at_mid_exposure(tmp_path):
     """A camera sliding sideways smears each dot into a streak whose centroid is the dot's image
     at mid-exposure: camera.json's pose projects there (within 0.5 px) and records the velocity."""
-    scene = {"scene": {"mitsuba_xml": str(_xml(tmp_path / "dots.xml"))},
+    scene = {"scene": {"mitsuba_xml": str(dots_xml(tmp_path / "dots.xml"))},
              "sensor": {"width_px": 192, "height_px": 144, "pixel_pitch_um": 6.0},
              "lens": {"model": "pinhole", "focus_distance_m": 2.9}, "exposure": {"time_s": 0.02},
              "motion": {"camera_velocity_mps": [1.5, 0.0, 0.0]},
@@ -154,7 +131,7 @@ def test_a_moving_cameras_pose_is_its_pose_at_mid_exposure(tmp_path):
     pose = np.array(camera["world_to_camera_opencv"])
     rvec, _ = cv2.Rodrigues(pose[:3, :3])
     projected, _ = cv2.projectPoints(POINTS, rvec, pose[:3, 3], np.array(camera["K"]), np.array(camera["distortion"]))
-    found = _centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
+    found = centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
     assert len(found) == len(POINTS)
     distances = np.linalg.norm(projected.reshape(-1, 2)[:, None, :] - found[None, :, :], axis=-1)
     assert distances.min(axis=1).max() < 0.5, distances.min(axis=1)

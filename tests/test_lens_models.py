@@ -15,7 +15,6 @@ import warnings
 import cv2
 import numpy as np
 import pytest
-from scipy import ndimage
 
 import spectral_cam as sc
 from spectral_cam.errors import ConfigError
@@ -23,13 +22,14 @@ from spectral_cam.job import run_render_job
 from spectral_cam.render.lens_models import LENS_MODELS, LensModel, pinhole_camera
 from spectral_cam.spectral_exr import read_spectral_exr
 
+from .support.dots import POINTS, centroids, dots_xml
+
 pytestmark = pytest.mark.timeout(300)
 
 #: The toy model: a pinhole behind a 1.25× teleconverter (its focal length 1.25 × the image distance).
 TOY = "test_teleconverter_pinhole"
 SCALE = 1.25
 
-POINTS = np.array([[0.0, 0.0, 0.0], [0.35, 0.2, 0.3], [-0.4, -0.25, 0.1], [0.3, -0.3, -0.4], [-0.3, 0.3, -0.2]])
 
 
 def _toy_camera(mi, config, lens, film, spp):
@@ -47,28 +47,8 @@ if TOY not in LENS_MODELS:  # a module imported twice (pytest's rewrites) regist
     LENS_MODELS.add(TOY, _toy_camera, intrinsics=_toy_intrinsics, description="a pinhole behind a 1.25× converter")
 
 
-def _xml(path):
-    spheres = "".join(f'''
-    <shape type="sphere" id="dot{i}">
-        <point name="center" x="{x}" y="{y}" z="{z}"/><float name="radius" value="0.008"/>
-        <emitter type="area"><rgb name="radiance" value="20"/></emitter>
-    </shape>''' for i, (x, y, z) in enumerate(POINTS))
-    path.write_text(f'''<scene version="3.0.0">
-    <sensor type="perspective">
-        <transform name="to_world"><lookat origin="1.2, 0.7, -2.6" target="0, 0, 0" up="0, 1, 0"/></transform>
-    </sensor>{spheres}
-</scene>''')
-    return path
-
-
-def _centroids(radiance: np.ndarray) -> np.ndarray:
-    light = radiance.sum(axis=-1)
-    labels, count = ndimage.label(light > 0.05 * light.max())
-    return np.array([c[::-1] for c in ndimage.center_of_mass(light, labels, range(1, count + 1))])
-
-
 def test_a_lens_model_registered_outside_the_package_renders_end_to_end(tmp_path):
-    scene = {"scene": {"mitsuba_xml": str(_xml(tmp_path / "dots.xml"))},
+    scene = {"scene": {"mitsuba_xml": str(dots_xml(tmp_path / "dots.xml", fov_deg=None))},
              "sensor": {"width_px": 96, "height_px": 72, "pixel_pitch_um": 12.0},
              "lens": {"model": TOY, "f_number": 8.0, "focus_distance_m": 2.9},
              "illuminant": {"emitter": "dot0"}, "render": {"spp": 16, "diffraction": "off"}}
@@ -81,7 +61,7 @@ def test_a_lens_model_registered_outside_the_package_renders_end_to_end(tmp_path
     pose = np.array(camera["world_to_camera_opencv"])
     rvec, _ = cv2.Rodrigues(pose[:3, :3])
     projected, _ = cv2.projectPoints(POINTS, rvec, pose[:3, 3], np.array(camera["K"]), np.array(camera["distortion"]))
-    found = _centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
+    found = centroids(read_spectral_exr(tmp_path / "out" / "radiance.exr").data)
     assert len(found) == len(POINTS)
     distances = np.linalg.norm(projected.reshape(-1, 2)[:, None, :] - found[None, :, :], axis=-1)
     assert distances.min(axis=1).max() < 0.5, distances.min(axis=1)
