@@ -241,10 +241,12 @@ def local_cluster(workers: int | None = None, *, dashboard: bool = False, **work
     try:
         yield client
     except BaseException:  # an interrupt: stop the workers mid-item, before anything tells them so
-        with _dask_quiet():
-            _kill_workers(cluster)
-            client.close()
-            cluster.close()
+        # quiet for the rest of the process, not only while closing: the client's event loop thread
+        # logs the transfers the kill broke (CommClosedError tracebacks) after close returns (seen under load)
+        _silence_dask()
+        _kill_workers(cluster)
+        client.close()
+        cluster.close()
         raise
     client.close()
     cluster.close()
@@ -304,21 +306,17 @@ def _interrupts_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
-@contextlib.contextmanager
-def _dask_quiet() -> Iterator[None]:
-    """Dask's own log lines silenced (workers "still alive ..., killing", and the tracebacks of
-    results in transfer when the scheduler closes, which its event loop logs through tornado)."""
+def _silence_dask() -> dict:
+    """Silence Dask's, tornado's and asyncio's loggers (workers "still alive ..., killing", and the
+    tracebacks of results in transfer when the scheduler closes, which its event loop logs through
+    tornado); returns their levels before."""
     import logging
 
     loggers = [logging.getLogger(name) for name in ("distributed", "tornado", "asyncio")]
-    levels = [logger.level for logger in loggers]
+    levels = {logger: logger.level for logger in loggers}
     for logger in loggers:
         logger.setLevel(logging.CRITICAL + 1)
-    try:
-        yield
-    finally:
-        for logger, level in zip(loggers, levels):
-            logger.setLevel(level)
+    return levels
 
 
 def default_workers() -> int:
