@@ -38,14 +38,26 @@ __all__ = [
     "OUTPUT_FORMATS",
 ]
 
-#: Method names per setting, read from the stage registries (one place per extension point).
-WHITE_BALANCE_METHODS = WHITE_BALANCE.names()
-DEMOSAIC_METHODS = DEMOSAIC.names()
-DENOISE_METHODS = DENOISERS.names()
-HIGHLIGHT_METHODS = HIGHLIGHTS.names()
-COLOUR_MATRIX_METHODS = COLOUR_MATRIX.names()
-TONE_METHODS = TONE.names()
-OUTPUT_FORMATS = ENCODERS.names()
+#: The registry behind each public ``*_METHODS`` name: the names are read from it when asked
+#: (:func:`__getattr__`), never copied at import, so an entry a user's module registers later is
+#: listed and accepted (one place per extension point).
+_REGISTRY_OF = {
+    "WHITE_BALANCE_METHODS": WHITE_BALANCE,
+    "DEMOSAIC_METHODS": DEMOSAIC,
+    "DENOISE_METHODS": DENOISERS,
+    "HIGHLIGHT_METHODS": HIGHLIGHTS,
+    "COLOUR_MATRIX_METHODS": COLOUR_MATRIX,
+    "TONE_METHODS": TONE,
+    "OUTPUT_FORMATS": ENCODERS,
+}
+
+
+def __getattr__(name: str) -> tuple[str, ...]:
+    """``WHITE_BALANCE_METHODS``, ``DEMOSAIC_METHODS``, …, ``OUTPUT_FORMATS``: the registered names
+    now, in registration order (PEP 562 module attributes)."""
+    if name in _REGISTRY_OF:
+        return _REGISTRY_OF[name].names()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _fail(key: str, value: Any, rule: str) -> None:
@@ -166,7 +178,7 @@ class ISPConfig:
         if isinstance(self.outputs, str):
             object.__setattr__(self, "outputs", (self.outputs,))
         for name in self.outputs:
-            _choice("outputs", name, OUTPUT_FORMATS)
+            _choice("outputs", name, ENCODERS.names())
         object.__setattr__(self, "outputs", tuple(self.outputs))
         if not isinstance(self.shading, str) or not self.shading:
             _fail("shading", self.shading, "'off' or the path of a lens-shading table (JSON)")
