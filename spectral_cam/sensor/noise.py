@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -249,85 +250,127 @@ def simulate_frame(
     height, width = rate.shape
     prnu_gain, dsnu_offset = _scaled_patterns(int(sensor.seed), height, width,
                                               float(sensor.prnu), float(sensor.dsnu_e))
-    t = np.float32(exposure_s)
-    dark_e = np.float32(sensor.dark_current_e_per_s * exposure_s)
-    full_well = np.float32(sensor.full_well_e)
-    read_var = np.float32(sensor.read_noise_e ** 2)
-    read_sd = np.float32(sensor.read_noise_e)
-    k = np.float32(gain)
-    black = np.float32(sensor.black_level_dn)
-    white = np.float32(2 ** sensor.bit_depth - 1)
-    dsnu_reach = 0.0 if dsnu_offset is None else float(np.abs(dsnu_offset).max())
-    # Means below this cannot reach the full well (7 σ of shot noise plus the largest DSNU).
-    unclipped_below = np.float32(sensor.full_well_e - dsnu_reach - 7.0 * math.sqrt(sensor.full_well_e))
-    exact = shot_noise_method == "poisson"
+    chain = _Chain.of(sensor, exposure_s, gain, dsnu_offset)
+    electrons = _SHOT_NOISE[shot_noise_method] if sensor.shot_noise else _electrons_without_shot_noise
     out = np.empty((height, width), dtype=np.uint16)
-    chunks = row_chunks(height, width)
-    timing_keys = ("signal", "shot_read_noise", "adc")
 
     def work(index_span):
         index, (r0, r1) = index_span
-        times = dict.fromkeys(timing_keys, 0.0)
+        times = dict.fromkeys(_STAGES, 0.0)
         t0 = time.perf_counter()
         rng = np.random.Generator(np.random.SFC64(np.random.SeedSequence(int(frame_seed), spawn_key=(index,))))
-        lam = rate[r0:r1].ravel() * t
+        lam = rate[r0:r1].ravel() * chain.t
         if prnu_gain is not None:
             lam *= prnu_gain[r0:r1].ravel()
-        if dark_e > 0:
-            lam += dark_e
+        if chain.dark_e > 0:
+            lam += chain.dark_e
         dsnu = None if dsnu_offset is None else dsnu_offset[r0:r1].ravel()
         t1 = time.perf_counter()
         times["signal"] += t1 - t0
-        if not sensor.shot_noise:
-            e = lam.copy()
-            if dsnu is not None:
-                e += dsnu
-            np.minimum(e, full_well, out=e)
-            if read_sd > 0:
-                e += read_sd * rng.standard_normal(e.size, dtype=np.float32)
-        elif exact:
-            # numpy's Poisson sampler refuses λ ≳ 1e19; anything that large clips at full well anyway
-            e = rng.poisson(np.minimum(lam, np.float32(4 * sensor.full_well_e + 1e6))).astype(np.float32)
-            if dsnu is not None:
-                e += dsnu
-            np.minimum(e, full_well, out=e)
-            if read_sd > 0:
-                e += read_sd * rng.standard_normal(e.size, dtype=np.float32)
-        else:
-            # Main path: one normal draw for shot + read noise where the well cannot clip.
-            z = rng.standard_normal(lam.size, dtype=np.float32)
-            e = lam + read_var if read_var > 0 else lam.copy()
-            np.sqrt(e, out=e)
-            e *= z
-            e += lam
-            if dsnu is not None:
-                e += dsnu
-            special = np.flatnonzero((lam < HYBRID_POISSON_BELOW_E) | (lam >= unclipped_below))
-            if special.size:
-                sl = lam[special]
-                small = sl < HYBRID_POISSON_BELOW_E
-                shot = np.empty_like(sl)
-                shot[small] = rng.poisson(sl[small])
-                big = ~small
-                if big.any():
-                    sb = sl[big]
-                    shot[big] = sb + np.sqrt(sb) * rng.standard_normal(sb.size, dtype=np.float32)
-                if dsnu is not None:
-                    shot += dsnu[special]
-                np.minimum(shot, full_well, out=shot)
-                if read_sd > 0:
-                    shot += read_sd * rng.standard_normal(shot.size, dtype=np.float32)
-                e[special] = shot
+        e = electrons(lam, dsnu, chain, rng)
         t2 = time.perf_counter()
         times["shot_read_noise"] += t2 - t1
-        e *= k
-        e += black
-        np.rint(e, out=e)
-        np.clip(e, 0, white, out=e)
-        out[r0:r1] = e.reshape(r1 - r0, width)
+        out[r0:r1] = _digitise(e, chain).reshape(r1 - r0, width)
         times["adc"] += time.perf_counter() - t2
         return times
 
-    results = run_chunks(work, list(enumerate(chunks)), workers_for(workers))
-    stage_cpu = {key: float(sum(r[key] for r in results)) for key in timing_keys}
+    results = run_chunks(work, list(enumerate(row_chunks(height, width))), workers_for(workers))
+    stage_cpu = {key: float(sum(r[key] for r in results)) for key in _STAGES}
     return out, stage_cpu
+
+
+#: The chain's sub-stages, timed per chunk: mean signal, shot and read noise, the ADC.
+_STAGES = ("signal", "shot_read_noise", "adc")
+
+
+@dataclass(frozen=True)
+class _Chain:
+    """The chain's constants for one frame, in float32 as the per-pixel arithmetic uses them."""
+
+    t: np.float32
+    dark_e: np.float32
+    full_well: np.float32
+    read_var: np.float32
+    read_sd: np.float32
+    k: np.float32
+    black: np.float32
+    white: np.float32
+    unclipped_below: np.float32
+    poisson_cap: np.float32
+
+    @classmethod
+    def of(cls, sensor: "SensorSection", exposure_s: float, gain: float, dsnu_offset: np.ndarray | None) -> "_Chain":
+        dsnu_reach = 0.0 if dsnu_offset is None else float(np.abs(dsnu_offset).max())
+        return cls(
+            t=np.float32(exposure_s),
+            dark_e=np.float32(sensor.dark_current_e_per_s * exposure_s),
+            full_well=np.float32(sensor.full_well_e),
+            read_var=np.float32(sensor.read_noise_e ** 2),
+            read_sd=np.float32(sensor.read_noise_e),
+            k=np.float32(gain),
+            black=np.float32(sensor.black_level_dn),
+            white=np.float32(2 ** sensor.bit_depth - 1),
+            # means below this cannot reach the full well (7 σ of shot noise plus the largest DSNU)
+            unclipped_below=np.float32(sensor.full_well_e - dsnu_reach - 7.0 * math.sqrt(sensor.full_well_e)),
+            # numpy's Poisson sampler refuses λ ≳ 1e19; anything that large clips at full well anyway
+            poisson_cap=np.float32(4 * sensor.full_well_e + 1e6),
+        )
+
+
+def _well_and_read_noise(e: np.ndarray, dsnu: np.ndarray | None, chain: _Chain, rng) -> np.ndarray:
+    """Electrons after shot noise → + DSNU → clipped at the full well → + read noise (in place)."""
+    if dsnu is not None:
+        e += dsnu
+    np.minimum(e, chain.full_well, out=e)
+    if chain.read_sd > 0:
+        e += chain.read_sd * rng.standard_normal(e.size, dtype=np.float32)
+    return e
+
+
+def _electrons_without_shot_noise(lam: np.ndarray, dsnu, chain: _Chain, rng) -> np.ndarray:
+    """``sensor.shot_noise = false``: the mean signal, then DSNU, the well and read noise."""
+    return _well_and_read_noise(lam.copy(), dsnu, chain, rng)
+
+
+def _electrons_poisson(lam: np.ndarray, dsnu, chain: _Chain, rng) -> np.ndarray:
+    """Exact Poisson shot noise everywhere (``shot_noise_method = "poisson"``)."""
+    e = rng.poisson(np.minimum(lam, chain.poisson_cap)).astype(np.float32)
+    return _well_and_read_noise(e, dsnu, chain, rng)
+
+
+def _electrons_hybrid(lam: np.ndarray, dsnu, chain: _Chain, rng) -> np.ndarray:
+    """One normal draw N(μ, μ + σ_read²) for shot and read noise where the well cannot clip;
+    exact Poisson below :data:`HYBRID_POISSON_BELOW_E` and N(μ, μ), the well, then read noise
+    within reach of the full well."""
+    z = rng.standard_normal(lam.size, dtype=np.float32)
+    e = lam + chain.read_var if chain.read_var > 0 else lam.copy()
+    np.sqrt(e, out=e)
+    e *= z
+    e += lam
+    if dsnu is not None:
+        e += dsnu
+    special = np.flatnonzero((lam < HYBRID_POISSON_BELOW_E) | (lam >= chain.unclipped_below))
+    if special.size:
+        sl = lam[special]
+        small = sl < HYBRID_POISSON_BELOW_E
+        shot = np.empty_like(sl)
+        shot[small] = rng.poisson(sl[small])
+        big = ~small
+        if big.any():
+            sb = sl[big]
+            shot[big] = sb + np.sqrt(sb) * rng.standard_normal(sb.size, dtype=np.float32)
+        e[special] = _well_and_read_noise(shot, None if dsnu is None else dsnu[special], chain, rng)
+    return e
+
+
+#: Each of :data:`SHOT_NOISE_METHODS`' electrons: mean signal (+ DSNU) → electrons read out.
+_SHOT_NOISE = {"poisson": _electrons_poisson, "hybrid": _electrons_hybrid}
+
+
+def _digitise(e: np.ndarray, chain: _Chain) -> np.ndarray:
+    """Electrons → DN: × K, + black level, rounded, clipped to [0, 2^bits − 1] (in place)."""
+    e *= chain.k
+    e += chain.black
+    np.rint(e, out=e)
+    np.clip(e, 0, chain.white, out=e)
+    return e
