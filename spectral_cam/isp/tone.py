@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import functools
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Callable
 
@@ -451,8 +451,10 @@ class ToneRegistry(Registry):
                              "dng_curve=<function of linear values in [0, 1], returning values in [0, 1], applied "
                              "before the reader's sRGB encoding>, or dng_curve=None for a curve with no DNG form "
                              f"(the DNG then carries the identity); got {dng_curve!r}")
-        super().add(name, function, options=options, description=description)  # refuses a name twice
-        entry = ToneEntry(name, function, tuple(options), description, dng_curve, bool(sets_black))
+        entry = super().add(name, function, options=options, description=description)  # refuses a name twice
+        # the base entry's fields by name: Entry may grow fields, which positional arguments would fill
+        base = {f.name: getattr(entry, f.name) for f in fields(entry)}
+        entry = ToneEntry(**base, dng_curve=dng_curve, sets_black=bool(sets_black))
         self._entries[name] = entry
         return entry
 
