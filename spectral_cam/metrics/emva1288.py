@@ -328,39 +328,13 @@ def photon_transfer(
     cfa = cfa or bright[0][2] or "none"
     cfa = check_cfa(cfa, allow_monochrome=True)
 
-    dark_stats = [pair_statistics(a, b, cfa=cfa) for a, b, _ in dark]
-    channels = tuple(dark_stats[0][0])
-    n_points, n_channels = len(bright), len(channels)
-    mean = np.empty((n_points, n_channels))
-    var = np.empty((n_points, n_channels))
-    for i, (a, b, _) in enumerate(bright):
-        means, variances = pair_statistics(a, b, cfa=cfa)
-        mean[i] = [means[c] for c in channels]
-        var[i] = [variances[c] for c in channels]
-    dark_mean = np.array([[m[c] for c in channels] for m, _ in dark_stats])
-    dark_var = np.array([[v[c] for c in channels] for _, v in dark_stats])
-    if len(dark) == 1:
-        dark_mean = np.repeat(dark_mean, n_points, axis=0)
-        dark_var = np.repeat(dark_var, n_points, axis=0)
-
+    channels, mean, var, dark_mean, dark_var = _series_statistics(bright, dark, cfa)
     signal = mean - dark_mean
     noise = var - dark_var
-    sat_index = np.array([_saturation_index(var[:, c]) for c in range(n_channels)])
-    peaked = sat_index >= 0
-    if peaked.any():
-        sat_signal = np.array([signal[sat_index[c], c] if peaked[c] else np.nan for c in range(n_channels)])
-        pooled_sat_signal = float(np.nanmedian(sat_signal))
-        limit = np.where(peaked, sat_signal, pooled_sat_signal) * LINEAR_FRACTION
-    else:
-        sat_signal = np.full(n_channels, np.nan)
-        limit = np.full(n_channels, np.inf)
-    linear = (signal <= limit[None, :]) & (signal > 0)
-    for c in range(n_channels):
-        if linear[:, c].sum() < 2:
-            raise ValueError(f"channel {channels[c]}: fewer than two points below 70 % of saturation; "
-                             "add darker exposure points")
+    sat_index, sat_signal, limit = _saturation(signal, var)
+    linear = _linear_range(signal, limit, channels)
     gain_per_channel = np.array([_fit_origin(signal[linear[:, c], c], noise[linear[:, c], c])
-                                 for c in range(n_channels)])
+                                 for c in range(len(channels))])
     gain = _fit_origin(signal[linear], noise[linear])
 
     # Dark noise: the dark variance (mean over the dark pairs), and the intercept check.
@@ -372,35 +346,9 @@ def photon_transfer(
     sigma_d_intercept = float(np.sqrt(max(intercept - QUANTISATION_VAR_DN2, 0.0)) / gain)
 
     sat_e_channel = sat_signal / gain
-    saturation_e = float(np.nanmedian(sat_e_channel)) if peaked.any() else float("nan")
-
-    photons = responsivity = eta = sat_photons = None
-    if photons_per_pixel is not None:
-        photons = np.asarray(photons_per_pixel, dtype=float)
-        if photons.ndim == 1:
-            photons = np.repeat(photons[:, None], n_channels, axis=1)
-        if photons.shape != (n_points, n_channels):
-            raise ValueError(f"photons_per_pixel must be ({n_points},) or ({n_points}, {n_channels}); "
-                             f"got {photons.shape}")
-        responsivity = np.array([_fit_origin(photons[linear[:, c], c], signal[linear[:, c], c])
-                                 for c in range(n_channels)])
-        eta = responsivity / gain
-        sat_photons = np.array([photons[sat_index[c], c] if peaked[c] else np.nan for c in range(n_channels)])
-
-    dsnu = dsnu_channel = prnu = prnu_channel = None
-    dark_spatial = None
-    if dark_stack is not None:
-        dark_means_s, dark_spatial, _ = spatial_nonuniformity(dark_stack, cfa=cfa)
-        dsnu_channel = np.array([np.sqrt(max(dark_spatial[c], 0.0)) / gain for c in channels])
-        dsnu = float(np.sqrt(np.mean([max(dark_spatial[c], 0.0) for c in channels])) / gain)
-        if bright_stack is not None:
-            bright_means_s, bright_spatial, _ = spatial_nonuniformity(bright_stack, cfa=cfa)
-            prnu_channel = np.array([
-                np.sqrt(max(bright_spatial[c] - dark_spatial[c], 0.0)) / (bright_means_s[c] - dark_means_s[c])
-                for c in channels])
-            prnu = float(np.sqrt(np.mean(prnu_channel ** 2)))
-    elif bright_stack is not None:
-        raise ValueError("PRNU needs a dark_stack as well as the bright_stack")
+    saturation_e = float(np.nanmedian(sat_e_channel)) if (sat_index >= 0).any() else float("nan")
+    photons, responsivity, eta, sat_photons = _photon_terms(photons_per_pixel, signal, linear, sat_index, gain)
+    dsnu, dsnu_channel, prnu, prnu_channel = _nonuniformity(dark_stack, bright_stack, cfa, channels, gain)
 
     with np.errstate(divide="ignore", invalid="ignore"):
         snr = np.where(var > 0, signal / np.sqrt(var), np.nan)
@@ -429,6 +377,89 @@ def photon_transfer(
         snr=snr,
         extra={"intercept_dn2": float(intercept), "free_fit_slope": float(slope)},
     )
+
+
+def _series_statistics(bright: list, dark: list, cfa: str) -> tuple[tuple, np.ndarray, np.ndarray, np.ndarray,
+                                                                       np.ndarray]:
+    """Channels and the (P, C) pair means and temporal variances of the bright and dark pairs,
+    a single dark pair repeated for every point (EMVA 1288 §6.1)."""
+    dark_stats = [pair_statistics(a, b, cfa=cfa) for a, b, _ in dark]
+    channels = tuple(dark_stats[0][0])
+    n_points, n_channels = len(bright), len(channels)
+    mean = np.empty((n_points, n_channels))
+    var = np.empty((n_points, n_channels))
+    for i, (a, b, _) in enumerate(bright):
+        means, variances = pair_statistics(a, b, cfa=cfa)
+        mean[i] = [means[c] for c in channels]
+        var[i] = [variances[c] for c in channels]
+    dark_mean = np.array([[m[c] for c in channels] for m, _ in dark_stats])
+    dark_var = np.array([[v[c] for c in channels] for _, v in dark_stats])
+    if len(dark) == 1:
+        dark_mean = np.repeat(dark_mean, n_points, axis=0)
+        dark_var = np.repeat(dark_var, n_points, axis=0)
+    return channels, mean, var, dark_mean, dark_var
+
+
+def _saturation(signal: np.ndarray, var: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per channel: the saturation point's index (−1: none), its signal μ_y.sat − μ_y.dark (DN,
+    NaN where none) and the top of the linear range, :data:`LINEAR_FRACTION` of it (a channel
+    that never saturates takes the others' median; with none saturated, no limit)."""
+    n_channels = signal.shape[1]
+    sat_index = np.array([_saturation_index(var[:, c]) for c in range(n_channels)])
+    peaked = sat_index >= 0
+    if not peaked.any():
+        return sat_index, np.full(n_channels, np.nan), np.full(n_channels, np.inf)
+    sat_signal = np.array([signal[sat_index[c], c] if peaked[c] else np.nan for c in range(n_channels)])
+    pooled_sat_signal = float(np.nanmedian(sat_signal))
+    return sat_index, sat_signal, np.where(peaked, sat_signal, pooled_sat_signal) * LINEAR_FRACTION
+
+
+def _linear_range(signal: np.ndarray, limit: np.ndarray, channels: tuple) -> np.ndarray:
+    """(P, C) the points of the linear range: a positive signal up to ``limit``; at least two
+    per channel."""
+    linear = (signal <= limit[None, :]) & (signal > 0)
+    for c in range(len(channels)):
+        if linear[:, c].sum() < 2:
+            raise ValueError(f"channel {channels[c]}: fewer than two points below 70 % of saturation; "
+                             "add darker exposure points")
+    return linear
+
+
+def _photon_terms(photons_per_pixel, signal: np.ndarray, linear: np.ndarray, sat_index: np.ndarray,
+                  gain: float) -> tuple:
+    """(μ_p (P, C), R, η, μ_p.sat) per channel, or four Nones without photon counts (EMVA 1288 §6.2–6.4)."""
+    if photons_per_pixel is None:
+        return None, None, None, None
+    n_points, n_channels = signal.shape
+    photons = np.asarray(photons_per_pixel, dtype=float)
+    if photons.ndim == 1:
+        photons = np.repeat(photons[:, None], n_channels, axis=1)
+    if photons.shape != (n_points, n_channels):
+        raise ValueError(f"photons_per_pixel must be ({n_points},) or ({n_points}, {n_channels}); "
+                         f"got {photons.shape}")
+    responsivity = np.array([_fit_origin(photons[linear[:, c], c], signal[linear[:, c], c])
+                             for c in range(n_channels)])
+    sat_photons = np.array([photons[sat_index[c], c] if sat_index[c] >= 0 else np.nan for c in range(n_channels)])
+    return photons, responsivity, responsivity / gain, sat_photons
+
+
+def _nonuniformity(dark_stack, bright_stack, cfa: str, channels: tuple, gain: float) -> tuple:
+    """(DSNU e⁻, DSNU per channel, PRNU, PRNU per channel) from the stacks (EMVA 1288 §8); None
+    where a stack is missing. PRNU needs the dark stack too."""
+    if dark_stack is None:
+        if bright_stack is not None:
+            raise ValueError("PRNU needs a dark_stack as well as the bright_stack")
+        return None, None, None, None
+    dark_means_s, dark_spatial, _ = spatial_nonuniformity(dark_stack, cfa=cfa)
+    dsnu_channel = np.array([np.sqrt(max(dark_spatial[c], 0.0)) / gain for c in channels])
+    dsnu = float(np.sqrt(np.mean([max(dark_spatial[c], 0.0) for c in channels])) / gain)
+    if bright_stack is None:
+        return dsnu, dsnu_channel, None, None
+    bright_means_s, bright_spatial, _ = spatial_nonuniformity(bright_stack, cfa=cfa)
+    prnu_channel = np.array([
+        np.sqrt(max(bright_spatial[c] - dark_spatial[c], 0.0)) / (bright_means_s[c] - dark_means_s[c])
+        for c in channels])
+    return dsnu, dsnu_channel, float(np.sqrt(np.mean(prnu_channel ** 2))), prnu_channel
 
 
 # ----------------------------------------------------------------------------- plot
