@@ -116,115 +116,144 @@ def exposure_study(settings: StressSettings) -> dict:
     .. [2] Widrow & Kollár (2008), Quantization Noise, ch. 19 (dither).
     .. [3] Coffin, D. dcraw.c, highlight modes (clip, blend).
     """
-    from ... import sensor as S
-    from ...isp import ISPConfig, develop
-    from ...metrics.emva1288 import pair_statistics, snr_model
-    from ...scene import scene_from_dict
-
     low, high = settings.exposure_range_e
     levels = np.logspace(np.log10(low), np.log10(high), settings.exposure_levels)
-    size = settings.flat_px
     rows: list[dict] = []
     data: dict = {"levels_e": levels.tolist(), "sensors": {}, "highlights": {}}
     for s_index, (label, overrides, iso) in enumerate(EXPOSURE_SENSORS):
-        config = mono_config(size, overrides, iso, _EXPOSURE_TIME_S)
-        per_radiance = S.electrons_per_band_radiance(config, _NARROW_BAND_NM) * _EXPOSURE_TIME_S
-        dark_frames = [S.expose(narrow_band_flat((size, size), 0.0, _NARROW_BAND_NM), config, frame_seed=settings.seed_for(2, s_index, k))
-                       for k in (0, 1)]
-        meta = dark_frames[0].meta
-        gain, white, black = meta["K_dn_per_e"], dark_frames[0].white_level, dark_frames[0].black_level
-        dark_mean, dark_var = (v["Y"] for v in pair_statistics(dark_frames[0].mosaic, dark_frames[1].mosaic))
-        measured, standard_error, snr, snr_expected, max_dn, at_white, min_dn = [], [], [], [], [], [], []
-        for l_index, level in enumerate(levels):
-            image = narrow_band_flat((size, size), float(level / per_radiance), _NARROW_BAND_NM)
-            a, b = (S.expose(image, config, frame_seed=settings.seed_for(3, s_index, l_index, k)) for k in (0, 1))
-            means, variances = pair_statistics(a.mosaic, b.mosaic)
-            signal_dn = means["Y"] - dark_mean
-            measured.append(signal_dn / gain)
-            standard_error.append(math.sqrt((variances["Y"] + dark_var) / (2 * a.mosaic.size)) / gain)
-            snr.append(signal_dn / math.sqrt(variances["Y"]) if variances["Y"] > 0 else float("inf"))
-            snr_expected.append(float(snr_model(level / config.sensor.peak_qe, quantum_efficiency=config.sensor.peak_qe,
-                                                sigma_d_e=meta["sigma_dark_e"], gain=gain)))
-            both = np.concatenate([a.mosaic.ravel(), b.mosaic.ravel()])
-            max_dn.append(int(both.max()))
-            min_dn.append(int(both.min()))
-            at_white.append(float(np.mean(both == white)))
-        measured = np.asarray(measured)
-        standard_error = np.asarray(standard_error)
-        saturation = meta["saturation_e"]
-        entry = {
-            "label": label, "iso": iso, "K_dn_per_e": gain, "saturation_e": saturation,
-            "sigma_dark_e": meta["sigma_dark_e"], "white_level": white, "black_level": black,
-            "measured_e": measured.tolist(), "standard_error_e": standard_error.tolist(),
-            "snr": snr, "snr_model": snr_expected, "max_dn": max_dn, "min_dn": min_dn,
-            "fraction_at_white": at_white,
-        }
+        entry = _flat_field_series(settings, s_index, label, overrides, iso, levels)
         data["sensors"][label] = entry
-        low_counts = levels <= 1.0 + 1e-9
-        bias = measured - levels
-        # a frame without any temporal noise has a standard error of 0: its bias is exact
-        z = np.divide(bias, standard_error, out=np.where(bias == 0, 0.0, np.inf), where=standard_error > 0)
-        entry["bias_z"] = z.tolist()
-        if low_counts.any():
-            worst = int(np.flatnonzero(low_counts)[np.argmax(np.abs(z[low_counts]))])
-            note = f"at {levels[worst]:.3g} e-: measured {measured[worst]:.4g} ± {standard_error[worst]:.2g} e-"
-            if standard_error[worst] == 0:
-                note += " (no noise reaches the ADC: every pixel reads the same DN)"
-            rows.append(summary_row("exposure", label, "largest |bias| / standard error at 0.01-1 e-",
-                                    float(abs(z[worst])), "SE", note))
-            one = int(np.argmin(np.abs(np.log(levels))))
-            rows.append(summary_row("exposure", label, f"measured / expected at {levels[one]:.3g} e-",
-                                    float(measured[one] / levels[one]), "ratio",
-                                    f"standard error {standard_error[one] / levels[one]:.2g}"))
-        over = levels >= 2 * saturation
-        if over.any():
-            clipped_e = measured[over]
-            rows.append(summary_row("exposure", label, "mean past saturation / saturation capacity",
-                                    float(np.mean(clipped_e) / saturation), "ratio",
-                                    f"saturation {saturation:.5g} e-, white level {white} DN"))
-            rows.append(summary_row("exposure", label, "largest DN past saturation - white level",
-                                    max(max_dn[i] for i in np.flatnonzero(over)) - white, "DN",
-                                    f"{100 * np.mean([at_white[i] for i in np.flatnonzero(over)]):.1f} % of pixels at white"))
-        # below ~10 e- the measured SNR's own uncertainty (that of the mean) exceeds 3 %
-        usable = (levels >= 10.0) & (levels <= 0.7 * saturation)
-        if usable.any():
-            ratio = np.asarray(snr)[usable] / np.asarray(snr_expected)[usable]
-            entry["snr_ratio_max_deviation"] = float(np.max(np.abs(ratio - 1)))
-            rows.append(summary_row("exposure", label, "SNR / EMVA model, worst over 10 e- .. 70 % saturation",
-                                    float(ratio[np.argmax(np.abs(ratio - 1))]), "ratio"))
-
-    methods = ("none", "clip", "desaturate")
-    factors = [float(f) for f in settings.highlight_factors]
-    hl_size = max(24, size // 2)
+        rows += _flat_field_rows(label, entry, levels)
     for i_index, illuminant in enumerate(("A", "D65")):
-        base = {"illuminant": {"spd": illuminant},
-                "sensor": {"model": STUDY_CAMERA, "width_px": hl_size, "height_px": hl_size, "vignetting": False}}
-        image = uniform_image(lambertian_radiance(illuminant, [0.9])[0], (hl_size, hl_size))
-        probe = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": "auto", "auto_fraction": 1.0, "metering": "etr"}}),
-                         frame_seed=1)
-        t_sat = probe.meta["exposure_s"]
-        chroma = {m: [] for m in methods}
-        luminance = {m: [] for m in methods}
-        swatches = {m: [] for m in methods}
-        for f_index, factor in enumerate(factors):
-            raw = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": factor * t_sat}}),
-                           frame_seed=settings.seed_for(4, i_index, f_index))
-            for method in methods:
-                developed = develop(raw, ISPConfig(highlights=method, tone="linear"))
-                mean = developed.linear[4:-4, 4:-4].reshape(-1, 3).astype(float).mean(axis=0)
-                chroma[method].append(neutral_chroma(mean))
-                luminance[method].append(float(mean @ np.array([0.2126, 0.7152, 0.0722])))
-                swatches[method].append(mean.tolist())
-        data["highlights"][illuminant] = {"factors": factors, "chroma": chroma, "luminance": luminance,
-                                          "mean_linear_srgb": swatches, "exposure_at_saturation_s": t_sat}
-        clipped = [k for k, f in enumerate(factors) if f >= 1.25]
-        for method in methods:
-            if clipped:
-                rows.append(summary_row("exposure", f"highlights '{method}', illuminant {illuminant}",
-                                        "largest colour cast (C*ab) at >= 1.25x saturation",
-                                        max(chroma[method][k] for k in clipped), "C*ab",
-                                        "CIELAB chroma of the mean white at Y = 1; < 1 is invisible"))
+        data["highlights"][illuminant], highlight_rows = _highlight_series(settings, i_index, illuminant)
+        rows += highlight_rows
     return {"rows": rows, "data": data}
+
+
+def _flat_field_series(settings: StressSettings, s_index: int, label: str, overrides: dict, iso: float,
+                       levels: np.ndarray) -> dict:
+    """One sensor's (an :data:`EXPOSURE_SENSORS` entry's) flat-field pairs at each level μ_e and
+    its dark pair: the measured electrons (μ_y − μ_y.dark)/K with their standard errors, the SNR
+    and its EMVA model, and the DN range (EMVA 1288 §6.1)."""
+    from ... import sensor as S
+    from ...metrics.emva1288 import pair_statistics, snr_model
+
+    size = settings.flat_px
+    config = mono_config(size, overrides, iso, _EXPOSURE_TIME_S)
+    per_radiance = S.electrons_per_band_radiance(config, _NARROW_BAND_NM) * _EXPOSURE_TIME_S
+    dark_frames = [S.expose(narrow_band_flat((size, size), 0.0, _NARROW_BAND_NM), config, frame_seed=settings.seed_for(2, s_index, k))
+                   for k in (0, 1)]
+    meta = dark_frames[0].meta
+    gain, white, black = meta["K_dn_per_e"], dark_frames[0].white_level, dark_frames[0].black_level
+    dark_mean, dark_var = (v["Y"] for v in pair_statistics(dark_frames[0].mosaic, dark_frames[1].mosaic))
+    measured, standard_error, snr, snr_expected, max_dn, at_white, min_dn = [], [], [], [], [], [], []
+    for l_index, level in enumerate(levels):
+        image = narrow_band_flat((size, size), float(level / per_radiance), _NARROW_BAND_NM)
+        a, b = (S.expose(image, config, frame_seed=settings.seed_for(3, s_index, l_index, k)) for k in (0, 1))
+        means, variances = pair_statistics(a.mosaic, b.mosaic)
+        signal_dn = means["Y"] - dark_mean
+        measured.append(signal_dn / gain)
+        standard_error.append(math.sqrt((variances["Y"] + dark_var) / (2 * a.mosaic.size)) / gain)
+        snr.append(signal_dn / math.sqrt(variances["Y"]) if variances["Y"] > 0 else float("inf"))
+        snr_expected.append(float(snr_model(level / config.sensor.peak_qe, quantum_efficiency=config.sensor.peak_qe,
+                                            sigma_d_e=meta["sigma_dark_e"], gain=gain)))
+        both = np.concatenate([a.mosaic.ravel(), b.mosaic.ravel()])
+        max_dn.append(int(both.max()))
+        min_dn.append(int(both.min()))
+        at_white.append(float(np.mean(both == white)))
+    return {
+        "label": label, "iso": iso, "K_dn_per_e": gain, "saturation_e": meta["saturation_e"],
+        "sigma_dark_e": meta["sigma_dark_e"], "white_level": white, "black_level": black,
+        "measured_e": np.asarray(measured).tolist(), "standard_error_e": np.asarray(standard_error).tolist(),
+        "snr": snr, "snr_model": snr_expected, "max_dn": max_dn, "min_dn": min_dn,
+        "fraction_at_white": at_white,
+    }
+
+
+def _flat_field_rows(label: str, entry: dict, levels: np.ndarray) -> list[dict]:
+    """Summary rows of one sensor's series: the bias at 0.01–1 e⁻ in standard errors, the mean and
+    largest DN past saturation, the SNR against the EMVA model; adds ``bias_z`` and
+    ``snr_ratio_max_deviation`` to ``entry``."""
+    measured, standard_error = np.asarray(entry["measured_e"]), np.asarray(entry["standard_error_e"])
+    saturation, white, max_dn, at_white = (entry[k] for k in ("saturation_e", "white_level", "max_dn",
+                                                               "fraction_at_white"))
+    rows = []
+    low_counts = levels <= 1.0 + 1e-9
+    bias = measured - levels
+    # a frame without any temporal noise has a standard error of 0: its bias is exact
+    z = np.divide(bias, standard_error, out=np.where(bias == 0, 0.0, np.inf), where=standard_error > 0)
+    entry["bias_z"] = z.tolist()
+    if low_counts.any():
+        worst = int(np.flatnonzero(low_counts)[np.argmax(np.abs(z[low_counts]))])
+        note = f"at {levels[worst]:.3g} e-: measured {measured[worst]:.4g} ± {standard_error[worst]:.2g} e-"
+        if standard_error[worst] == 0:
+            note += " (no noise reaches the ADC: every pixel reads the same DN)"
+        rows.append(summary_row("exposure", label, "largest |bias| / standard error at 0.01-1 e-",
+                                float(abs(z[worst])), "SE", note))
+        one = int(np.argmin(np.abs(np.log(levels))))
+        rows.append(summary_row("exposure", label, f"measured / expected at {levels[one]:.3g} e-",
+                                float(measured[one] / levels[one]), "ratio",
+                                f"standard error {standard_error[one] / levels[one]:.2g}"))
+    over = levels >= 2 * saturation
+    if over.any():
+        clipped_e = measured[over]
+        rows.append(summary_row("exposure", label, "mean past saturation / saturation capacity",
+                                float(np.mean(clipped_e) / saturation), "ratio",
+                                f"saturation {saturation:.5g} e-, white level {white} DN"))
+        rows.append(summary_row("exposure", label, "largest DN past saturation - white level",
+                                max(max_dn[i] for i in np.flatnonzero(over)) - white, "DN",
+                                f"{100 * np.mean([at_white[i] for i in np.flatnonzero(over)]):.1f} % of pixels at white"))
+    # below ~10 e- the measured SNR's own uncertainty (that of the mean) exceeds 3 %
+    usable = (levels >= 10.0) & (levels <= 0.7 * saturation)
+    if usable.any():
+        ratio = np.asarray(entry["snr"])[usable] / np.asarray(entry["snr_model"])[usable]
+        entry["snr_ratio_max_deviation"] = float(np.max(np.abs(ratio - 1)))
+        rows.append(summary_row("exposure", label, "SNR / EMVA model, worst over 10 e- .. 70 % saturation",
+                                float(ratio[np.argmax(np.abs(ratio - 1))]), "ratio"))
+    return rows
+
+
+#: The highlight methods compared on an over-exposed white (:mod:`spectral_cam.isp.highlights`).
+_HIGHLIGHT_METHODS = ("none", "clip", "desaturate")
+
+
+def _highlight_series(settings: StressSettings, i_index: int, illuminant: str) -> tuple[dict, list[dict]]:
+    """A white reflector under ``illuminant`` exposed at ``highlight_factors`` × the time that
+    saturates its brightest channel, developed with each highlight method: the CIELAB chroma,
+    luminance and linear sRGB of its mean colour, and the largest cast at ≥ 1.25× as rows."""
+    from ... import sensor as S
+    from ...isp import ISPConfig, develop
+    from ...scene import scene_from_dict
+
+    factors = [float(f) for f in settings.highlight_factors]
+    hl_size = max(24, settings.flat_px // 2)
+    base = {"illuminant": {"spd": illuminant},
+            "sensor": {"model": STUDY_CAMERA, "width_px": hl_size, "height_px": hl_size, "vignetting": False}}
+    image = uniform_image(lambertian_radiance(illuminant, [0.9])[0], (hl_size, hl_size))
+    probe = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": "auto", "auto_fraction": 1.0, "metering": "etr"}}),
+                     frame_seed=1)
+    t_sat = probe.meta["exposure_s"]
+    chroma = {m: [] for m in _HIGHLIGHT_METHODS}
+    luminance = {m: [] for m in _HIGHLIGHT_METHODS}
+    swatches = {m: [] for m in _HIGHLIGHT_METHODS}
+    for f_index, factor in enumerate(factors):
+        raw = S.expose(image, scene_from_dict({**base, "exposure": {"time_s": factor * t_sat}}),
+                       frame_seed=settings.seed_for(4, i_index, f_index))
+        for method in _HIGHLIGHT_METHODS:
+            developed = develop(raw, ISPConfig(highlights=method, tone="linear"))
+            mean = developed.linear[4:-4, 4:-4].reshape(-1, 3).astype(float).mean(axis=0)
+            chroma[method].append(neutral_chroma(mean))
+            luminance[method].append(float(mean @ np.array([0.2126, 0.7152, 0.0722])))
+            swatches[method].append(mean.tolist())
+    record = {"factors": factors, "chroma": chroma, "luminance": luminance,
+              "mean_linear_srgb": swatches, "exposure_at_saturation_s": t_sat}
+    clipped = [k for k, f in enumerate(factors) if f >= 1.25]
+    rows = [summary_row("exposure", f"highlights '{method}', illuminant {illuminant}",
+                        "largest colour cast (C*ab) at >= 1.25x saturation",
+                        max(chroma[method][k] for k in clipped), "C*ab",
+                        "CIELAB chroma of the mean white at Y = 1; < 1 is invisible")
+            for method in _HIGHLIGHT_METHODS if clipped]
+    return record, rows
 
 
 def plot_exposure(result: dict, directory: Path) -> list[str]:
