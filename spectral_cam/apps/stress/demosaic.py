@@ -247,30 +247,44 @@ def plot_demosaic(result: dict, directory: Path) -> list[str]:
     data, maps = result["data"], result["maps"]
     methods = list(data["methods"])
     sizes = [s for s in data["square_sizes_px"] if s <= 8] or data["square_sizes_px"][:4]
-    crop = 32
-    written = []
+    directory = Path(directory)
+    return [save_png(_checkerboard_figure(maps, methods, sizes), directory / "demosaic_checkerboards.png").name,
+            save_png(_checker_error_figure(maps, methods, sizes), directory / "demosaic_error_maps.png",
+                     palette=True).name,
+            save_png(_zone_plate_figure(maps, methods), directory / "demosaic_zone_plate.png", palette=True).name,
+            save_png(_error_chart(data, methods), directory / "demosaic_error_vs_size.png").name]
 
+
+#: Pixels of each checkerboard output and error map shown (top-left corner).
+_CROP_PX = 32
+
+
+def _checkerboard_figure(maps: dict, methods: list, sizes: list):
+    """Each method's demosaiced checkerboards (rows) at each square size (columns)."""
     fig = figure(1.6 * len(sizes) + 0.8, 1.5 * len(methods) + 0.6)
     axes = fig.subplots(len(methods), len(sizes), squeeze=False)
     for i, method in enumerate(methods):
         for j, size in enumerate(sizes):
             out = maps["checker"][(method, size)]["output"]
             ax = axes[i, j]
-            ax.imshow(np.clip(out[:crop, :crop], 0, 1) ** (1 / 2.2), interpolation="nearest")
+            ax.imshow(np.clip(out[:_CROP_PX, :_CROP_PX], 0, 1) ** (1 / 2.2), interpolation="nearest")
             ax.set_xticks([]), ax.set_yticks([])
             if i == 0:
                 ax.set_title(f"{size}-px squares", fontsize=9)
             if j == 0:
                 ax.set_ylabel(method, fontsize=9)
     fig.suptitle("Demosaiced black-and-white checkerboards (RGGB; colour = false colour)", fontsize=10)
-    written.append(save_png(fig, Path(directory) / "demosaic_checkerboards.png").name)
+    return fig
 
+
+def _checker_error_figure(maps: dict, methods: list, sizes: list):
+    """Each method's signed error per channel on the checkerboards, on one colour scale."""
     fig = figure(0.95 * 3 * len(sizes) + 1.2, 1.1 * len(methods) + 0.8)
     axes = fig.subplots(len(methods), 3 * len(sizes), squeeze=False)
     image = None
     for i, method in enumerate(methods):
         for j, size in enumerate(sizes):
-            err = maps["checker"][(method, size)]["error"][:crop, :crop]
+            err = maps["checker"][(method, size)]["error"][:_CROP_PX, :_CROP_PX]
             for c, name in enumerate("RGB"):
                 ax = axes[i, 3 * j + c]
                 image = ax.imshow(err[..., c], cmap="RdBu_r", vmin=-1, vmax=1, interpolation="nearest")
@@ -281,12 +295,16 @@ def plot_demosaic(result: dict, directory: Path) -> list[str]:
                 axes[i, 0].set_ylabel(method, fontsize=8)
     fig.colorbar(image, ax=axes, shrink=0.6, label="signed error (of white)")
     fig.suptitle("Per-channel demosaicing error on checkerboards (output − truth)", fontsize=10)
-    written.append(save_png(fig, Path(directory) / "demosaic_error_maps.png", palette=True).name)
+    return fig
 
+
+def _zone_plate_figure(maps: dict, methods: list):
+    """Each method's demosaiced zone plate and its error per channel, one quadrant each."""
     # about one screen pixel per image pixel: a resampled zone plate would show its own moiré
     panel_in = maps["zone"][methods[0]]["output"].shape[0] / 2 / 100 + 0.15
     fig = figure(panel_in * 4 + 1.0, panel_in * len(methods) + 0.7)
     axes = fig.subplots(len(methods), 4, squeeze=False)
+    image = None
     for i, method in enumerate(methods):
         zone = maps["zone"][method]
         half = zone["output"].shape[0] // 2  # one quadrant: centre (0 cycles/px) to the edges (0.5)
@@ -303,8 +321,12 @@ def plot_demosaic(result: dict, directory: Path) -> list[str]:
             ax.set_xticks([]), ax.set_yticks([])
     fig.colorbar(image, ax=axes, shrink=0.6, label="signed error (of white)")
     fig.suptitle("Zone plate: demosaiced output and per-channel error", fontsize=10)
-    written.append(save_png(fig, Path(directory) / "demosaic_zone_plate.png", palette=True).name)
+    return fig
 
+
+def _error_chart(data: dict, methods: list):
+    """Mean error and false colour against the square size, and error against the zone plate's
+    local frequency, per method, with the lossless tolerance."""
     fig = figure(13, 3.8)
     ax1, ax2, ax3 = fig.subplots(1, 3)
     all_sizes = data["square_sizes_px"]
@@ -330,5 +352,4 @@ def plot_demosaic(result: dict, directory: Path) -> list[str]:
     ax3.set_title("Zone plate: error vs frequency")
     ax3.legend(fontsize=8)
     ax1.legend(fontsize=8)
-    written.append(save_png(fig, Path(directory) / "demosaic_error_vs_size.png").name)
-    return written
+    return fig
