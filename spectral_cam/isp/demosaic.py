@@ -1,16 +1,20 @@
 """Demosaicing: a registry of interpolators with one call, :func:`demosaic`.
 
-Larger tiles (X-Trans, Quad Bayer; :data:`spectral_cam.cfa.EXTENDED_PATTERNS`) have their own
-methods, ``colour_difference`` (any CFA), ``quad_binning`` and ``quad_remosaic``, listed in
-:data:`CFA_METHODS`; :func:`method_for` picks one when a Bayer method is asked of another tile.
+Each :data:`DEMOSAIC` entry (a :class:`DemosaicEntry`) declares the CFA tiles it takes: a Bayer
+tile of any phase (:data:`BAYER`) and/or larger tiles (X-Trans, Quad Bayer, RGBW;
+:data:`spectral_cam.cfa.EXTENDED_PATTERNS`), and which larger tile's default it is. The larger tiles'
+own methods, ``colour_difference`` (any CFA), ``quad_binning``, ``quad_remosaic`` and ``rgbw_fusion``,
+live in :mod:`spectral_cam.isp.tile_demosaic`; :data:`CFA_METHODS` and :func:`bayer_methods` read the
+entries, and :func:`method_for` asks them when a Bayer method is asked of another tile.
 
 Every method takes the (white-balanced) float32 linear mosaic and returns (H, W, 3)
 float32 linear RGB, unclipped, for any of the four Bayer phases and any image size
 (odd included).
 
-``bilinear``, ``malvar2004`` and ``menon2007`` are written on the four CFA planes (R, G in red
-rows, G in blue rows, B), so each value is computed only at the sites that keep it, and run by
-:func:`by_planes` on cache-sized row bands on threads, whose per-site colours ``cv2.merge``
+``bilinear``, ``malvar2004`` (:mod:`spectral_cam.isp.linear_demosaic`) and ``menon2007`` are written
+on the four CFA planes (R, G in red rows, G in blue rows, B), so each value is computed only at the
+sites that keep it, and run by :func:`spectral_cam.isp.plane_bands.by_planes` on cache-sized row bands
+on threads, whose per-site colours ``cv2.merge``
 interleaves straight into the output. Mirror padding about the edge pixel (BORDER_REFLECT_101)
 keeps the CFA phase, so borders are exact too.
 
@@ -47,298 +51,26 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import Callable, Iterator
+
 import numpy as np
 
-from ..cfa import channel_index, check_cfa, is_bayer, opencv_bayer_code
+from ..cfa import EXTENDED_PATTERNS, check_cfa, is_bayer, opencv_bayer_code
 from ..errors import ConfigError
-from ..registry import Registry
+from ..registry import Entry, Registry
+from .linear_demosaic import _bilinear_sites, _malvar_sites, bilinear, malvar2004  # noqa: F401 (tests read the sites)
+from .menon2007 import MENON_BAND_ROWS, menon2007  # noqa: F401 (MENON_BAND_ROWS: its old home)
+from .plane_bands import BAND_ROWS, by_planes, check_bayer_mosaic  # noqa: F401 (their old home)
+from .scratch import Scratch as _Scratch  # noqa: F401 (its old name here)
+from .tile_demosaic import colour_difference, quad_binning, quad_remosaic, rgbw_fusion
 
-__all__ = ["DEMOSAIC", "demosaic", "bilinear", "malvar2004", "menon2007", "rcd", "vng", "ea", "colour_difference",
-           "quad_binning", "quad_remosaic", "rgbw_fusion", "method_for", "CFA_METHODS", "bayer_methods"]
+__all__ = ["DEMOSAIC", "DemosaicEntry", "DemosaicRegistry", "BAYER", "demosaic", "bilinear", "malvar2004",
+           "menon2007", "rcd", "vng", "ea", "colour_difference", "quad_binning", "quad_remosaic", "rgbw_fusion",
+           "method_for", "CFA_METHODS", "bayer_methods"]
 
 _F32 = np.float32
-
-from .scratch import Scratch as _Scratch, band_edges, run_bands
-
-#: Output rows per band for the linear methods: a band's planes and intermediates stay in the
-#: CPU cache, and the bands are shared among threads.
-BAND_ROWS = 64
-
-
-def by_planes(mosaic: np.ndarray, cfa: str, sites, *, pad: int, offset: int, band_rows: int = BAND_ROWS,
-              workers: int | None = None) -> np.ndarray:
-    """Run a demosaicer written on the four CFA planes over row bands on parallel threads.
-
-    The mosaic is mirror-padded about its edge pixels (BORDER_REFLECT_101, which keeps the
-    CFA phase) by ``pad`` pixels and shifted so that the padded mosaic starts on a red site;
-    each band of output rows is cut from it with ``pad`` rows of context on either side (made
-    only for the band: the padded frame is never formed), split into its R, G-in-red-rows,
-    G-in-blue-rows and B planes, and handed to ``sites``, whose per-site colours are
-    interleaved straight into the output with ``cv2.merge`` (no full-frame masks, no per-channel
-    strided writes). Bands run in order on each thread and reuse that thread's buffers.
-
-    Parameters
-    ----------
-    mosaic
-        (H, W) float32 mosaic, C-contiguous.
-    cfa
-        Bayer tile at the top-left pixel (checked).
-    sites
-        ``sites(R, Gr, Gb, B, scratch) -> (at_R, at_Gr, at_Gb, at_B)``, each a triple of
-        (r, g, b) arrays of the band's plane grid, whose element ``[i, j]`` is plane sample
-        ``[i + offset, j + offset]``; ``scratch`` is :class:`_Scratch`.
-    pad
-        Context (pixels, even): the output at a pixel depends on the mosaic within ``pad``.
-    offset
-        Plane samples that ``sites`` leaves out at the band's top and left.
-    band_rows
-        Output rows per band, about (the frame is cut into equal bands, as many for each thread).
-    workers
-        Threads (default: the CPUs).
-    """
-    import os
-
-    import cv2
-
-    height, width = mosaic.shape
-    ry, rx = divmod(cfa.index("R"), 2)
-    top, left = pad + ry, pad + rx
-    right = pad + (width + left) % 2
-    wq = (width + left + right) // 2
-    out = np.empty((height, width, 3), _F32)
-    edges, workers = band_edges(height, band_rows, max(1, workers or os.cpu_count() or 1))
-    pairs = width // 2
-    # the output's pixel pairs (x, x + 1), x even, as sites (b, j) of the padded planes
-    b0, j0 = left % 2, left // 2 - offset
-    b1, j1 = (left + 1) % 2, (left + 1) // 2 - offset
-
-    def band(y0: int, y1: int, scratch: _Scratch) -> None:
-        p0 = (y0 + top - pad) // 2 * 2  # padded rows [p0, p1) around output rows [y0, y1)
-        p1 = -(-(y1 + top + pad) // 2) * 2
-        first, last = max(p0 - top, 0), min(p1 - top, height)
-        hq = (p1 - p0) // 2
-        padded = scratch("padded", (2 * hq, 2 * wq))
-        # mirrored rows are added only at the frame's top and bottom (first = 0, last = H)
-        cv2.copyMakeBorder(mosaic[first:last], first - (p0 - top), p1 - top - last, left, right,
-                           cv2.BORDER_REFLECT_101, dst=padded)
-        planes = [scratch(key, (hq, wq)) for key in ("R", "Gr", "Gb", "B")]
-        cv2.split(padded[0::2].reshape(hq, wq, 2), planes[:2])
-        cv2.split(padded[1::2].reshape(hq, wq, 2), planes[2:])
-        values = sites(*planes, scratch)
-        for ys in range(y0, min(y0 + 2, y1)):
-            parity = (ys + top) % 2
-            i = (ys + top - p0) // 2 - offset
-            rows = slice(i, i + (y1 - ys + 1) // 2)
-            first_site, second_site = values[2 * parity + b0], values[2 * parity + b1]
-            if pairs:
-                # every other row, each row's pixel pairs as 6 channels: a view of the output
-                dst = out[ys:y1:2, :2 * pairs].reshape(-1, pairs, 6)
-                src = ([c[rows, j0:j0 + pairs] for c in first_site]
-                       + [c[rows, j1:j1 + pairs] for c in second_site])
-                if not np.may_share_memory(dst, out) or cv2.merge(src, dst=dst) is not dst:  # pragma: no cover
-                    raise RuntimeError("cv2.merge did not write into the output")
-            if width % 2:
-                x = width - 1
-                site, j = values[2 * parity + (x + left) % 2], (x + left) // 2 - offset
-                for c in range(3):
-                    out[ys:y1:2, x, c] = site[c][rows, j]
-
-    run_bands(band, edges, workers)
-    return out
-
-
-def _check(mosaic: np.ndarray, cfa: str) -> tuple[np.ndarray, str]:
-    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
-    if mosaic.ndim != 2:
-        raise ConfigError(f"demosaicing needs a 2-D mosaic; got shape {mosaic.shape}")
-    if min(mosaic.shape) < 2:
-        raise ConfigError(f"a Bayer mosaic needs at least 2×2 pixels; got {mosaic.shape}")
-    return mosaic, check_cfa(cfa)
-
-
-def _bilinear_sites(R, Gr, Gb, B, scratch):
-    """Bilinear interpolation on the four planes (one sample of context): each missing colour
-    is the mean of its 2 or 4 nearest samples, as pair means of pair means."""
-    import cv2
-
-    hq, wq = R.shape
-    hi, wi = hq - 2, wq - 2
-
-    def at(X, di, dj):
-        return X[1 + di:hq - 1 + di, 1 + dj:wq - 1 + dj]
-
-    def mean(key, a, b, rows=hi):
-        return cv2.addWeighted(a, 0.5, b, 0.5, 0.0, dst=scratch(key, (rows, wi)))
-
-    # R between horizontal R pairs (at G in red rows), on one extra row for R at blue sites
-    r_gr = mean("r_gr", R[1:, 1:-1], R[1:, 2:], hq - 1)
-    r_b = mean("r_b", r_gr[:-1], r_gr[1:])
-    r_gb = mean("r_gb", at(R, 0, 0), at(R, 1, 0))
-    # B between horizontal B pairs (at G in blue rows), on one extra row for B at red sites
-    b_gb = mean("b_gb", B[:-1, :-2], B[:-1, 1:-1], hq - 1)
-    b_r = mean("b_r", b_gb[:-1], b_gb[1:])
-    b_gr = mean("b_gr", at(B, -1, 0), at(B, 0, 0))
-    g_r = mean("g_r", mean("gh", at(Gr, 0, -1), at(Gr, 0, 0)), mean("gv", at(Gb, -1, 0), at(Gb, 0, 0)))
-    g_b = mean("g_b", mean("gh", at(Gr, 0, 0), at(Gr, 1, 0)), mean("gv", at(Gb, 0, 0), at(Gb, 0, 1)))
-    return ((at(R, 0, 0), g_r, b_r), (r_gr[:-1], at(Gr, 0, 0), b_gr), (r_gb, at(Gb, 0, 0), b_gb[1:]),
-            (r_b, g_b, at(B, 0, 0)))
-
-
-def bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
-    """Bilinear demosaicing: each missing colour is the mean of its nearest 2 or 4 samples.
-
-    Computed on the four CFA planes in cache-sized row bands on threads (:func:`by_planes`),
-    so only the missing sites are computed. Mirror padding about the edge pixel
-    (BORDER_REFLECT_101) keeps the CFA phase, so borders are exact bilinear too; the result
-    equals normalised masked convolution with the kernels [[0, 1, 0], [1, 4, 1], [0, 1, 0]]/4
-    (green) and [[1, 2, 1], [2, 4, 2], [1, 2, 1]]/4 (red, blue) to float32 rounding.
-
-    Parameters
-    ----------
-    mosaic
-        (H, W) float32 linear mosaic.
-    cfa
-        Bayer tile name read from the top-left pixel.
-
-    Returns
-    -------
-    numpy.ndarray
-        (H, W, 3) float32 linear RGB; measured samples are kept.
-
-    References
-    ----------
-    .. [1] Gunturk, B. K., et al. (2005). Demosaicking: color filter array interpolation.
-       IEEE Signal Processing Magazine 22(1), 44–54, §"Bilinear interpolation".
-    """
-    mosaic, cfa = _check(mosaic, cfa)
-    return by_planes(mosaic, cfa, _bilinear_sites, pad=2, offset=1)
-
-
-def _malvar_sites(R, Gr, Gb, B, scratch):
-    """Malvar, He & Cutler's 5×5 kernels (Fig. 2, all /8) evaluated only at the sites that use
-    them, on the four planes (one sample of context)."""
-    import cv2
-
-    hq, wq = R.shape
-    hi, wi = hq - 2, wq - 2
-
-    def at(X, di, dj):
-        return X[1 + di:hq - 1 + di, 1 + dj:wq - 1 + dj]
-
-    def add(key, a, b, rows=hi):
-        return cv2.add(a, b, dst=scratch(key, (rows, wi)))
-
-    def weighted(key, a, wa, b, wb):
-        return cv2.addWeighted(a, wa, b, wb, 0.0, dst=scratch(key, (hi, wi)))
-
-    def scale_add(a, w, b):  # b += w·a, in place
-        cv2.scaleAdd(a, w, b, dst=b)
-        return b
-
-    # the four same-colour samples two pixels away, summed, at red and at blue sites
-    s_r = add("s_r", add("t1", at(R, -1, 0), at(R, 1, 0)), add("t2", at(R, 0, -1), at(R, 0, 1)))
-    s_b = add("s_b", add("t1", at(B, -1, 0), at(B, 1, 0)), add("t2", at(B, 0, -1), at(B, 0, 1)))
-    # horizontal pairs, with one more row: [:-1] and [1:] are the pairs in the rows the comments name
-    gr_h = add("gr_h", Gr[1:, :-2], Gr[1:, 1:-1], hq - 1)  # Gr(0, −1) + Gr(0, 0): rows 0, +1
-    gb_h = add("gb_h", Gb[:-1, 1:-1], Gb[:-1, 2:], hq - 1)  # Gb(0, 0) + Gb(0, 1): rows −1, 0
-    r_h = add("r_h", R[1:, 1:-1], R[1:, 2:], hq - 1)  # R(0, 0) + R(0, 1): rows 0, +1
-    b_h = add("b_h", B[:-1, :-2], B[:-1, 1:-1], hq - 1)  # B(0, −1) + B(0, 0): rows −1, 0
-    # green at red and blue sites: ½·C + ¼·(the 4 greens) − ⅛·(the 4 samples of C two away)
-    g_r = weighted("g_r", at(R, 0, 0), 0.5, add("t1", gr_h[:-1], add("t2", at(Gb, -1, 0), at(Gb, 0, 0))), 0.25)
-    scale_add(s_r, -0.125, g_r)
-    g_b = weighted("g_b", at(B, 0, 0), 0.5, add("t1", gb_h[1:], add("t2", at(Gr, 0, 0), at(Gr, 1, 0))), 0.25)
-    scale_add(s_b, -0.125, g_b)
-    # blue at red and red at blue: ¾·C + ¼·(the 4 diagonal samples) − 3/16·(the 4 samples of C two away)
-    b_r = scale_add(s_r, -0.1875, weighted("b_r", at(R, 0, 0), 0.75, add("t1", b_h[:-1], b_h[1:]), 0.25))
-    r_b = scale_add(s_b, -0.1875, weighted("r_b", at(B, 0, 0), 0.75, add("t1", r_h[:-1], r_h[1:]), 0.25))
-    # at a green site, the colour of its row's (column's) neighbours: ⅝·G − ⅛·(the 4 diagonal
-    # greens) + ½·(the row (column) pair) − ⅛·(the greens two away along the row (column))
-    # + 1/16·(the greens two away along the column (row))
-    greens = []
-    for name, G, diagonal, row_pair, column_pair in (
-            ("gr", Gr, (gb_h[:-1], gb_h[1:]), r_h[:-1], (at(B, -1, 0), at(B, 0, 0))),
-            ("gb", Gb, (gr_h[:-1], gr_h[1:]), b_h[1:], (at(R, 0, 0), at(R, 1, 0)))):
-        common = weighted(name + "_c", at(G, 0, 0), 0.625, add("t1", *diagonal), -0.125)
-        along_row = add("t1", at(G, 0, -1), at(G, 0, 1))
-        along_column = add("t2", at(G, -1, 0), at(G, 1, 0))
-        row_colour = weighted(name + "_row", row_pair, 0.5, common, 1.0)
-        scale_add(along_column, 0.0625, scale_add(along_row, -0.125, row_colour))
-        column_colour = weighted(name + "_col", add("t3", *column_pair), 0.5, common, 1.0)
-        scale_add(along_row, 0.0625, scale_add(along_column, -0.125, column_colour))
-        greens.append((row_colour, column_colour))
-    (r_gr, b_gr), (b_gb, r_gb) = greens
-    return ((at(R, 0, 0), g_r, b_r), (r_gr, at(Gr, 0, 0), b_gr), (r_gb, at(Gb, 0, 0), b_gb),
-            (r_b, g_b, at(B, 0, 0)))
-
-
-def malvar2004(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
-    """Gradient-corrected bilinear demosaicing (Malvar, He & Cutler 2004).
-
-    The paper's four fixed 5×5 kernels (Fig. 2), each evaluated only at the CFA sites that use
-    it, on the four CFA planes in cache-sized row bands on threads (:func:`by_planes`); linear
-    in the data and exact on constant and linearly varying colour fields. Borders mirror
-    about the edge pixel (BORDER_REFLECT_101), which keeps the CFA phase.
-
-    Parameters
-    ----------
-    mosaic
-        (H, W) float32 linear mosaic.
-    cfa
-        Bayer tile name read from the top-left pixel.
-
-    Returns
-    -------
-    numpy.ndarray
-        (H, W, 3) float32 linear RGB, unclipped (the kernels can overshoot at edges);
-        measured samples are kept.
-
-    References
-    ----------
-    .. [1] Malvar, H. S., He, L., & Cutler, R. (2004). Proc. IEEE ICASSP, vol. 3, 485–488.
-    """
-    mosaic, cfa = _check(mosaic, cfa)
-    return by_planes(mosaic, cfa, _malvar_sites, pad=2, offset=1)
-
-
-def menon2007(mosaic: np.ndarray, cfa: str = "RGGB", *, refining_step: bool = True) -> np.ndarray:
-    """Directional filtering with a posteriori decision (Menon, Andriani & Calvagno 2007).
-
-    colour-demosaicing's algorithm in float32 on the four CFA planes
-    (:func:`spectral_cam.isp.menon2007.menon2007_sites`, without importing colour), on row
-    bands of :data:`MENON_BAND_ROWS` on threads (:func:`by_planes`); the result is the same for
-    any cut into bands and threads.
-
-    Parameters
-    ----------
-    mosaic
-        (H, W) float32 linear mosaic.
-    cfa
-        Bayer tile name read from the top-left pixel.
-    refining_step
-        Apply the paper's refining step.
-
-    Returns
-    -------
-    numpy.ndarray
-        (H, W, 3) float32 linear RGB, unclipped; measured samples are kept.
-
-    References
-    ----------
-    .. [1] Menon, D., Andriani, S., & Calvagno, G. (2007). IEEE Trans. Image Process.
-       16(1), 132–141.
-    """
-    from .menon2007 import REACH_PX, menon2007_sites
-
-    mosaic, cfa = _check(mosaic, cfa)
-
-    def sites(R, Gr, Gb, B, scratch):
-        return menon2007_sites(R, Gr, Gb, B, scratch, refining_step=refining_step)
-
-    return by_planes(mosaic, cfa, sites, pad=REACH_PX, offset=0, band_rows=MENON_BAND_ROWS)
-
-
-#: Output rows per band for menon2007, whose bands overlap by 2 × REACH_PX rows.
-MENON_BAND_ROWS = 256
 
 
 def rcd(mosaic: np.ndarray, cfa: str = "RGGB", *, median: bool = True) -> np.ndarray:
@@ -374,7 +106,7 @@ def rcd(mosaic: np.ndarray, cfa: str = "RGGB", *, median: bool = True) -> np.nda
     """
     from .rcd import rcd as _rcd
 
-    mosaic, cfa = _check(mosaic, cfa)
+    mosaic, cfa = check_bayer_mosaic(mosaic, cfa)
     return _rcd(mosaic, cfa, median=median)
 
 
@@ -429,7 +161,7 @@ def vng(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     .. [1] Chang, E., Cheung, S., & Pan, D. Y. (1999). Proc. SPIE 3650, 36–43.
     .. [2] OpenCV documentation, COLOR_Bayer**2RGB_VNG (8-bit only).
     """
-    mosaic, cfa = _check(mosaic, cfa)
+    mosaic, cfa = check_bayer_mosaic(mosaic, cfa)
     return _opencv_layers(mosaic, cfa, "VNG", 8, True)
 
 
@@ -452,170 +184,153 @@ def ea(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     ----------
     .. [1] OpenCV documentation, COLOR_Bayer**2RGB_EA.
     """
-    mosaic, cfa = _check(mosaic, cfa)
+    mosaic, cfa = check_bayer_mosaic(mosaic, cfa)
     return _opencv_layers(mosaic, cfa, "EA", 16, False)
 
 
-# ----------------------------------------------------------------------------- larger tiles
-def _masked_mean(values: np.ndarray, mask: np.ndarray, radius: int) -> np.ndarray:
-    """Normalised masked convolution with a separable tent of ``radius`` px: the weighted mean of the
-    samples where ``mask`` is set, near each pixel (mirror padding keeps the CFA's phase at edges)."""
-    import cv2
-
-    tent = np.array([radius + 1 - abs(k) for k in range(-radius, radius + 1)], dtype=_F32)
-    tent /= tent.sum()
-    border = cv2.BORDER_REFLECT_101
-    num = cv2.sepFilter2D(values * mask, -1, tent, tent, borderType=border)
-    den = cv2.sepFilter2D(mask, -1, tent, tent, borderType=border)
-    return num / np.maximum(den, 1e-12)
+# ----------------------------------------------------------------------------- the registry
+#: The tile name a :class:`DemosaicEntry` gives for a 2 × 2 Bayer mosaic of any phase (RGGB, BGGR, GRBG, GBRG).
+BAYER = "BAYER"
 
 
-#: Interpolation radius (px) per colour for a tile: every pixel sees a sample of each colour within it.
-def _radii(cfa: str) -> tuple[int, int, int]:
-    from ..cfa import cfa_period
+@dataclass(frozen=True)
+class DemosaicEntry(Entry):
+    """A demosaicer and the CFA tiles it takes.
 
-    rows, _ = cfa_period(cfa)
-    return {2: (1, 1, 1), 4: (2, 2, 2), 6: (2, 1, 2)}.get(rows, (rows // 2,) * 3)
-
-
-def colour_difference(mosaic: np.ndarray, cfa: str) -> np.ndarray:
-    """Any CFA (Bayer, X-Trans, Quad Bayer; RGBW without its white): green by normalised masked convolution, then R − G and
-    B − G at the red and blue sites interpolated the same way and added to green — colour varies
-    more slowly than luminance, so the differences interpolate with fewer fringes than the colours
-    themselves (Adams 1997). Measured samples are kept.
-
-    References
+    Attributes
     ----------
-    .. [1] Adams, J. E. (1997). Design of practical color filter array interpolation algorithms for
-       digital cameras. Proc. SPIE 3028, 117–125 (colour-difference interpolation).
-    .. [2] Knutsson, H., & Westin, C.-F. (1993). Normalized and differential convolution. Proc. CVPR,
-       515–523.
+    tiles : tuple of str
+        :data:`BAYER` (any 2 × 2 Bayer phase) and/or names of :data:`spectral_cam.cfa.EXTENDED_PATTERNS`.
+    default_for : tuple of str
+        The larger tiles whose default it is: :func:`method_for` gives it when a method that does not
+        take the tile is asked of it.
     """
-    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
-    if mosaic.ndim != 2:
-        raise ConfigError(f"demosaicing needs a 2-D mosaic; got shape {mosaic.shape}")
-    name = check_cfa(cfa, allow_extended=True)
-    index = channel_index(mosaic.shape, name)
-    masks = [(index == c).astype(_F32) for c in range(3)]
-    radius_r, radius_g, radius_b = _radii(name)
-    green = np.where(masks[1] > 0, mosaic, _masked_mean(mosaic, masks[1], radius_g))
-    out = np.empty((*mosaic.shape, 3), dtype=_F32)
-    out[..., 1] = green
-    for c, radius in ((0, radius_r), (2, radius_b)):
-        difference = _masked_mean(mosaic - green, masks[c], radius)
-        out[..., c] = np.where(masks[c] > 0, mosaic, green + difference)
-    return out
+
+    tiles: tuple[str, ...] = (BAYER,)
+    default_for: tuple[str, ...] = ()
 
 
-def _quad_cells(mosaic: np.ndarray) -> np.ndarray:
-    """Each 2×2 same-colour cell of a Quad Bayer mosaic averaged: an RGGB Bayer mosaic of half size."""
-    h, w = (mosaic.shape[0] // 4) * 4, (mosaic.shape[1] // 4) * 4
-    return mosaic[:h, :w].reshape(h // 2, 2, w // 2, 2).mean(axis=(1, 3)).astype(_F32)
+class DemosaicRegistry(Registry):
+    """The :data:`DEMOSAIC` registry: as :class:`~spectral_cam.registry.Registry`, but every entry says
+    which CFA tiles it takes (default: Bayer only), so the tile knowledge has one place."""
+
+    def register(self, name: str, *, tiles: tuple[str, ...] = (BAYER,), default_for: tuple[str, ...] = (),
+                 options: tuple[str, ...] = (), description: str = ""):
+        """Decorator: register the decorated demosaicer under ``name`` with the tiles it takes."""
+
+        def decorate(function: Callable) -> Callable:
+            self.add(name, function, tiles=tiles, default_for=default_for, options=options, description=description)
+            return function
+
+        return decorate
+
+    def add(self, name: str, function: Callable, *, tiles: tuple[str, ...] = (BAYER,),
+            default_for: tuple[str, ...] = (), options: tuple[str, ...] = (), description: str = "") -> DemosaicEntry:
+        """Register ``function(mosaic, cfa) → (H, W, 3) float32`` under ``name``.
+
+        Raises
+        ------
+        ValueError
+            For a tile that is neither :data:`BAYER` nor a larger tile's name, a ``default_for`` tile the
+            entry does not take, or a tile that already has a default.
+        """
+        tiles, default_for = tuple(tiles), tuple(default_for)
+        unknown = [t for t in tiles if t != BAYER and t not in EXTENDED_PATTERNS]
+        if unknown or not tiles or not set(default_for) <= set(tiles) - {BAYER}:
+            raise ValueError(f"demosaic method {name!r}: tiles {tiles} must name {BAYER!r} or larger tiles "
+                             f"({', '.join(EXTENDED_PATTERNS)}), and default_for {default_for} only larger tiles "
+                             "among them")
+        taken = [t for t in default_for if self.default_of(t) is not None]
+        if taken:
+            raise ValueError(f"demosaic method {name!r}: {', '.join(taken)} already has a default method")
+        entry = super().add(name, function, options=options, description=description)  # refuses a name twice
+        base = {f.name: getattr(entry, f.name) for f in fields(entry)}
+        self._entries[name] = DemosaicEntry(**base, tiles=tiles, default_for=default_for)
+        return self._entries[name]
+
+    def takes(self, name: str, tile: str) -> bool:
+        """Whether the entry ``name`` takes ``tile`` (:data:`BAYER` or a larger tile's name)."""
+        return tile in getattr(self[name], "tiles", (BAYER,))
+
+    def default_of(self, tile: str) -> str | None:
+        """The method a larger ``tile`` falls back to (None: no entry is its default)."""
+        return next((n for n, e in self._entries.items() if tile in getattr(e, "default_for", ())), None)
+
+    def methods_for(self, tile: str) -> tuple[str, ...]:
+        """The methods that take ``tile``: its default first, the others in registration order."""
+        names = [n for n in self._entries if self.takes(n, tile)]
+        default = self.default_of(tile)
+        return tuple(sorted(names, key=lambda n: n != default))
 
 
-def quad_binning(mosaic: np.ndarray, cfa: str) -> np.ndarray:
-    """Quad Bayer binned: each 2×2 cell's mean (4× the signal, half the resolution, as a phone's
-    low-light mode reads it), an RGGB mosaic demosaiced by ``menon2007``, brought back to full size
-    by bilinear interpolation (pixel centres aligned).
+class _TileMethods(Mapping):
+    """:data:`CFA_METHODS`: each larger tile → the methods that take it, default first, read from the
+    :data:`DEMOSAIC` entries when asked (a method registered later is listed)."""
 
-    References
-    ----------
-    .. [1] Sony Semiconductor Solutions (2018), IMX586 Quad Bayer coding (binning mode).
-    """
-    import cv2
+    def __getitem__(self, tile: str) -> tuple[str, ...]:
+        methods = DEMOSAIC.methods_for(tile) if tile != BAYER else ()
+        if not methods:
+            raise KeyError(tile)
+        return methods
 
-    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
-    if check_cfa(cfa, allow_extended=True) != "QUAD_RGGB":
-        raise ConfigError(f"quad_binning needs a QUAD_RGGB mosaic; this one is {cfa}: use colour_difference")
-    if mosaic.shape[0] < 8 or mosaic.shape[1] < 8:
-        raise ConfigError(f"a Quad Bayer mosaic needs at least 8×8 pixels; got {mosaic.shape}")
-    half = menon2007(_quad_cells(mosaic), "RGGB")
-    full = cv2.resize(half, (half.shape[1] * 2, half.shape[0] * 2), interpolation=cv2.INTER_LINEAR)
-    out = np.empty((*mosaic.shape, 3), dtype=_F32)
-    out[:full.shape[0], :full.shape[1]] = full
-    out[full.shape[0]:, :full.shape[1]] = full[-1:]  # rows and columns past the last whole tile
-    out[:, full.shape[1]:] = out[:, full.shape[1] - 1:full.shape[1]]
-    return out
+    def __iter__(self) -> Iterator[str]:
+        seen = dict.fromkeys(t for e in DEMOSAIC.values() for t in getattr(e, "tiles", ()) if t != BAYER)
+        return iter(seen)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
 
 
-def quad_remosaic(mosaic: np.ndarray, cfa: str) -> np.ndarray:
-    """Quad Bayer remosaiced to full-resolution RGGB (as a phone's full-resolution mode does): the
-    colour-difference estimate of every colour, sampled through an RGGB tile — the Quad samples
-    that already sit on their Bayer colour kept — then demosaiced by ``menon2007``.
-
-    References
-    ----------
-    .. [1] Sony Semiconductor Solutions (2018), IMX586 Quad Bayer coding (remosaic to Bayer).
-    """
-    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
-    if check_cfa(cfa, allow_extended=True) != "QUAD_RGGB":
-        raise ConfigError(f"quad_remosaic needs a QUAD_RGGB mosaic; this one is {cfa}: use colour_difference")
-    full = colour_difference(mosaic, cfa)
-    bayer = np.take_along_axis(full, channel_index(mosaic.shape, "RGGB").astype(np.intp)[..., None], axis=2)[..., 0]
-    return menon2007(np.ascontiguousarray(bayer), "RGGB")
+#: The methods that take each larger tile, the first its default (:func:`method_for`); read from the entries.
+CFA_METHODS = _TileMethods()
 
 
 def bayer_methods() -> list[str]:
-    """The registered methods that take a 2×2 Bayer mosaic (all but the Quad Bayer ones)."""
-    return [name for name in DEMOSAIC if name not in ("quad_binning", "quad_remosaic", "rgbw_fusion")]
-
-
-def rgbw_fusion(mosaic: np.ndarray, cfa: str) -> np.ndarray:
-    """RGBW fused: the white (panchromatic) pixels, half the mosaic, give the luminance detail; each
-    colour is white plus its difference from white, interpolated over that colour's sparse sites
-    (normalised masked convolution). After white balance a neutral has R = G = B = W, so the
-    differences are the chroma, which varies slowly — the fusion of a panchromatic CFA's two halves.
-
-    References
-    ----------
-    .. [1] Compton & Hamilton (2007), US 8,139,130 (panchromatic and colour pixels combined).
-    .. [2] Adams (1997), Proc. SPIE 3028 (colour-difference interpolation).
-    """
-    from ..cfa import WHITE
-
-    mosaic = np.ascontiguousarray(mosaic, dtype=_F32)
-    if check_cfa(cfa, allow_extended=True) != "RGBW":
-        raise ConfigError(f"rgbw_fusion needs an RGBW mosaic; this one is {cfa}")
-    index = channel_index(mosaic.shape, cfa)
-    white_mask = (index == WHITE).astype(_F32)
-    white = np.where(white_mask > 0, mosaic, _masked_mean(mosaic, white_mask, 1))
-    out = np.empty((*mosaic.shape, 3), dtype=_F32)
-    for c, radius in ((0, 3), (1, 2), (2, 3)):
-        mask = (index == c).astype(_F32)
-        out[..., c] = np.where(mask > 0, mosaic, white + _masked_mean(mosaic - white, mask, radius))
-    return out
-
-
-#: The methods that take each larger tile, the first its default (:func:`method_for`).
-CFA_METHODS = {"XTRANS": ("colour_difference",), "QUAD_RGGB": ("quad_remosaic", "quad_binning", "colour_difference"),
-               "RGBW": ("rgbw_fusion",)}
+    """The registered methods that take a 2×2 Bayer mosaic."""
+    return [name for name in DEMOSAIC if DEMOSAIC.takes(name, BAYER)]
 
 
 def method_for(cfa: str, asked: str) -> str:
     """``asked`` where it takes ``cfa``, else the tile's default: a Bayer method on an X-Trans or Quad
-    Bayer mosaic becomes ``colour_difference`` or ``quad_remosaic`` (the develop records it)."""
+    Bayer mosaic becomes ``colour_difference`` or ``quad_remosaic`` (the develop records it).
+
+    Raises
+    ------
+    ConfigError
+        For a method asked of a Bayer mosaic that takes only larger tiles, or a larger tile no
+        method takes.
+    """
     name = check_cfa(cfa, allow_extended=True)
-    if is_bayer(name):
-        if asked in ("quad_binning", "quad_remosaic", "rgbw_fusion"):
-            raise ConfigError(f"demosaic {asked!r} needs a {'RGBW' if asked == 'rgbw_fusion' else 'QUAD_RGGB'} "
-                              f"mosaic; this one is {name}")
+    tile = BAYER if is_bayer(name) else name
+    if asked in DEMOSAIC and DEMOSAIC.takes(asked, tile):
         return asked
-    return asked if asked in CFA_METHODS[name] else CFA_METHODS[name][0]
+    if tile == BAYER:
+        if asked in DEMOSAIC:
+            raise ConfigError(f"demosaic {asked!r} needs a {' or '.join(DEMOSAIC[asked].tiles)} mosaic; "
+                              f"this one is {name}")
+        return asked
+    default = DEMOSAIC.default_of(tile) or next(iter(DEMOSAIC.methods_for(tile)), None)
+    if default is None:
+        raise ConfigError(f"no demosaic method takes a {name} mosaic; valid tiles: {', '.join(CFA_METHODS)}")
+    return default
 
 
-#: Demosaicing methods by name (``isp.demosaic``); a new method is one entry here.
-DEMOSAIC = Registry("demosaic method")
+#: Demosaicing methods by name (``isp.demosaic``); a new method is one entry here, with the tiles it takes.
+DEMOSAIC = DemosaicRegistry("demosaic method")
 DEMOSAIC.add("bilinear", bilinear, description="normalised masked convolution")
 DEMOSAIC.add("malvar2004", malvar2004, description="gradient-corrected linear (Malvar, He & Cutler 2004)")
 DEMOSAIC.add("menon2007", menon2007, description="directional filtering, a posteriori decision (Menon et al. 2007)")
 DEMOSAIC.add("rcd", rcd, description="ratio-corrected demosaicing (Sanz Rodríguez 2017) + colour-difference median")
 DEMOSAIC.add("vng", vng, description="OpenCV variable number of gradients")
 DEMOSAIC.add("ea", ea, description="OpenCV edge-aware")
-DEMOSAIC.add("colour_difference", colour_difference,
+DEMOSAIC.add("colour_difference", colour_difference, tiles=(BAYER, "XTRANS", "QUAD_RGGB"), default_for=("XTRANS",),
              description="any CFA (X-Trans, Quad Bayer, Bayer): green, then colour differences, masked convolution")
-DEMOSAIC.add("quad_remosaic", quad_remosaic, description="Quad Bayer remosaiced to RGGB, then menon2007")
-DEMOSAIC.add("quad_binning", quad_binning, description="Quad Bayer 2×2 cells binned, menon2007, upsampled")
-DEMOSAIC.add("rgbw_fusion", rgbw_fusion, description="RGBW: white pixels for luminance, colour differences")
+DEMOSAIC.add("quad_remosaic", quad_remosaic, tiles=("QUAD_RGGB",), default_for=("QUAD_RGGB",),
+             description="Quad Bayer remosaiced to RGGB, then menon2007")
+DEMOSAIC.add("quad_binning", quad_binning, tiles=("QUAD_RGGB",),
+             description="Quad Bayer 2×2 cells binned, menon2007, upsampled")
+DEMOSAIC.add("rgbw_fusion", rgbw_fusion, tiles=("RGBW",), default_for=("RGBW",),
+             description="RGBW: white pixels for luminance, colour differences")
 
 
 def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", *, method: str = "malvar2004") -> np.ndarray:

@@ -47,3 +47,23 @@ def test_a_demosaic_registered_from_outside_develops_a_grey_card_neutral(registr
     linear = np.asarray(developed.linear, float)[4:-4, 4:-4]
     assert np.ptp(linear, axis=(0, 1)).max() < 2e-3  # uniform
     np.testing.assert_allclose(linear.mean(axis=(0, 1)) / linear.mean(), 1.0, atol=0.01)  # neutral
+
+
+def test_a_method_for_a_larger_tile_is_one_entry_that_declares_the_tile(registry):
+    """The entry says which tiles it takes; CFA_METHODS, bayer_methods and method_for read it (no other
+    list): asked of an X-Trans mosaic it is kept, asked of a Bayer one it is refused naming its tile,
+    and a Bayer method asked of X-Trans still falls back to the tile's default."""
+    from spectral_cam.errors import ConfigError
+    from spectral_cam.isp.demosaic import CFA_METHODS, bayer_methods, method_for
+
+    registry.add("toy_xtrans", _nearest, tiles=("XTRANS",), description="a test's toy for X-Trans only")
+    assert method_for("XTRANS", "toy_xtrans") == "toy_xtrans"
+    assert CFA_METHODS["XTRANS"] == ("colour_difference", "toy_xtrans")  # the tile's default first
+    assert "toy_xtrans" not in bayer_methods()
+    assert method_for("XTRANS", "rcd") == "colour_difference"
+    with pytest.raises(ConfigError, match="toy_xtrans.*XTRANS"):
+        method_for("GRBG", "toy_xtrans")
+    with pytest.raises(ValueError, match="tiles"):
+        registry.add("toy_unknown_tile", _nearest, tiles=("HEXAGONAL",))
+    with pytest.raises(ValueError, match="already has a default"):
+        registry.add("toy_second_default", _nearest, tiles=("XTRANS",), default_for=("XTRANS",))
