@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from spectral_cam.errors import ConfigError
-from spectral_cam.presets.assets import (BUNDLED, MeshData, _read_ply, asset_from_table, check_asset_file,
-                                         srgb_to_linear)
+from spectral_cam.presets.assets import BUNDLED, MeshData, asset_from_table, check_asset_file, srgb_to_linear
+from spectral_cam.presets.mesh_files import read_ply as _read_ply
 from spectral_cam.scene import load_scene, scene_from_dict
 
 pytestmark = pytest.mark.timeout(600)
