@@ -8,6 +8,10 @@ the item's seed, sampled parameters and validated scene, the same on any machine
 :meth:`DatasetSpec.split_of` puts each index in a split (``[dataset] splits``, ``split_seed``) by a
 hash of (split seed, index) alone, so an item keeps its split when the dataset grows or resumes.
 
+The pieces a spec is made of live beside it: the scene keys and the paths in values
+(:mod:`.spec_keys`), distributions (:mod:`.distributions`) and sweep axes (:mod:`.sweeps`), whose
+public names are importable from here too.
+
 References
 ----------
 .. [1] O'Neill, M. E. (2014) and NumPy ``SeedSequence``: independent streams from a root
@@ -33,14 +37,15 @@ import numpy as np
 from ...errors import ConfigError
 from ...records import json_ready
 from ...scene import SceneConfig, parse_override, read_toml, scene_from_dict
+from .distributions import DISTRIBUTIONS, Distribution, parse_distribution
 from .labels import DEFAULT_OUTPUTS, LABELS
+from .spec_keys import by_content, check_key, resolve_paths, resolve_paths_table
+from .sweeps import Sweep, parse_sweep, sweep_values
 
 __all__ = ["DISTRIBUTIONS", "FORMAT_VERSION", "DEFAULT_SPLITS", "SHARD_ITEMS", "Distribution", "Sweep", "parse_sweep",
            "ItemPlan", "DatasetSpec",
            "spec_from_dict", "load_spec", "with_exports"]
 
-#: Distributions a spec value may take (an inline table with exactly one of these keys).
-DISTRIBUTIONS = ("uniform", "log_uniform", "choice")
 #: Format version of dataset.json, part of the spec hash.
 FORMAT_VERSION = 1
 #: Splits of a spec without ``[dataset] splits``: every item in ``train`` (Hugging Face's default split).
@@ -51,283 +56,7 @@ SHARD_ITEMS = 1000
 _UNHASHED = ("outputs", "count", "source", "splits", "split_seed", "webdataset", "shard_items", "exports")
 _SPLIT_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
-_SWEEP_RANGE = re.compile(r"^\s*([^:\s]+)\s*:\s*([^:\s]+)\s*:\s*(\d+)\s*(?::\s*(lin|log)\s*)?$")
 
-
-# ----------------------------------------------------------------------------- scene keys
-def _section_fields() -> dict[str, dict[str, dataclasses.Field]]:
-    """{section: {key: dataclass field}} of every scene-file key."""
-    out = {}
-    for section in dataclasses.fields(SceneConfig):
-        out[section.name] = {f.name: f for f in dataclasses.fields(section.default_factory)}
-    return out
-
-
-_FIELDS = _section_fields()
-
-
-def _check_key(dotted: str, origin: str) -> tuple[str, str]:
-    section, _, key = dotted.partition(".")
-    if section not in _FIELDS or not key:
-        raise ConfigError(f"{origin}: {dotted!r} is not a scene key; use section.key with a section "
-                          f"among {', '.join(_FIELDS)}")
-    if key not in _FIELDS[section]:
-        raise ConfigError(f"{origin}: unknown key {dotted!r}; valid keys of [{section}]: "
-                          f"{', '.join(_FIELDS[section])}")
-    return section, key
-
-
-def _is_whole(dotted: str) -> bool:
-    """True for keys whose type is a whole number only (sampled values get rounded)."""
-    section, key = dotted.split(".", 1)
-    kinds = str(_FIELDS[section][key].type).replace(" ", "").split("|")
-    return kinds == ["int"]
-
-
-@functools.lru_cache(maxsize=256)
-def _file_digest(path: str, modified_ns: int, size: int) -> str:
-    """A file's content digest (cached per path, modification time and size: an edited file is read again)."""
-    return "sha256:" + hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def _by_content(value: Any) -> Any:
-    """``value`` with every existing CSV/XML file path replaced by its content's digest."""
-    if isinstance(value, dict):
-        return {k: _by_content(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_by_content(v) for v in value]
-    if isinstance(value, str) and value.lower().endswith((".csv", ".xml")) and Path(value).is_file():
-        status = Path(value).stat()
-        return _file_digest(str(Path(value).resolve()), status.st_mtime_ns, status.st_size)
-    return value
-
-
-def _resolve_paths(value: Any, base_dir: Path) -> Any:
-    """Make relative CSV/XML paths (in values and choices) absolute against ``base_dir``."""
-    if isinstance(value, str) and value.lower().endswith((".csv", ".xml")):
-        path = Path(value).expanduser()
-        return str((path if path.is_absolute() else base_dir / path).resolve())
-    if isinstance(value, list):
-        return [_resolve_paths(v, base_dir) for v in value]
-    return value
-
-
-# ----------------------------------------------------------------------------- distributions
-@dataclass(frozen=True)
-class Distribution:
-    """A distribution over one scene key.
-
-    Attributes
-    ----------
-    key
-        ``"section.key"``.
-    kind
-        ``"uniform"``, ``"log_uniform"`` or ``"choice"``.
-    low, high
-        Bounds of (log-)uniform draws: numbers, or tuples for element-wise draws of a
-        list-valued key (in the key's units).
-    values, weights
-        Choices and their relative weights (uniform when empty).
-    whole
-        Draw whole numbers, both bounds included (keys typed ``int``; :func:`_whole_draw`).
-    """
-
-    key: str
-    kind: str
-    low: Any = None
-    high: Any = None
-    values: tuple = ()
-    weights: tuple[float, ...] = ()
-    whole: bool = False
-
-    def sample(self, rng: np.random.Generator) -> Any:
-        """One draw (a Python number, list or choice value).
-
-        Parameters
-        ----------
-        rng
-            The item's generator (its stream decides every draw of the item).
-
-        References
-        ----------
-        .. [1] NumPy ``Generator.uniform`` / ``Generator.choice``; a log-uniform variable is
-           exp(U(ln a, ln b)).
-        """
-        if self.kind == "choice":
-            p = None
-            if self.weights:
-                w = np.asarray(self.weights, dtype=float)
-                p = w / w.sum()
-            return json_ready(self.values[int(rng.choice(len(self.values), p=p))])
-        low = np.asarray(self.low, dtype=float)
-        high = np.asarray(self.high, dtype=float)
-        if self.whole:
-            draw = _whole_draw(rng, self.kind, low, high)
-            return draw.tolist() if np.ndim(draw) else int(draw)
-        if self.kind == "uniform":
-            draw = rng.uniform(low, high)
-        else:
-            draw = np.exp(rng.uniform(np.log(low), np.log(high)))
-        return draw.tolist() if np.ndim(draw) else float(draw)
-
-    def to_dict(self) -> dict:
-        """The distribution as the spec writes it (``{"uniform": [low, high]}``, ...)."""
-        if self.kind == "choice":
-            out = {"choice": json_ready(list(self.values))}
-            if self.weights:
-                out["weights"] = list(self.weights)
-            return out
-        return {self.kind: [json_ready(self.low), json_ready(self.high)]}
-
-
-def _whole_draw(rng: np.random.Generator, kind: str, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """Whole numbers from ceil(low) to floor(high), both included: each equally likely for
-    ``uniform``; for ``log_uniform`` each k has the log-width of its rounding cell,
-    P(k) ∝ ln((k + ½) / (k − ½)) (a continuous log-uniform draw over [lo − ½, hi + ½], rounded).
-    Rounding a continuous draw over [lo, hi] instead gives both ends half a cell, so they came
-    up half as often (19 and 21 of 200 draws of [4, 10] against about 32 for the others).
-
-    References
-    ----------
-    .. [1] NumPy ``Generator.integers`` (``endpoint=True``: the high end included).
-    .. [2] Optuna ``IntDistribution(log=True)``: log-uniform over [low − ½, high + ½], rounded.
-    """
-    lo, hi = np.ceil(low).astype(np.int64), np.floor(high).astype(np.int64)
-    if kind == "uniform":
-        return rng.integers(lo, hi, endpoint=True)
-    draw = np.rint(np.exp(rng.uniform(np.log(lo - 0.5), np.log(hi + 0.5)))).astype(np.int64)
-    return np.clip(draw, lo, hi)  # exp(log(hi + ½)) may round up past hi by one ulp
-
-
-def _bound(key: str, value: Any, kind: str) -> Any:
-    if isinstance(value, list):
-        if not value or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
-            raise ConfigError(f"{key}: {kind} bounds must be numbers or equal-length lists of numbers; got {value!r}")
-        return tuple(float(v) for v in value)
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-        return float(value)
-    raise ConfigError(f"{key}: {kind} bounds must be finite numbers; got {value!r}")
-
-
-def _parse_distribution(key: str, table: Mapping[str, Any]) -> Distribution:
-    kinds = [k for k in table if k in DISTRIBUTIONS]
-    extra = sorted(set(table) - set(DISTRIBUTIONS) - {"weights"})
-    if len(kinds) != 1 or extra:
-        raise ConfigError(
-            f"{key} = {dict(table)!r}: a distribution is an inline table with exactly one of "
-            f"{', '.join(DISTRIBUTIONS)} (choice may add weights), e.g. "
-            f"{{ uniform = [0.5, 5.0] }} or {{ choice = [\"D65\", \"A\"] }}")
-    kind = kinds[0]
-    spec = table[kind]
-    whole = _is_whole(key)
-    if kind == "choice":
-        if not isinstance(spec, list) or not spec:
-            raise ConfigError(f"{key}: choice needs a non-empty list of values; got {spec!r}")
-        weights = table.get("weights", ())
-        if weights:
-            if (not isinstance(weights, list) or len(weights) != len(spec)
-                    or not all(isinstance(w, (int, float)) and not isinstance(w, bool) and w >= 0 for w in weights)
-                    or not sum(weights) > 0):
-                raise ConfigError(f"{key}: weights must be {len(spec)} numbers >= 0 with a positive sum; "
-                                  f"got {weights!r}")
-        return Distribution(key, kind, values=tuple(spec), weights=tuple(float(w) for w in weights))
-    if "weights" in table:
-        raise ConfigError(f"{key}: weights apply to choice only, not {kind}")
-    if not isinstance(spec, list) or len(spec) != 2:
-        raise ConfigError(f"{key}: {kind} needs [low, high]; got {spec!r}")
-    low, high = (_bound(key, v, kind) for v in spec)
-    if isinstance(low, tuple) != isinstance(high, tuple) or (
-            isinstance(low, tuple) and len(low) != len(high)):
-        raise ConfigError(f"{key}: {kind} bounds must both be numbers or lists of the same length")
-    lows, highs = np.atleast_1d(low), np.atleast_1d(high)
-    if np.any(lows > highs):
-        raise ConfigError(f"{key}: {kind} needs low <= high; got [{spec[0]!r}, {spec[1]!r}]")
-    if kind == "log_uniform" and np.any(lows <= 0):
-        raise ConfigError(f"{key}: log_uniform bounds must be > 0; got [{spec[0]!r}, {spec[1]!r}]")
-    if whole and max(np.abs(np.atleast_1d(low)).max(), np.abs(np.atleast_1d(high)).max()) >= 2 ** 53:
-        raise ConfigError(f"{key}: whole-number bounds must stay below 2**53; got [{spec[0]!r}, {spec[1]!r}]")
-    if whole and np.any(np.ceil(lows) > np.floor(highs)):
-        raise ConfigError(f"{key} takes whole numbers, and [{spec[0]!r}, {spec[1]!r}] holds none; give bounds "
-                          f"with at least one whole number between them, e.g. [4, 10]")
-    return Distribution(key, kind, low=low, high=high, whole=whole)
-
-
-# ----------------------------------------------------------------------------- sweeps
-@dataclass(frozen=True)
-class Sweep:
-    """One axis of a grid sweep: a scene key and the values it takes, in order."""
-
-    key: str
-    values: tuple
-
-    def to_dict(self) -> dict:
-        """``{"key": ..., "values": [...]}`` (what dataset.json records)."""
-        return {"key": self.key, "values": json_ready(list(self.values))}
-
-
-def _sweep_values(key: str, spec: Any, origin: str) -> tuple:
-    if isinstance(spec, list):
-        if not spec:
-            raise ConfigError(f"{origin}: sweep {key} needs at least one value")
-        values = tuple(spec)
-    elif isinstance(spec, str):
-        match = _SWEEP_RANGE.match(spec)
-        if not match:
-            raise ConfigError(f"{origin}: sweep {key}={spec!r}: use start:stop:count (e.g. 0.5:5:10), "
-                              f"start:stop:count:log, or a list [v1, v2, ...]")
-        try:
-            start, stop = float(match.group(1)), float(match.group(2))
-        except ValueError:
-            raise ConfigError(f"{origin}: sweep {key}={spec!r}: start and stop must be numbers") from None
-        count = int(match.group(3))
-        if count < 1:
-            raise ConfigError(f"{origin}: sweep {key}={spec!r}: count must be >= 1")
-        if match.group(4) == "log":
-            if start <= 0 or stop <= 0:
-                raise ConfigError(f"{origin}: sweep {key}={spec!r}: a log sweep needs start, stop > 0")
-            grid = np.geomspace(start, stop, count)
-        else:
-            grid = np.linspace(start, stop, count)
-        values = tuple(float(v) for v in grid)
-    else:
-        values = (spec,)
-    if _is_whole(key):
-        values = tuple(int(round(v)) if isinstance(v, float) else v for v in values)
-    return values
-
-
-def parse_sweep(text: str) -> Sweep:
-    """Parse ``section.key=start:stop:count[:log]`` or ``section.key=[v1, v2, ...]``.
-
-    Parameters
-    ----------
-    text
-        The ``--sweep`` argument; the range form gives ``count`` values from ``start`` to
-        ``stop`` inclusive, evenly spaced (``:log``: geometrically, e.g. f-numbers).
-
-    Returns
-    -------
-    Sweep
-
-    Raises
-    ------
-    ConfigError
-        For an unknown key or a malformed range, saying what would be valid.
-    """
-    if "=" not in text:
-        raise ConfigError(f"--sweep {text!r}: use section.key=start:stop:count, e.g. "
-                          f"lens.focus_distance_m=0.5:5:10")
-    key, raw = (part.strip() for part in text.split("=", 1))
-    _check_key(key, "--sweep")
-    if raw.startswith("["):
-        _, value = parse_override(f"{key}={raw}")
-        if not isinstance(value, list):
-            raise ConfigError(f"--sweep {text!r}: the list is not valid TOML, e.g. [1.4, 2.8, 5.6]")
-        return Sweep(key, _sweep_values(key, value, "--sweep"))
-    return Sweep(key, _sweep_values(key, raw, "--sweep"))
-
-
-# ----------------------------------------------------------------------------- spec
 @dataclass(frozen=True)
 class ItemPlan:
     """One item as planned by the driver: where it goes and what it renders.
@@ -390,7 +119,7 @@ class DatasetSpec:
         file counts by its content, not its path, so the same spec and files give the same items
         in any folder on any machine (the absolute path of an XML scene made them differ)."""
         decisive = {k: v for k, v in self.to_dict().items() if k not in _UNHASHED}
-        text = json.dumps(_by_content(decisive), sort_keys=True, separators=(",", ":"))
+        text = json.dumps(by_content(decisive), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
     @property
@@ -625,62 +354,103 @@ def spec_from_dict(
     """
     base_dir = Path(base_dir).resolve()
     data = dict(data)
-    settings = dict(data.pop("dataset", {}) or {})
-    valid_settings = ("scene", "seed", "n", "outputs", "sweep", "splits", "split_seed", "webdataset", "shard_items",
-                      "exports")
-    unknown = sorted(set(settings) - set(valid_settings))
+    settings = _dataset_settings(data.pop("dataset", {}) or {})
+    fixed = _base_scene(settings, base_dir)
+    distributions = _spec_tables(data, fixed, base_dir)
+    _apply_overrides(overrides, fixed, distributions)
+    axes = _sweep_axes(settings, sweeps, distributions)
+    ordered = _outputs(settings)
+    seed, count = _seed_and_count(settings)
+    spec = DatasetSpec(fixed=fixed, distributions=distributions, sweeps=tuple(axes), outputs=ordered,
+                       seed=seed, count=count, base_dir=str(base_dir), source=source, **_sharding(settings),
+                       exports=_exports(settings.get("exports", ()), ordered))
+    spec.check_values()
+    return spec
+
+
+#: Keys of a spec's ``[dataset]`` table.
+_DATASET_KEYS = ("scene", "seed", "n", "outputs", "sweep", "splits", "split_seed", "webdataset", "shard_items",
+                 "exports")
+
+
+def _dataset_settings(table: Mapping[str, Any]) -> dict:
+    """The ``[dataset]`` table, its keys checked."""
+    settings = dict(table)
+    unknown = sorted(set(settings) - set(_DATASET_KEYS))
     if unknown:
         raise ConfigError(f"unknown key(s) {', '.join('dataset.' + k for k in unknown)}; valid keys of "
-                          f"[dataset]: {', '.join(valid_settings)}")
+                          f"[dataset]: {', '.join(_DATASET_KEYS)}")
+    return settings
+
+
+def _base_scene(settings: Mapping[str, Any], base_dir: Path) -> dict[str, dict[str, Any]]:
+    """``{section: {key: value}}`` of ``[dataset] scene`` (a TOML scene file), its paths resolved
+    against its own folder; empty without one."""
     fixed: dict[str, dict[str, Any]] = {}
-    if settings.get("scene"):
-        scene_path = Path(str(settings["scene"])).expanduser()
-        scene_path = scene_path if scene_path.is_absolute() else base_dir / scene_path
-        try:
-            base = tomllib.loads(scene_path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise ConfigError(f"dataset.scene = {str(settings['scene'])!r}: cannot read it as a TOML scene "
-                              f"file ({exc})") from None
-        for section, table in base.items():
-            if not isinstance(table, dict):
-                raise ConfigError(f"{scene_path}: [{section}] must be a table")
-            for key, value in table.items():
-                _check_key(f"{section}.{key}", str(scene_path))
-                fixed.setdefault(section, {})[key] = _resolve_paths(value, scene_path.parent.resolve())
+    if not settings.get("scene"):
+        return fixed
+    scene_path = Path(str(settings["scene"])).expanduser()
+    scene_path = scene_path if scene_path.is_absolute() else base_dir / scene_path
+    try:
+        base = tomllib.loads(scene_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"dataset.scene = {str(settings['scene'])!r}: cannot read it as a TOML scene "
+                          f"file ({exc})") from None
+    for section, table in base.items():
+        if not isinstance(table, dict):
+            raise ConfigError(f"{scene_path}: [{section}] must be a table")
+        for key, value in table.items():
+            check_key(f"{section}.{key}", str(scene_path))
+            fixed.setdefault(section, {})[key] = resolve_paths(value, scene_path.parent.resolve())
+    return fixed
+
+
+def _spec_tables(data: Mapping[str, Any], fixed: dict, base_dir: Path) -> dict[str, Distribution]:
+    """The spec's own scene tables: fixed values go into ``fixed`` (over the base scene's), inline
+    tables become distributions (replacing the base scene's value); returns the distributions."""
     distributions: dict[str, Distribution] = {}
     for section, table in data.items():
         if not isinstance(table, dict):
             raise ConfigError(f"spec: [{section}] must be a table of key = value pairs")
         for key, value in table.items():
             dotted = f"{section}.{key}"
-            _check_key(dotted, "spec")
+            check_key(dotted, "spec")
             if dotted == "render.spectral_output":
                 raise ConfigError("spec: render.spectral_output follows the dataset's outputs; add or remove "
                                   "'radiance' in [dataset] outputs instead")
             if isinstance(value, dict):
-                distributions[dotted] = _parse_distribution(dotted, _resolve_paths_table(value, base_dir))
+                distributions[dotted] = parse_distribution(dotted, resolve_paths_table(value, base_dir))
                 fixed.get(section, {}).pop(key, None)
             else:
-                fixed.setdefault(section, {})[key] = _resolve_paths(value, base_dir)
+                fixed.setdefault(section, {})[key] = resolve_paths(value, base_dir)
+    return distributions
+
+
+def _apply_overrides(overrides: Sequence[str] | Mapping[str, Any], fixed: dict, distributions: dict) -> None:
+    """``--set`` values: fixed, on top of the spec (a drawn key becomes fixed); paths against the
+    working directory."""
     if isinstance(overrides, Mapping):
         items = list(overrides.items())
     else:
         items = [parse_override(text) for text in overrides]
     for dotted, value in items:
-        section, key = _check_key(dotted, "--set")
+        section, key = check_key(dotted, "--set")
         if dotted == "render.spectral_output":
             raise ConfigError("render.spectral_output follows the dataset's outputs; add or remove 'radiance' "
                               "in [dataset] outputs instead")
         distributions.pop(dotted, None)
-        fixed.setdefault(section, {})[key] = _resolve_paths(value, Path.cwd())
+        fixed.setdefault(section, {})[key] = resolve_paths(value, Path.cwd())
 
+
+def _sweep_axes(settings: Mapping[str, Any], sweeps: Sequence[str | Sweep], distributions: Mapping) -> list[Sweep]:
+    """``[dataset] sweep``'s axes, then ``sweeps``; each key once and none also drawn."""
     axes: list[Sweep] = []
     table = settings.get("sweep", {}) or {}
     if not isinstance(table, dict):
         raise ConfigError("dataset.sweep must be a table: { \"lens.f_number\" = \"1.4:8:5:log\" }")
     for key, spec in table.items():
-        _check_key(key, "dataset.sweep")
-        axes.append(Sweep(key, _sweep_values(key, spec, "dataset.sweep")))
+        check_key(key, "dataset.sweep")
+        axes.append(Sweep(key, sweep_values(key, spec, "dataset.sweep")))
     axes += [s if isinstance(s, Sweep) else parse_sweep(s) for s in sweeps]
     seen = set()
     for axis in axes:
@@ -689,7 +459,11 @@ def spec_from_dict(
         if axis.key in distributions:
             raise ConfigError(f"{axis.key} is both swept and drawn from a distribution; choose one")
         seen.add(axis.key)
+    return axes
 
+
+def _outputs(settings: Mapping[str, Any]) -> tuple[str, ...]:
+    """``[dataset] outputs`` checked against the labels, in the labels' order."""
     outputs = settings.get("outputs", list(DEFAULT_OUTPUTS))
     if isinstance(outputs, str):
         outputs = [outputs]
@@ -698,18 +472,18 @@ def spec_from_dict(
     for name in outputs:
         if name not in LABELS:
             raise ConfigError(f"dataset.outputs: unknown output {name!r}; valid: {', '.join(LABELS)}")
+    return tuple(name for name in LABELS if name in outputs)
+
+
+def _seed_and_count(settings: Mapping[str, Any]) -> tuple[int, int | None]:
+    """``[dataset] seed`` (default 0) and ``n`` (default None), checked."""
     seed = settings.get("seed", 0)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ConfigError(f"dataset.seed = {seed!r}: must be a whole number >= 0")
     count = settings.get("n")
     if count is not None and (not isinstance(count, int) or isinstance(count, bool) or count < 1):
         raise ConfigError(f"dataset.n = {count!r}: must be a whole number >= 1")
-    ordered = tuple(name for name in LABELS if name in outputs)
-    spec = DatasetSpec(fixed=fixed, distributions=distributions, sweeps=tuple(axes), outputs=ordered,
-                       seed=seed, count=count, base_dir=str(base_dir), source=source, **_sharding(settings),
-                       exports=_exports(settings.get("exports", ()), ordered))
-    spec.check_values()
-    return spec
+    return seed, count
 
 
 def _exports(value: Any, outputs: Sequence[str]) -> tuple:
@@ -763,26 +537,6 @@ def _sharding(settings: Mapping[str, Any]) -> dict:
         raise ConfigError(f"dataset.shard_items = {shard_items!r}: items per shard must be a whole number >= 1")
     return {"splits": tuple((name, float(f)) for name, f in splits.items()), "split_seed": split_seed,
             "webdataset": webdataset, "shard_items": shard_items}
-
-
-def _resolve_paths_table(table: Mapping[str, Any], base_dir: Path) -> dict:
-    """A distribution table with its paths absolute; ``{ files = "rooms/*.xml" }`` becomes the
-    choice of the files that pattern matches (relative to the spec's folder, sorted, so the
-    drawn file of an item does not depend on the order the file system lists them)."""
-    if "files" in table:
-        pattern = table["files"]
-        if set(table) - {"files", "weights"} or not isinstance(pattern, str) or not pattern.strip():
-            raise ConfigError(f"{{ files = {pattern!r} }}: give one glob pattern, e.g. {{ files = \"rooms/*.xml\" }}")
-        absolute = Path(pattern).expanduser()
-        absolute = absolute if absolute.is_absolute() else base_dir / absolute
-        found = sorted(str(p.resolve()) for p in Path(absolute.anchor).glob(str(absolute.relative_to(absolute.anchor)))
-                       if p.is_file())
-        if not found:
-            raise ConfigError(f"{{ files = {pattern!r} }} matches no file (looked for {absolute})")
-        if "weights" in table:
-            raise ConfigError(f"{{ files = {pattern!r} }}: weights apply to an explicit choice list")
-        return {"choice": found}
-    return {k: (_resolve_paths(v, base_dir) if k == "choice" else v) for k, v in table.items()}
 
 
 def load_spec(
