@@ -38,12 +38,20 @@ class Entry:
         Option keys the entry accepts besides the common ones (empty: none).
     description : str
         One line for help texts and error messages.
+    keys : tuple of Key
+        Scene keys the entry declares (:class:`spectral_cam.keys.Key`): a preset's own ``scene.*``
+        keys, which the scene's section is assembled from (keys it only reads are in ``options``).
+    checks : tuple of callable
+        ``check(section) -> (key, value, rule) | None``: combinations of keys refused when this
+        entry is the one chosen (a preset's ``dof_targets needs three depths``).
     """
 
     name: str
     function: Callable
     options: tuple[str, ...] = ()
     description: str = ""
+    keys: tuple = ()
+    checks: tuple = ()
 
     def __call__(self, *args, **kwargs):
         return self.function(*args, **kwargs)
@@ -78,22 +86,32 @@ class Registry(Mapping):
         self.kind = kind
         self._entries: dict[str, Entry] = {}
 
-    def register(self, name: str, *, options: tuple[str, ...] = (), description: str = ""):
+    def register(self, name: str, *, options: tuple[str, ...] = (), description: str = "", keys: tuple = (),
+                 checks: tuple = ()):
         """Decorator: register the decorated function under ``name``."""
 
         def decorate(function: Callable) -> Callable:
-            self.add(name, function, options=options, description=description)
+            self.add(name, function, options=options, description=description, keys=keys, checks=checks)
             return function
 
         return decorate
 
-    def add(self, name: str, function: Callable, *, options: tuple[str, ...] = (), description: str = "") -> Entry:
-        """Register ``function`` under ``name`` (a name can be registered once)."""
+    def add(self, name: str, function: Callable, *, options: tuple[str, ...] = (), description: str = "",
+            keys: tuple = (), checks: tuple = ()) -> Entry:
+        """Register ``function`` under ``name`` (a name can be registered once); the keys it
+        declares are among its options."""
         if name in self._entries:
             raise ValueError(f"{self.kind} {name!r} is registered twice")
-        entry = Entry(name, function, tuple(options), description)
+        options = tuple(options) + tuple(k.name for k in keys if k.name not in options)
+        entry = Entry(name, function, options, description, tuple(keys), tuple(checks))
         self._entries[name] = entry
         return entry
+
+    def declared_keys(self) -> list[tuple[str, Any]]:
+        """``(owner, Key)`` of every entry's declared keys, in registration order (the owner as
+        ``"<kind> <name>"`` for messages and help)."""
+        return [(f"{self.kind} {entry.name}", key) for entry in self._entries.values()
+                for key in getattr(entry, "keys", ())]
 
     def __getitem__(self, name: str) -> Entry:
         try:

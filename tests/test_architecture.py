@@ -113,7 +113,7 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
 #: (``spp = "auto"``), the sensor writes RawImage and the ISP's tone curves into its DNG, and the
 #: scene file validates the keys its presets, ISP stages and sensor kinds declare.
 FLOORS: tuple[tuple[str, ...], ...] = (
-    ("errors", "registry", "io", "records", "machine", "progress", "viz", "_lazy_colour"),
+    ("errors", "registry", "keys", "io", "records", "machine", "progress", "viz", "_lazy_colour"),
     ("cfa", "image", "exr", "spectral_exr", "xml_scene", "solar", "metering"),
     ("spectrum", "cie", "spectra", "colour_ground_truth", "reflectance_sets", "leaves",
      "soil_moisture", "textures"),
@@ -134,8 +134,10 @@ FLOORS: tuple[tuple[str, ...], ...] = (
 
 #: Every import that climbs to a higher floor: (module, imported module, why). Any other fails.
 ALLOWED_UPWARD: tuple[tuple[str, str, str], ...] = (
-    ("spectral_cam.scene", "spectral_cam.render.lens_models",
+    ("spectral_cam.scene.camera_sections", "spectral_cam.render.lens_models",
      "lens.model is checked against LENS_MODELS (a user's module may add to it)"),
+    ("spectral_cam.scene.sections", "spectral_cam.render.lens_models",
+     "[lens] is assembled from the keys LENS_MODELS' entries declare"),
 )
 
 

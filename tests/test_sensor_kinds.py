@@ -95,7 +95,7 @@ def test_every_bundled_kind_declares_capture_files_size_and_reader(kind):
     assert (kind == "cmos") == (not entry.files)
     assert entry.sequences == (kind != "event")
     for check in entry.keys:  # every key it owns is a SensorSection key whose default passes its check
-        assert check.problem(config.sensor) is None
+        assert check.problem("sensor", config.sensor) is None
 
 
 def test_the_event_entry_writes_and_reads_back_a_stream_in_dsec_layout(tmp_path):

@@ -2,7 +2,7 @@
 
     spectral-cam render SCENE.toml -o OUTDIR [--set section.key=value]... [--force]
     spectral-cam develop RAW.dng -o IMAGE [--set isp.key=value]... [--force]
-    spectral-cam cameras | validate | dataset | stress | bench
+    spectral-cam cameras | keys | validate | dataset | stress | bench
 
 One module per command in this package (``cli/render.py``, ``cli/stress.py``, ...), each with
 ``configure_parser(parser)`` and ``run(args) -> exit status``, registered in :data:`COMMANDS`
@@ -40,6 +40,7 @@ def _command(name: str, description: str) -> None:
 _command("render", "render a scene file into OUTDIR")
 _command("develop", "develop any DNG (ours or a camera's) into an image")
 _command("cameras", "list the measured camera sensors")
+_command("keys", "list every scene key: default, meaning and the code that declares it")
 _command("validate", "validate colour pipelines against spectral ground truth")
 _command("dataset", "generate a randomised or swept synthetic dataset")
 _command("export", "a dataset as COCO instances, 16-bit depth PNGs or Middlebury .flo flow")

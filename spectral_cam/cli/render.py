@@ -20,6 +20,10 @@ def configure_parser(parser: argparse.ArgumentParser) -> None:
                              "and exit; renders only the probes the decisions need and a small radiance probe "
                              "that measures the scene's cost")
     parser.add_argument("--json", action="store_true", help="with --dry-run: the plan as JSON")
+    from ..scene.key_table import help_epilog
+
+    parser.epilog = help_epilog()  # the keys as their owners declare them, a registered one's included
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
 
 
 def run(args: argparse.Namespace) -> int:

@@ -2,9 +2,10 @@
 scene-dict entries, in one registry (:data:`PRESETS`).
 
 A new preset is one function ``(config, lens, mi) -> dict`` registered with
-``@PRESETS.register(name, options=(...scene keys...), description=...)`` in a module of this
-package (and imported below); scene validation, ``spectral-cam`` help and errors read the
-registry. ``common`` holds what presets share, ``charts`` the chart targets,
+``@PRESETS.register(name, options=(...keys it reads...), keys=(...Keys it declares...),
+description=...)`` in a module of this package (and imported below); the ``[scene]`` section is
+assembled from the declared keys (``keys`` holds those several presets read), and scene validation,
+``spectral-cam keys`` and errors read the registry. ``common`` holds what presets share, ``charts`` the chart targets,
 ``depth_targets`` the depth-of-field and bokeh targets, ``dead_leaves`` the occluding-disc
 texture target, ``cornell_box`` the Cornell box; ``outdoor`` the ground view and sun/sky
 or lamp the outdoor presets share, ``tabletop`` objects on the ground, ``vegetation`` plants
@@ -25,12 +26,15 @@ from typing import TYPE_CHECKING
 from . import charts, cornell_box, dead_leaves, depth_targets, room, tabletop, vegetation  # noqa: F401  (each registers its presets)
 from .charts import colorchecker_patches, white_reference_mask
 from .common import EDGE_REFLECTANCES, PRESETS, Patch
+from .keys import GROUND_KINDS, SCENE_LIGHTS, outdoor_presets, preset_keys
+from .tabletop import OBJECT_MATERIALS
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
     from ..scene import SceneConfig
 
-__all__ = ["PRESETS", "build_objects", "colorchecker_patches", "white_reference_mask", "Patch", "EDGE_REFLECTANCES"]
+__all__ = ["PRESETS", "preset_keys", "outdoor_presets", "SCENE_LIGHTS", "GROUND_KINDS", "OBJECT_MATERIALS",
+           "build_objects", "colorchecker_patches", "white_reference_mask", "Patch", "EDGE_REFLECTANCES"]
 
 
 def build_objects(config: "SceneConfig", lens: "ThinLens", mi) -> dict:

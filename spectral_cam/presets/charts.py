@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import spectra
 from ..colour_ground_truth import WHITE_PATCH
+from ..keys import Key
 from .common import (
     CHART_FRAME_REFLECTANCE,
     EDGE_REFLECTANCES,
@@ -69,7 +70,23 @@ def white_reference_mask(config: SceneConfig, lens: ThinLens | None = None) -> n
     return mask if mask.any() else None
 
 
-@PRESETS.register("colorchecker", options=("distance_m", "fill", "gap", "surround"),
+def _reflectance(value, scene):
+    spectra.validate_reflectance(value)
+
+
+_FILL = Key("fill", 0.8, "float", "the fraction of the frame width the chart covers",
+            (lambda v, s: None if 0 < v <= 1 else "must lie in (0, 1]",))
+_GAP = Key("gap", 0.15, "float", "the fraction of each patch pitch left as dark border",
+           (lambda v, s: None if 0 <= v < 1 else "must lie in [0, 1)",))
+_SURROUND = Key("surround", 0.18, "float | str", "the card the chart lies on (0.18: an 18 % grey, as charts are "
+                "photographed; 0: nothing behind it), a patch name or a CSV", (_reflectance,))
+_REFLECTANCE = Key("reflectance", 0.18, "float | str", "the flat target: a number in [0, 1], a ColorChecker patch "
+                   "name or a CSV", (_reflectance,))
+_EDGE_ANGLE = Key("edge_angle_deg", 5.0, "float", "the edge's tilt from vertical",
+                  (lambda v, s: None if 0 <= v < 45 else "must lie in [0, 45)",))
+
+
+@PRESETS.register("colorchecker", options=("distance_m",), keys=(_FILL, _GAP, _SURROUND),
                   description="the 24-patch ColorChecker (BabelColor spectra) facing the camera, on a grey card")
 def colorchecker(config: SceneConfig, lens: ThinLens, mi) -> dict:
     s = config.scene
@@ -97,7 +114,7 @@ def colorchecker(config: SceneConfig, lens: ThinLens, mi) -> dict:
     return objects
 
 
-@PRESETS.register("flat_field", options=("distance_m", "reflectance"),
+@PRESETS.register("flat_field", options=("distance_m",), keys=(_REFLECTANCE,),
                   description="a uniform Lambertian target filling the view")
 def flat_field(config: SceneConfig, lens: ThinLens, mi) -> dict:
     s = config.scene
@@ -110,7 +127,7 @@ def flat_field(config: SceneConfig, lens: ThinLens, mi) -> dict:
             "light": sun(config)}
 
 
-@PRESETS.register("slanted_edge", options=("distance_m", "edge_angle_deg"),
+@PRESETS.register("slanted_edge", options=("distance_m",), keys=(_EDGE_ANGLE,),
                   description="an ISO 12233 4:1 slanted edge")
 def slanted_edge(config: SceneConfig, lens: ThinLens, mi) -> dict:
     s = config.scene

@@ -36,7 +36,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..keys import Key, whole_in
 from .common import PRESETS, facing_rectangle, light_irradiance, spectrum_dict
+from .keys import reflectance_set
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
@@ -208,8 +210,25 @@ def disc_polygons(column_px, row_px, radius_px, depth_m, width_px: int, height_p
     return vertices, faces
 
 
-@PRESETS.register("dead_leaves", options=("depths_m", "leaf_radius_px", "leaf_coverage", "leaf_reflectances",
-                                          "leaf_seed"),
+def _radius_range(value, scene):
+    if len(value) != 2 or not value[0] < value[1]:
+        return "give [smallest, largest] disc radius in pixels, smallest < largest"
+    return None
+
+
+_LEAF_KEYS = (
+    Key("leaf_radius_px", (3.0, 120.0), "tuple[float, ...]", "[smallest, largest] disc radius on the sensor (r⁻³ "
+        "law between)", (_radius_range,), range=(0.5, 1e5, "px")),
+    Key("leaf_coverage", 0.99, "float", "the expected fraction of the view the discs cover",
+        (lambda v, s: None if 0 < v <= 0.9999 else "must lie in (0, 0.9999]: the expected fraction of the view the "
+         "discs cover",)),
+    Key("leaf_reflectances", "cie2017", "str", "the reflectance set the discs draw from, or a CSV",
+        (reflectance_set(),)),
+    Key("leaf_seed", 0, "int", "the layout's seed", (whole_in(0, 2 ** 63, "must be a whole number >= 0"),)),
+)
+
+
+@PRESETS.register("dead_leaves", options=("depths_m",), keys=_LEAF_KEYS,
                   description="occluding discs (r^-3 radii) at depths over depths_m: texture and depth of field")
 def dead_leaves(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     """Discs facing the camera, laid out by :func:`dead_leaves_layout`, each with the radiance

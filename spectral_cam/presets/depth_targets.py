@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..keys import Key
 from .common import PRESETS, facing_rectangle, light_irradiance, spectrum_dict, sun
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -19,7 +20,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..scene import SceneConfig
 
 
-@PRESETS.register("dof_targets", options=("depths_m", "checker_px"),
+def _three_depths(scene):
+    if len(scene.depths_m) < 3:
+        return "scene.depths_m", scene.depths_m, "dof_targets needs three or more depths"
+    return None
+
+
+@PRESETS.register("dof_targets", options=("depths_m",), checks=(_three_depths,),
+                  keys=(Key("checker_px", 16.0, "float", "the in-focus checker square size on the sensor",
+                            range=(1.0, 1e5, "px")),),
                   description="checker planes side by side at several depths")
 def dof_targets(config: SceneConfig, lens: ThinLens, mi) -> dict:
     """Checkerboard planes at the configured depths (squares ``checker_px`` wide on the
@@ -60,7 +69,8 @@ def dof_targets(config: SceneConfig, lens: ThinLens, mi) -> dict:
     return objects
 
 
-@PRESETS.register("point_sources", options=("depths_m", "source_radius_m"),
+@PRESETS.register("point_sources", options=("depths_m",),
+                  keys=(Key("source_radius_m", 0.002, "float", "the discs' radius", range=(1e-7, 1e3, "m")),),
                   description="small emitting discs at several depths (defocus, bokeh)")
 def point_sources(config: SceneConfig, lens: ThinLens, mi) -> dict:
     """Small Lambertian emitting discs (radiance of a white diffuser under the illuminant)

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..keys import Key, boolean
 from . import outdoor
 from .common import PRESETS, diffuse, reflectance_spectrum
 from .meshes import mitsuba_mesh, torus, vase
@@ -173,9 +174,27 @@ def checker_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
         "to_uv": mi.ScalarTransform4f().scale([half / square, half / square, 1.0])}}
 
 
+#: scene.object_materials of ``tabletop``: Lambert, rough plastic, rough measured metal, glass.
+OBJECT_MATERIALS = ("diffuse", "plastic", "conductor", "glass")
+
+
+def _materials(value, scene):
+    if not value or any(m not in OBJECT_MATERIALS for m in value):
+        return "scene.object_materials", list(value), f"give one or more of {', '.join(OBJECT_MATERIALS)}"
+    return None
+
+
+_TABLETOP_KEYS = (
+    Key("object_materials", OBJECT_MATERIALS, "tuple[str, ...]", "the materials objects are drawn from: "
+        "diffuse, plastic, conductor (measured metals), glass", (_materials,)),
+    Key("chart", False, "bool", "true stands a ColorChecker in the tabletop, facing the camera",
+        (boolean("true places a ColorChecker in the tabletop, false none"),)),
+)
+
+
 @PRESETS.register("tabletop", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
-                                       "object_materials", "object_reflectances", "layout_seed", "ground",
-                                       "soil_reflectances", "chart"),
+                                       "object_reflectances", "layout_seed", "ground", "soil_reflectances"),
+                  keys=_TABLETOP_KEYS,
                   description="objects (plastic, metal, glass, meshes) on a textured or checkered ground under the "
                               "sun and sky")
 def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:

@@ -39,7 +39,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..keys import Key, fraction_in
 from . import outdoor
+from .keys import reflectance_set
 from .common import LEAF_SPECTRUM_STEP_NM, PRESETS, bitmap_texture, diffuse, reflectance_spectrum, spectrum_dict
 from .meshes import mitsuba_mesh
 from .plants import GOLDEN_ANGLE_DEG, MORPHOLOGIES, HealthShape, draw_shape, draw_species, vein_pattern
@@ -230,9 +232,26 @@ def _plant(mi, name, rng, size, species, shape, bsdf_of, place, view):
                         view.transform(mi, place), texcoords=geometry["uv"], attributes=attributes)
 
 
+def _stressed(value, scene):
+    if isinstance(value, float) and 0.0 <= value <= 1.0 and scene.dry_fraction + value <= 1.0:
+        return None
+    return "must lie in [0, 1 − dry_fraction]: the fraction of plants with stressed (chlorotic) leaves"
+
+
+_VEGETATION_KEYS = (
+    Key("plant_reflectances", "prospect", "str", "prospect (PROSPECT-D per plant's biochemistry) or a reflectance "
+        "set such as usgs_vegetation", (reflectance_set(also=("prospect",)),)),
+    Key("dry_fraction", 0.1, "float", "the fraction of plants with dry leaves",
+        (fraction_in(0.0, 1.0, "must lie in [0, 1]: the fraction of plants with dry leaves"),)),
+    Key("stressed_fraction", 0.2, "float", "the fraction of plants with stressed (chlorotic) leaves", (_stressed,)),
+    Key("layout", "scatter", "str", "scatter (plants over the view) or rows (a crop field)",
+        (lambda v, s: None if v in ("scatter", "rows") else "valid: scatter (plants drawn over the view), rows (a crop "
+         "field: rows 0.75 m apart, a plant every 0.3 m, weeds between)",)),
+)
+
+
 @PRESETS.register("vegetation", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
-                                         "plant_reflectances", "soil_reflectances", "dry_fraction",
-                                         "stressed_fraction", "layout_seed", "ground", "layout"),
+                                         "soil_reflectances", "layout_seed", "ground"), keys=_VEGETATION_KEYS,
                   description="plants of several species and shapes (grass, rosette, upright, shrub) with PROSPECT-D "
                               "leaves under a cuticle (or measured leaf spectra) on measured soil under the sun and sky")
 def vegetation(config: "SceneConfig", lens: "ThinLens", mi) -> dict:

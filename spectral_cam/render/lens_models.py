@@ -18,7 +18,9 @@ An entry says everything the pipeline asks of a model, so adding one is a single
   real chief rays set the pixels' angular response; None: the thin lens's). The render records it
   in ``meta["lens_shading"]``, so the sensor reads it without importing render/;
 - ``blades`` and ``distortion``: whether the model renders ``lens.blades`` and ``lens.distortion``
-  (the scene's validation asks).
+  (the scene's validation asks);
+- ``keys``: the ``lens.*`` keys the model brings (:class:`~spectral_cam.keys.Key`; ``[lens]`` is
+  assembled from them, :mod:`spectral_cam.scene`), and ``checks`` of their combinations.
 
 ``lens.model = "auto"`` is not an entry: :func:`spectral_cam.render.decisions.decide_lens_model`
 picks among the entries. The ``"layered"`` entry is registered by :mod:`.layered`, beside its
@@ -38,6 +40,7 @@ from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any, Callable
 
+from ..keys import Key, fraction_in
 from ..registry import Registry
 
 if TYPE_CHECKING:
@@ -104,6 +107,10 @@ class LensModel:
         ``(config) -> {"traced_vignetting", "chief_ray_prescription"}``.
     blades, distortion : bool
         The model renders ``lens.blades`` / ``lens.distortion``.
+    keys : tuple of Key
+        The ``lens.*`` keys it declares (another model may read them: list the same Key).
+    checks : tuple of callable
+        ``check(lens_section) -> (key, value, rule) | None``.
     """
 
     name: str
@@ -118,6 +125,8 @@ class LensModel:
     shading: Callable = _thin_shading
     blades: bool = False
     distortion: bool = False
+    keys: tuple = ()
+    checks: tuple = ()
 
     @property
     def function(self) -> Callable:  # the Registry's Entry shape: the entry's main function
@@ -144,6 +153,10 @@ class LensModelRegistry(Registry):
         entry = LensModel(name, camera, description, **fields)
         self._entries[name] = entry
         return entry
+
+    def declared_keys(self) -> list[tuple[str, Key]]:
+        """``(owner, Key)`` of every model's declared keys, in registration order."""
+        return [(f"lens model {entry.name}", key) for entry in self._entries.values() for key in entry.keys]
 
     def register(self, name: str, *, description: str = "", **fields: Any):
         """Decorator: register the decorated camera builder under ``name``."""
@@ -200,7 +213,63 @@ def pinhole_camera(mi, config, lens: "ThinLens", film: dict, spp: int) -> dict:
     return _perspective(mi, config, lens, film, spp)
 
 
-@LENS_MODELS.register("spectral_thin", blades=True, distortion=True,
+def _glass(value, lens):
+    from ..optics.glass import GLASS_NAMES
+
+    glasses = [part.strip() for part in str(value).split("+")]
+    if value != "ideal" and (len(glasses) > 2 or any(g not in GLASS_NAMES for g in glasses)):
+        return (f"give \"ideal\" (no dispersion), a glass (a singlet) or crown+flint (an achromat) from: "
+                f"{', '.join(GLASS_NAMES)}")
+    return None
+
+
+def _blade_count(value, lens):
+    if isinstance(value, int) and not isinstance(value, bool) and (value == 0 or 3 <= value <= 32):
+        return None
+    return "give 0 (a circular opening) or 3..32 straight blades"
+
+
+def _rendered_by_model(capability: str, rule: str):
+    """Refuse a non-zero key on an explicit model that does not render it (``"auto"`` picks one that does)."""
+    def check(value, lens):
+        if any(value) if isinstance(value, tuple) else value:
+            if lens.model != "auto" and lens.model in LENS_MODELS and not getattr(LENS_MODELS[lens.model], capability):
+                return "lens.model", lens.model, rule
+        return None
+    return check
+
+
+def _distortion(value, lens):
+    import math
+
+    if len(value) != 5 or not all(math.isfinite(v) and abs(v) <= 1.0 for v in value):
+        return "give Brown–Conrady [k1, k2, p1, p2, k3] (OpenCV's order), each within ±1"
+    return None
+
+
+GLASS_KEY = Key("glass", "ideal", "str", "ideal (no dispersion), a SCHOTT glass such as N-BK7 (a singlet), or "
+                "crown+flint (a cemented achromat); the focal length at the d line", (_glass,))
+BLADE_KEYS = (
+    Key("blades", 0, "int", "straight aperture blades (0: round, 3-32)",
+        (_blade_count, _rendered_by_model("blades", "aperture blades are rendered by the \"spectral_thin\" lens "
+                                          "(lens.model = \"auto\" picks it) or a \"prescription\"'s stop; set "
+                                          "lens.model accordingly"))),
+    Key("blade_rotation_deg", 0.0, "float", "a blade vertex's angle from up towards image-left",
+        (lambda v, s: None if isinstance(v, float) and v == v and abs(v) != float("inf")
+         else "must be an angle in degrees",)),
+    Key("blade_rounding", 0.0, "float", "0 straight blades - 1 a circle",
+        (fraction_in(0.0, 1.0, "must lie in [0, 1]: 0 straight blades, 1 a circle"),)),
+)
+DISTORTION_KEY = Key("distortion", (0.0, 0.0, 0.0, 0.0, 0.0), "tuple[float, ...]",
+                     "Brown–Conrady [k1, k2, p1, p2, k3] (OpenCV's order)",
+                     (_distortion, _rendered_by_model("distortion", "Brown–Conrady distortion is rendered by the "
+                                                      "\"spectral_thin\" lens (lens.model = \"auto\" picks it; a "
+                                                      "prescription has its own); set lens.model = \"spectral_thin\"")))
+PRESCRIPTION_KEY = Key("prescription", "dgauss_50mm", "str", "a bundled lens (dgauss_50mm, telephoto_250mm, "
+                       "wide_56deg_100mm, dgauss_f2_100mm_glass) or a CSV of surfaces")
+
+
+@LENS_MODELS.register("spectral_thin", blades=True, distortion=True, keys=(GLASS_KEY, *BLADE_KEYS, DISTORTION_KEY),
                       description="a dispersive thin lens of lens.glass, with aperture blades and Brown–Conrady "
                                   "distortion")
 def spectral_thin_camera(mi, config, lens: "ThinLens", film: dict, spp: int) -> dict:
@@ -255,5 +324,6 @@ def _prescription_shading(config) -> dict:
 
 
 LENS_MODELS.add("prescription", prescription_camera, blades=True, post_render=_prescription_metadata,
+                keys=(PRESCRIPTION_KEY, *BLADE_KEYS),
                 intrinsics=_prescription_intrinsics, shading=_prescription_shading,
                 description="real surfaces of lens.prescription traced (its stop's blades; its own distortion)")

@@ -4,7 +4,8 @@ An entry (:class:`SensorKind`) declares everything the rest of the package asks 
 
 - ``capture``: radiance → what the job writes (:class:`SensorCapture`: the RAW the ISP develops,
   plus the kind's own outputs such as a QIS's count frames or an event stream);
-- ``keys``: the ``sensor.*`` keys it owns and their checks (:class:`KeyCheck`), and the keys
+- ``keys``: the ``sensor.*`` keys it owns, their defaults and checks (:class:`~spectral_cam.keys.Key`,
+  :func:`kind_key`): ``[sensor]`` is assembled from them (:mod:`spectral_cam.scene`), and the keys
   whose non-zero value belongs to it alone (``exclusive_keys``);
 - ``files``: its extra result files (:class:`SensorFile`: file names, writer, reader, size);
 - ``memory_bytes_per_pixel`` (and ``memory_remedy``): what its outputs hold in memory;
@@ -12,8 +13,8 @@ An entry (:class:`SensorKind`) declares everything the rest of the package asks 
 
 :func:`capture` is the one capture function of the render job (:func:`spectral_cam.job.simulate`)
 and the sequence; :func:`validate_sensor_keys` is what ``SensorSection`` calls. Adding a kind is
-one :meth:`SensorKinds.add` call (docs/design.md, "Where to make a change"); a kind that needs
-new ``sensor.*`` keys also adds them to ``SensorSection`` (spectral_cam/scene.py).
+one :meth:`SensorKinds.add_kind` call, its new ``sensor.*`` keys included (docs/design.md, "Where to
+make a change").
 
 References
 ----------
@@ -33,9 +34,10 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import ConfigError
+from ..keys import Key
 from ..registry import Entry, Registry
 
-__all__ = ["SensorKind", "SensorKinds", "SensorFile", "SensorCapture", "KeyCheck", "SENSOR_KINDS", "capture",
+__all__ = ["SensorKind", "SensorKinds", "SensorFile", "SensorCapture", "kind_key", "SENSOR_KINDS", "capture",
            "validate_sensor_keys", "sensor_file", "PHOTON_COUNTING_BYTES_PER_PIXEL",
            "SPAD_BYTES_PER_PIXEL_PER_LEVEL", "NPZ_CHUNK_BYTES", "EVENT_WORK_BYTES_PER_PIXEL"]
 
@@ -53,29 +55,17 @@ EVENT_WORK_BYTES_PER_PIXEL = 160.0
 _HEADER_BYTES = 16e3
 
 
-@dataclass(frozen=True)
-class KeyCheck:
-    """One ``sensor.*`` key a kind owns: a number in ``low..high`` (a whole number with ``whole``).
-
-    ``what`` says what the key is, for the error message (``sensor.<key> = <value>: <what>, a
-    number in <low>..<high>``); ``rule`` replaces that whole message when given.
-    """
-
-    key: str
-    low: float
-    high: float
-    what: str
-    whole: bool = False
-    rule: str = ""
-
-    def problem(self, sensor) -> tuple[str, Any, str] | None:
-        """``(key, value, rule)`` when the sensor's value breaks the check, else None."""
-        value = getattr(sensor, self.key)
-        kinds = int if self.whole else (int, float)
-        if isinstance(value, kinds) and not isinstance(value, bool) and self.low <= value <= self.high:
+def kind_key(name: str, default: float, low: float, high: float, what: str, *, whole: bool = False,
+             rule: str = "") -> Key:
+    """A ``sensor.*`` key a kind owns: a number in ``low..high`` (a whole number with ``whole``), its
+    default ``default``; ``what`` says what it is (the message reads ``sensor.<key> = <value>: <what>, a
+    number in <low>..<high>``), ``rule`` replaces that whole message when given."""
+    def check(value, sensor):
+        kinds = int if whole else (int, float)
+        if isinstance(value, kinds) and not isinstance(value, bool) and low <= value <= high:
             return None
-        rule = self.rule or f"{self.what}, a {'whole number' if self.whole else 'number'} in {self.low:g}..{self.high:g}"
-        return f"sensor.{self.key}", value, rule
+        return rule or f"{what}, a {'whole number' if whole else 'number'} in {low:g}..{high:g}"
+    return Key(name, default, "int" if whole else "float", rule or what, (check,))
 
 
 @dataclass(frozen=True)
@@ -134,7 +124,7 @@ class SensorKind(Entry):
     message (``"count frames"``).
     """
 
-    keys: tuple[KeyCheck, ...] = ()
+    keys: tuple[Key, ...] = ()
     exclusive_keys: tuple[str, ...] = ()
     exclusive_rule: str = ""
     files: tuple[SensorFile, ...] = ()
@@ -201,19 +191,11 @@ def capture(radiance, config, *, frame_seed: int | None = None, render_pose: Cal
 
 
 def validate_sensor_keys(sensor) -> tuple[str, Any, str] | None:
-    """The first problem ``(key, value, rule)`` of ``sensor.kind`` and every kind's keys (each key's
-    default must be valid whatever the kind), then of a key set for a kind it does not belong to."""
+    """The problem ``(key, value, rule)`` of ``sensor.kind``, or of a key set for a kind it does not
+    belong to (each kind's own keys are checked by the section, as declared)."""
     if sensor.kind not in SENSOR_KINDS:
         return "sensor.kind", sensor.kind, "valid: " + ", ".join(
             f"{name!r} ({entry.description})" for name, entry in SENSOR_KINDS.items())
-    seen: set[str] = set()
-    for entry in SENSOR_KINDS.values():
-        for check in entry.keys:
-            if check.key not in seen:
-                seen.add(check.key)
-                problem = check.problem(sensor)
-                if problem:
-                    return problem
     for entry in SENSOR_KINDS.values():
         stray = [key for key in entry.exclusive_keys if getattr(sensor, key)]
         if sensor.kind != entry.name and stray:
@@ -296,9 +278,9 @@ _PHOTON_COUNTS = SensorFile("photon_counts", ("photon_counts.npz",),
                             lambda counts, folder: [counts.save(Path(folder) / "photon_counts.npz")],
                             _read_photon_counts, _photon_counts_bytes,
                             "a QIS or SPAD capture's frames (packed bits) and record")
-_JOT_KEYS = (KeyCheck("jot_frames", 1, 65536, "", whole=True,
+_JOT_KEYS = (kind_key("jot_frames", 256, 1, 65536, "", whole=True,
                       rule="the frames of a single-photon capture, a whole number in 1..65536"),
-             KeyCheck("jot_bits", 1, 8, "", whole=True, rule="bits per jot and frame, a whole number in 1..8"))
+             kind_key("jot_bits", 1, 1, 8, "", whole=True, rule="bits per jot and frame, a whole number in 1..8"))
 SENSOR_KINDS.add_kind(SensorKind(
     "qis", _capture_photon_counting, options=("jot_frames", "jot_bits"),
     description="a quanta image sensor: binary or few-bit jots", keys=_JOT_KEYS, files=(_PHOTON_COUNTS,),
@@ -307,8 +289,8 @@ SENSOR_KINDS.add_kind(SensorKind(
 SENSOR_KINDS.add_kind(SensorKind(
     "spad", _capture_photon_counting, options=("jot_frames", "jot_bits", "dead_time_s", "afterpulsing"),
     description="single-photon avalanche diodes: dead time, afterpulsing",
-    keys=_JOT_KEYS + (KeyCheck("dead_time_s", 0.0, 1.0, "", rule="a SPAD's dead time in 0..1 s (tens of ns are typical)"),
-                      KeyCheck("afterpulsing", 0.0, 1.0, "", rule="a SPAD's afterpulsing probability in 0..1")),
+    keys=_JOT_KEYS + (kind_key("dead_time_s", 0.0, 0.0, 1.0, "", rule="a SPAD's dead time in 0..1 s (tens of ns are typical)"),
+                      kind_key("afterpulsing", 0.0, 0.0, 1.0, "", rule="a SPAD's afterpulsing probability in 0..1")),
     exclusive_keys=("dead_time_s", "afterpulsing"),
     exclusive_rule="dead time and afterpulsing belong to sensor.kind = 'spad'", files=(_PHOTON_COUNTS,),
     memory_bytes_per_pixel=_spad_memory, memory_remedy=_photon_counting_remedy,
@@ -423,12 +405,12 @@ SENSOR_KINDS.add_kind(SensorKind(
     options=("event_threshold", "event_threshold_sigma", "event_refractory_s", "event_leak_hz",
              "event_shot_noise_hz", "event_frames"),
     description="brightness changes, from a sequence's frames",
-    keys=(KeyCheck("event_threshold", 0.01, 5.0, "the contrast threshold in log units"),
-          KeyCheck("event_threshold_sigma", 0.0, 1.0, "the threshold's per-pixel σ in log units"),
-          KeyCheck("event_refractory_s", 0.0, 1.0, "the refractory period in seconds"),
-          KeyCheck("event_leak_hz", 0.0, 1e4, "the leak event rate per pixel in Hz"),
-          KeyCheck("event_shot_noise_hz", 0.0, 1e4, "the shot-noise event rate per pixel in Hz"),
-          KeyCheck("event_frames", 2, 4096, "", whole=True,
+    keys=(kind_key("event_threshold", 0.2, 0.01, 5.0, "the contrast threshold in log units"),
+          kind_key("event_threshold_sigma", 0.03, 0.0, 1.0, "the threshold's per-pixel σ in log units"),
+          kind_key("event_refractory_s", 1e-4, 0.0, 1.0, "the refractory period in seconds"),
+          kind_key("event_leak_hz", 0.1, 0.0, 1e4, "the leak event rate per pixel in Hz"),
+          kind_key("event_shot_noise_hz", 0.0, 0.0, 1e4, "the shot-noise event rate per pixel in Hz"),
+          kind_key("event_frames", 16, 2, 4096, "", whole=True,
                    rule="the renders an event capture interpolates between, a whole number in 2..4096")),
     files=(SensorFile("events", ("events.npz", "events.png"), _write_events, _read_events, _events_bytes,
                       "an event capture's (x, y, t µs, p) and its event frame"),),
