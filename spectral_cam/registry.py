@@ -16,7 +16,7 @@ References
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable, Iterator
 
 from .errors import ConfigError
@@ -50,8 +50,9 @@ class Entry:
     function: Callable
     options: tuple[str, ...] = ()
     description: str = ""
-    keys: tuple = ()
-    checks: tuple = ()
+    # keyword-only, so subclasses' positional fields (a Label's files, reader, ...) keep their places
+    keys: tuple = field(default=(), kw_only=True)
+    checks: tuple = field(default=(), kw_only=True)
 
     def __call__(self, *args, **kwargs):
         return self.function(*args, **kwargs)
@@ -103,7 +104,7 @@ class Registry(Mapping):
         if name in self._entries:
             raise ValueError(f"{self.kind} {name!r} is registered twice")
         options = tuple(options) + tuple(k.name for k in keys if k.name not in options)
-        entry = Entry(name, function, options, description, tuple(keys), tuple(checks))
+        entry = Entry(name, function, options, description, keys=tuple(keys), checks=tuple(checks))
         self._entries[name] = entry
         return entry
 
