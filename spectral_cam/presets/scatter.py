@@ -472,8 +472,8 @@ def _children(mi, obj) -> list:
     """The Mitsuba objects ``obj`` exposes to a traversal (its plugins' children)."""
     found = []
 
-    # defined per variant: its base class is the active variant's (mi.TraversalCallback), which exists only once a variant is set
-    # (and each variant registers its own class: mi.register_*)
+    # Mitsuba requires this class inside a function: mi.TraversalCallback can be reached only once a
+    # variant is set (nothing is registered), and put() appends to this call's list
     class Callback(mi.TraversalCallback):
         def put(self, name, value, flags, *rest):  # noqa: D401 - Mitsuba's callback
             if isinstance(value, mi.Object):

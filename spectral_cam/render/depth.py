@@ -291,8 +291,9 @@ def _register_albedo(mi) -> None:
     if mi.variant() in _ALBEDO_REGISTERED:
         return
 
-    # defined per variant: its base class is the active variant's (mi.SamplingIntegrator), which exists only once a variant is set
-    # (and each variant registers its own class: mi.register_*)
+    # Mitsuba requires this class inside a function: a Python plugin subclasses the active variant's
+    # mi.SamplingIntegrator, which exists only once mi.set_variant has run and is another class in each variant
+    # (so one class is made and registered per variant: mi.register_*)
     class Albedo(mi.SamplingIntegrator):
         def sample(self, scene, sampler, ray, medium=None, active=True):
             si = scene.ray_intersect(ray, active)
@@ -351,8 +352,9 @@ def _register_shape_layers(mi) -> None:
     if mi.variant() in _LAYERS_REGISTERED:
         return
 
-    # defined per variant: its base class is the active variant's (mi.SamplingIntegrator), which exists only once a variant is set
-    # (and each variant registers its own class: mi.register_*)
+    # Mitsuba requires this class inside a function: a Python plugin subclasses the active variant's
+    # mi.SamplingIntegrator, which exists only once mi.set_variant has run and is another class in each variant
+    # (so one class is made and registered per variant: mi.register_*)
     class ShapeLayers(mi.SamplingIntegrator):
         def aov_names(self):
             return [f"{k}_{c}" for k in range(AMODAL_LAYERS) for c in "sp"]

@@ -125,8 +125,9 @@ def _sensor_class(mi):
     the variant's own ``mi.Sensor``); the optics it calls are the module's functions."""
     import drjit as dr
 
-    # defined per variant: its base class is the active variant's (mi.Sensor), which exists only once a variant is set
-    # (and each variant registers its own class: mi.register_*)
+    # Mitsuba requires this class inside a function: a Python plugin subclasses the active variant's
+    # mi.Sensor, which exists only once mi.set_variant has run and is another class in each variant
+    # (so one class is made and registered per variant: mi.register_*)
     class PrescriptionLens(mi.Sensor):
         def __init__(self, props):
             super().__init__(props)

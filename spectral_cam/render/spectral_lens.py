@@ -62,8 +62,9 @@ def register(mi) -> None:
 def _sensor_class(mi):
     import drjit as dr
 
-    # defined per variant: its base class is the active variant's (mi.Sensor), which exists only once a variant is set
-    # (and each variant registers its own class: mi.register_*)
+    # Mitsuba requires this class inside a function: a Python plugin subclasses the active variant's
+    # mi.Sensor, which exists only once mi.set_variant has run and is another class in each variant
+    # (so one class is made and registered per variant: mi.register_*)
     class SpectralThinLens(mi.Sensor):
         """Thin lens whose focal length follows a spectrum ``focal_length`` (m per nm)."""
 
