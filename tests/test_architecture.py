@@ -255,3 +255,51 @@ def test_only_the_renderer_imports_mitsuba():
             names = ([a.name for a in node.names] if isinstance(node, ast.Import)
                      else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
             assert not any(n.split(".")[0] in ("mitsuba", "drjit") for n in names), f"{name} imports {names}"
+
+
+#: Size limits (issue 41): a module a reader can hold, a function a reader can follow.
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_CODE_LINES = 80
+
+
+def _code_lines(node: ast.AST, lines: list[str]) -> int:
+    """A function's lines of code: its body's non-blank, non-comment lines, the docstring left out."""
+    body = node.body
+    start = body[0].lineno
+    if isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
+        start = body[0].end_lineno + 1
+    return sum(1 for line in lines[start - 1:node.end_lineno] if line.strip() and not line.strip().startswith("#"))
+
+
+def test_no_module_over_600_lines_and_no_function_over_80_lines_of_code():
+    long_modules, long_functions = [], []
+    for path in ROOT.rglob("*.py"):
+        text = path.read_text(encoding="utf-8")
+        lines = text.splitlines()
+        if len(lines) > MAX_MODULE_LINES:
+            long_modules.append(f"{path.relative_to(ROOT)} ({len(lines)})")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and _code_lines(node, lines) > MAX_FUNCTION_CODE_LINES:
+                long_functions.append(f"{path.relative_to(ROOT)}:{node.name} ({_code_lines(node, lines)})")
+    assert not long_modules, f"modules over {MAX_MODULE_LINES} lines: {long_modules}"
+    assert not long_functions, f"functions over {MAX_FUNCTION_CODE_LINES} lines of code: {long_functions}"
+
+
+def test_a_class_inside_a_function_says_why_mitsuba_needs_it():
+    """A Mitsuba Python plugin must subclass the variant's ``mi.BSDF``/``mi.Sensor``/…, which exist only
+    once a variant is set, so its class is defined in the function that registers it; the comment or
+    docstring within three lines above the class says so. Any other class lives at module level."""
+    unexplained = []
+    for path in ROOT.rglob("*.py"):
+        text = path.read_text(encoding="utf-8")
+        lines = text.splitlines()
+        for outer in ast.walk(ast.parse(text)):
+            if not isinstance(outer, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for inner in ast.walk(outer):
+                if isinstance(inner, ast.ClassDef):
+                    near = " ".join(lines[max(0, inner.lineno - 4):inner.lineno]).lower()
+                    doc = (ast.get_docstring(outer) or "").lower()
+                    if "mitsuba" not in near + doc or "variant" not in near + doc:
+                        unexplained.append(f"{path.relative_to(ROOT)}:{outer.name}>{inner.name}")
+    assert not unexplained, f"classes inside functions without a comment on Mitsuba's variant: {unexplained}"

@@ -172,15 +172,13 @@ def expose(
     config = _with_scene_light(config, radiance)
     sensor, exposure = config.sensor, config.exposure
     frame_seed = config.render.seed if frame_seed is None else frame_seed
-    if getattr(sensor, "kind", "cmos") == "event":
-        raise SensorError("sensor.kind = 'event' reports brightness changes, not a frame: render the capture with "
-                          "spectral_cam.job.simulate or `spectral-cam render` (its span of poses), or pass log "
-                          "intensities to spectral_cam.sensor.events.simulate_events; expose() is the integrating "
-                          "CMOS sensor (sensor.kind = 'cmos')")
     if getattr(sensor, "kind", "cmos") != "cmos":
-        raise SensorError(f"sensor.kind = {sensor.kind!r} counts single photons: expose it with "
-                          "spectral_cam.expose_photon_counting (its reconstruction's to_raw() is the RAW); "
-                          "expose() is the integrating CMOS sensor (sensor.kind = 'cmos')")
+        from .kinds import SENSOR_KINDS
+
+        entry = SENSOR_KINDS[sensor.kind]
+        raise SensorError(f"sensor.kind = {sensor.kind!r} ({entry.description}) is not an integrating sensor: "
+                          f"{entry.direct_use or 'capture it with spectral_cam.sensor.kinds.capture'}; expose() is the "
+                          "integrating CMOS sensor (sensor.kind = 'cmos')")
     _check_expose_arguments(radiance, sensor, frame_seed, shot_noise_method)
     model = signal_model(radiance, config)
     timings["setup"] = time.perf_counter() - started

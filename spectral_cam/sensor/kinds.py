@@ -121,7 +121,8 @@ class SensorKind(Entry):
     it is None in a sequence. :func:`spectral_cam.sensor.expose` is the integrating (CMOS) model and
     takes ``sensor.kind = "cmos"`` only: a kind built on it exposes ``config.replace(**{"sensor.kind":
     "cmos"})`` (as the event sensor's APS frame does). ``outputs_noun`` names its outputs in a memory
-    message (``"count frames"``).
+    message (``"count frames"``); ``direct_use`` says how to capture it outside the job (the message of
+    ``expose()`` refusing it).
     """
 
     keys: tuple[Key, ...] = ()
@@ -133,6 +134,7 @@ class SensorKind(Entry):
     memory_bytes_per_pixel: Callable[[Any], float] = _no_bytes
     memory_remedy: Callable[[Any, float], str | None] | None = None
     outputs_noun: str = "outputs"
+    direct_use: str = ""
 
 
 class SensorKinds(Registry):
@@ -278,6 +280,8 @@ _PHOTON_COUNTS = SensorFile("photon_counts", ("photon_counts.npz",),
                             lambda counts, folder: [counts.save(Path(folder) / "photon_counts.npz")],
                             _read_photon_counts, _photon_counts_bytes,
                             "a QIS or SPAD capture's frames (packed bits) and record")
+_PHOTON_COUNTING_USE = ("it counts single photons: expose it with spectral_cam.expose_photon_counting (its "
+                        "reconstruction's to_raw() is the RAW)")
 _JOT_KEYS = (kind_key("jot_frames", 256, 1, 65536, "", whole=True,
                       rule="the frames of a single-photon capture, a whole number in 1..65536"),
              kind_key("jot_bits", 1, 1, 8, "", whole=True, rule="bits per jot and frame, a whole number in 1..8"))
@@ -285,7 +289,7 @@ SENSOR_KINDS.add_kind(SensorKind(
     "qis", _capture_photon_counting, options=("jot_frames", "jot_bits"),
     description="a quanta image sensor: binary or few-bit jots", keys=_JOT_KEYS, files=(_PHOTON_COUNTS,),
     memory_bytes_per_pixel=_photon_counting_memory, memory_remedy=_photon_counting_remedy,
-    outputs_noun="count frames"))
+    outputs_noun="count frames", direct_use=_PHOTON_COUNTING_USE))
 SENSOR_KINDS.add_kind(SensorKind(
     "spad", _capture_photon_counting, options=("jot_frames", "jot_bits", "dead_time_s", "afterpulsing"),
     description="single-photon avalanche diodes: dead time, afterpulsing",
@@ -294,7 +298,7 @@ SENSOR_KINDS.add_kind(SensorKind(
     exclusive_keys=("dead_time_s", "afterpulsing"),
     exclusive_rule="dead time and afterpulsing belong to sensor.kind = 'spad'", files=(_PHOTON_COUNTS,),
     memory_bytes_per_pixel=_spad_memory, memory_remedy=_photon_counting_remedy,
-    outputs_noun="count frames"))
+    outputs_noun="count frames", direct_use=_PHOTON_COUNTING_USE))
 
 
 # ----------------------------------------------------------------------------- event
@@ -419,4 +423,7 @@ SENSOR_KINDS.add_kind(SensorKind(
                       "event capture with `spectral-cam render` over exposure.time_s, or use 'cmos', 'qis' or "
                       "'spad' here"),
     memory_bytes_per_pixel=_event_memory, memory_remedy=_event_remedy,
-    outputs_noun="events"))
+    outputs_noun="events",
+    direct_use=("it reports brightness changes, not a frame: render the capture with spectral_cam.job.simulate or "
+                "`spectral-cam render` (its span of poses), or pass log intensities to "
+                "spectral_cam.sensor.events.simulate_events")))

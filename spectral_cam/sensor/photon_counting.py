@@ -319,17 +319,22 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
     from .radiometry import electron_rates, signal_model, validate_radiance
     from .temporal import frame_row_factors
 
+    from .kinds import SENSOR_KINDS
+
     config = _with_scene_light(config, radiance)
     sensor = config.sensor
-    if sensor.kind not in ("qis", "spad"):
-        raise SensorError(f"sensor.kind = {sensor.kind!r}: photon counting needs 'qis' or 'spad'")
+    # a kind counts photons when it declares jot frames; a SPAD's dead time and afterpulsing are its own keys
+    counting = [name for name, entry in SENSOR_KINDS.items() if "jot_frames" in entry.options]
+    if sensor.kind not in counting:
+        raise SensorError(f"sensor.kind = {sensor.kind!r}: photon counting needs {' or '.join(map(repr, counting))}")
+    own = SENSOR_KINDS[sensor.kind].options
     validate_radiance(radiance, sensor)
     model = signal_model(radiance, config)
     rate = electron_rates(radiance.data, model.weights, cfa=sensor.cfa, cos4=model.cos4, olpf_px=model.olpf_px,
                           channel_gain=model.channel_gain)
     exposure_s, reference_rate = resolve_exposure(radiance, config, model, white_mask=white_mask)
     frames = int(sensor.jot_frames)
-    dead = sensor.dead_time_s if sensor.kind == "spad" else 0.0
+    dead = sensor.dead_time_s if "dead_time_s" in own else 0.0
     if config.exposure.time_s == "auto" and reference_rate:
         exposure_s = frames * _metered_frame_s(config, float(reference_rate), dead)
     frame_s = exposure_s / frames
@@ -339,7 +344,7 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
     factors = frame_row_factors(config, light.shape[0], frame_s, frames)
     seed = config.render.seed if frame_seed is None else frame_seed
     rng = np.random.default_rng([int(sensor.seed), int(seed), 0x51])
-    afterpulsing = sensor.afterpulsing if sensor.kind == "spad" else 0.0
+    afterpulsing = sensor.afterpulsing if "afterpulsing" in own else 0.0
     counts = _draw_counts(light, frames, dark=sensor.dark_current_e_per_s * frame_s, bits=int(sensor.jot_bits),
                           frame_s=frame_s, dead_time_s=dead, afterpulsing=afterpulsing, rng=rng, factors=factors)
     colour = _colour_metadata(radiance, config, model)

@@ -1,6 +1,7 @@
 """The labels that are the render job's own result files (:func:`spectral_cam.job.write_files`):
-the RAW, the developed image, the spectral cube, depth, the camera and illuminant records, and a
-single-photon or event sensor's frames. One writer serves them all; each has its own reader.
+the RAW, the developed image, the spectral cube, depth, the camera and illuminant records, and each
+sensor kind's own files (a single-photon sensor's frames, an event stream: :func:`add_sensor_file_labels`
+reads them from the kinds' entries). One writer serves them all; each has its own reader.
 
 Their size estimates here are nominal (the defaults: 8-bit image, 31 float32 bands); the dry run
 and the disk check size them from the scene itself (:func:`spectral_cam.budget.estimate_result_bytes`).
@@ -24,7 +25,7 @@ from ....job import write_files
 from .files import IMAGE_SUFFIXES, read_image, stack
 from .registry import LABELS
 
-__all__ = ["read_raw", "read_radiance", "read_camera"]
+__all__ = ["read_raw", "read_radiance", "read_camera", "add_sensor_file_labels"]
 
 
 def _result_file(item, folder: Path, *, name: str) -> list[Path]:
@@ -80,11 +81,31 @@ _JOB_LABELS = {
                "OpenGL axes), focus, aperture, exposure", ("camera.json",), read_camera, 0.0, 8192.0, ()),
     "illuminant": ("illuminant.json: the light's camera RGB (max 1, green 1, unit length), CIE xy, CCT and Duv",
                    ("illuminant.json",), _read_json, 0.0, 4096.0, ()),
-    "photon_counts": ("photon_counts.npz: a QIS or SPAD item's frames (packed bits) and record; nothing for "
-                      "the other sensor kinds", ("photon_counts.npz",), None, 0.0, 0.0, ()),
-    "events": ("events.npz and events.png: an event sensor item's (x, y, t µs, p) and its event frame; nothing "
-               "for the other sensor kinds", ("events.npz", "events.png"), None, 0.0, 0.0, ()),
 }
 for _name, (_description, _files, _reader, _per_pixel, _fixed, _read_from) in _JOB_LABELS.items():
     LABELS.add(_name, functools.partial(_result_file, name=_name), description=_description, files=_files,
                reader=_reader, bytes_per_pixel=_per_pixel, fixed_bytes=_fixed, read_from=_read_from)
+
+
+def add_sensor_file_labels() -> list[str]:
+    """A label for every sensor kind's own result files not yet one (:data:`SENSOR_KINDS`' ``SensorFile``
+    entries: a QIS's photon_counts, an event sensor's events), written by the job's writer; an item of
+    another kind writes nothing for it. Called when this module loads; a kind registered later calls it
+    again. Returns the names added."""
+    from ....sensor.kinds import SENSOR_KINDS
+
+    added = []
+    for name, file in SENSOR_KINDS.files().items():
+        if name in LABELS:
+            continue
+        kinds = [kind for kind, entry in SENSOR_KINDS.items() if file in entry.files]
+        description = (f"{' and '.join(file.files)}: {file.description} (sensor.kind {', '.join(kinds)}); nothing "
+                       "for the other sensor kinds")
+        # the size is the budget's (estimate_result_bytes asks the entry), 0 here as for any unwritten label
+        LABELS.add(name, functools.partial(_result_file, name=name), description=description, files=file.files,
+                   reader=None, bytes_per_pixel=0.0, fixed_bytes=0.0)
+        added.append(name)
+    return added
+
+
+add_sensor_file_labels()
