@@ -19,7 +19,8 @@ Sources
 - Camera sensitivities: the 17 measured cameras shipped in ``spectral_cam/data/cameras``
   (pbrt-v4 / PhysLight data, see the README there) and colour-science's two NPL cameras; their
   sensors' published figures (full well, read noise, bit depth, pitch, size, base ISO) with a
-  source each, in ``sensor_figures.csv`` there (:func:`camera_figures`).
+  source each, in ``sensor_figures.csv`` there (:func:`camera_figures`). They live in
+  :mod:`spectral_cam.cameras` and are importable from here.
 
 References
 ----------
@@ -35,13 +36,16 @@ import csv
 import functools
 import re
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from .errors import ConfigError
 from .spectrum import Spectrum, as_colour, interpolate
+# the measured cameras, importable from here as before
+from .cameras import (COLOUR_CAMERA_KEYS, FIGURES_FILE, SENSOR_FIGURE_KEYS, CameraFigure,  # noqa: F401
+                      camera_figures, camera_names, camera_sensitivities, figure_record, validate_camera,
+                      with_camera_figures)
 
 __all__ = [
     "Spectrum",
@@ -219,6 +223,17 @@ def _is_number(text: str) -> bool:
     return True
 
 
+def _prefixed_number(spec: str, prefix: str) -> float | None:
+    """The number in ``"<prefix>:<number>"`` (prefix in any case), −1 where it is no number (out
+    of every range, so refused with the form's message), None where ``spec`` has another form."""
+    if not spec.strip().lower().startswith(prefix + ":"):
+        return None
+    try:
+        return float(spec.split(":", 1)[1])
+    except ValueError:
+        return -1.0
+
+
 # ----------------------------------------------------------------------------- illuminants
 #: The keys of colour-science's ``SDS_ILLUMINANTS`` (CIE 15:2004 illuminants and others), written
 #: out so that validating ``illuminant.spd`` does not import colour; tests/test_spectra.py checks
@@ -253,6 +268,8 @@ BLACKBODY_RANGE_K = (500.0, 50000.0)
 #: Correlated colour temperatures ``illuminant.spd = "daylight:<K>"`` accepts (K): the CIE
 #: daylight locus is defined from 4000 to 25 000 K (CIE 15:2004 §3.1).
 DAYLIGHT_RANGE_K = (4000.0, 25000.0)
+#: The ``"<form>:<K>"`` forms of ``illuminant.spd`` and the temperatures each accepts (K).
+KELVIN_FORMS = {"blackbody": BLACKBODY_RANGE_K, "daylight": DAYLIGHT_RANGE_K}
 
 
 @functools.lru_cache(maxsize=1)
@@ -283,15 +300,13 @@ def _resolve_illuminant(spec: str) -> tuple[str, object]:
     spec = str(spec).strip()
     if spec == "auto":  # a preset's own light; an XML scene's is resolved from its emitters first
         return "name", "D65"
-    for kind, (low, high) in (("blackbody", BLACKBODY_RANGE_K), ("daylight", DAYLIGHT_RANGE_K)):
-        if spec.lower().startswith(kind + ":"):
-            try:
-                kelvin = float(spec.split(":", 1)[1])
-            except ValueError:
-                kelvin = -1.0
-            if not low <= kelvin <= high:
-                raise ConfigError(f"illuminant {spec!r}: use '{kind}:<K>' with {low:g} <= K <= {high:g}")
-            return kind, kelvin
+    for kind, (low, high) in KELVIN_FORMS.items():
+        kelvin = _prefixed_number(spec, kind)
+        if kelvin is None:
+            continue
+        if not low <= kelvin <= high:
+            raise ConfigError(f"illuminant {spec!r}: use '{kind}:<K>' with {low:g} <= K <= {high:g}")
+        return kind, kelvin
     by_fold = _illuminant_names_by_fold()
     if spec.casefold() in by_fold:  # before paths: names like "F40/DX (Broadband FL)" hold a "/"
         return "name", by_fold[spec.casefold()]
@@ -334,21 +349,34 @@ def illuminant(spec: str) -> Spectrum:
     .. [1] CIE 15:2004, Colorimetry, 3rd ed., §3 (standard illuminants, the daylight series,
        Planck's law): :func:`spectral_cam.cie.daylight`, :func:`spectral_cam.cie.blackbody`.
     """
+    kind, value = _resolve_illuminant(spec)
+    return _ILLUMINANT_BUILDERS[kind](value)
+
+
+def _blackbody(kelvin: float) -> Spectrum:
     from . import cie
 
-    kind, value = _resolve_illuminant(spec)
-    if kind == "blackbody":
-        wavelengths = np.arange(MITSUBA_RANGE_NM[0], MITSUBA_RANGE_NM[1] + 1.0)
-        return Spectrum(wavelengths, cie.blackbody(value, wavelengths), f"blackbody:{value:g}")
-    if kind == "daylight":
-        return cie.daylight(value)
-    if kind == "csv":
-        return load_spectrum_csv(value)
+    wavelengths = np.arange(MITSUBA_RANGE_NM[0], MITSUBA_RANGE_NM[1] + 1.0)
+    return Spectrum(wavelengths, cie.blackbody(kelvin, wavelengths), f"blackbody:{kelvin:g}")
+
+
+def _daylight(kelvin: float) -> Spectrum:
+    from . import cie
+
+    return cie.daylight(kelvin)
+
+
+def _named_illuminant(name: str) -> Spectrum:
     table = _illuminant_table()
-    if value not in table:  # the written-out names and the shipped tables disagree
-        raise ConfigError(f"illuminant {value!r} is not in the shipped colour-science tables; valid here: "
+    if name not in table:  # the written-out names and the shipped tables disagree
+        raise ConfigError(f"illuminant {name!r} is not in the shipped colour-science tables; valid here: "
                           "'blackbody:<K>', 'daylight:<K>', a CSV path, or one of " + ", ".join(sorted(table)))
-    return table[value].copy()
+    return table[name].copy()
+
+
+#: Each kind of ``illuminant.spd`` (:func:`_resolve_illuminant`) → its spectrum from the value.
+_ILLUMINANT_BUILDERS = {"blackbody": _blackbody, "daylight": _daylight, "csv": load_spectrum_csv,
+                        "name": _named_illuminant}
 
 
 def absolute_irradiance(spec: str, illuminance_lux: float) -> tuple[np.ndarray, np.ndarray]:
@@ -438,228 +466,19 @@ def reflectance(spec: float | str) -> Spectrum:
     """A reflectance spectrum: a number in [0, 1] (flat), a ColorChecker patch name
     (``"dark skin"`` ... ``"black 2 (1.5 D)"``) or a CSV path."""
     kind, value = _resolve_reflectance(spec)
-    if kind == "flat":
-        return Spectrum([360.0, 830.0], [value, value], f"flat {value:g}")
-    if kind == "csv":
-        return load_spectrum_csv(value, maximum=1.0)
-    return colorchecker_reflectances()[value]
+    return _REFLECTANCE_BUILDERS[kind](value)
 
 
-# ----------------------------------------------------------------------------- cameras
-def _slug(name: str) -> str:
-    return re.sub(r"[^a-z0-9]+", "_", name.casefold()).strip("_")
+def _flat(value: float) -> Spectrum:
+    return Spectrum([360.0, 830.0], [value, value], f"flat {value:g}")
 
 
-#: The keys of colour-science's ``MSDS_CAMERA_SENSITIVITIES``, written out so that listing the
-#: cameras (``spectral-cam cameras``) does not import colour (~1 s, it loads matplotlib);
-#: tests/test_spectra.py checks the list against colour-science.
-COLOUR_CAMERA_KEYS = ("Nikon 5100 (NPL)", "Sigma SDMerill (NPL)")
+def _patch(name: str) -> Spectrum:
+    return colorchecker_reflectances()[name]
 
 
-@functools.lru_cache(maxsize=1)
-def _camera_sources() -> dict[str, object]:
-    """slug -> packaged CSV resource or colour-science dataset key."""
-    sources: dict[str, object] = {}
-    folder = resources.files("spectral_cam") / "data" / "cameras"
-    for entry in folder.iterdir():
-        if entry.name.endswith(".csv") and entry.name != FIGURES_FILE:
-            sources[entry.name[:-4]] = entry
-    for key in COLOUR_CAMERA_KEYS:
-        sources[_slug(key)] = key
-    return dict(sorted(sources.items()))
-
-
-def camera_names() -> list[str]:
-    """The measured cameras available as ``sensor.model`` (plus ``"ideal"``)."""
-    return list(_camera_sources())
-
-
-@functools.lru_cache(maxsize=None)
-def _camera_sensitivities_cached(slug: str) -> Spectrum:
-    from . import cie
-
-    source = _camera_sources()[slug]
-    if isinstance(source, str):
-        curves = cie.camera_curves(source.split(" (")[0].lower().replace(" ", "_"))
-        return Spectrum(curves.wavelengths, curves.values, slug, labels=("r", "g", "b"))
-    with source.open() as handle:
-        rows = list(csv.reader(handle))
-    header, body = rows[0], np.asarray(rows[1:], dtype=float)
-    # The 720 nm row of the pbrt-v4 data holds one fill value in r, g and b (see the
-    # data README): it is not a measurement, so the curves end at 710 nm.
-    body = body[body[:, 0] <= 710.0]
-    return Spectrum(body[:, 0], body[:, 1:], slug, labels=tuple(header[1:]))
-
-
-def camera_sensitivities(name: str) -> Spectrum:
-    """Relative spectral sensitivities (per unit energy) of a measured camera's r, g, b
-    channels.
-
-    Parameters
-    ----------
-    name
-        One of :func:`camera_names` (case and punctuation insensitive, e.g.
-        ``"nikon_d850"`` or ``"Nikon D850"``).
-    """
-    return _camera_sensitivities_cached(validate_camera(name)).copy()
-
-
-def validate_camera(name: str) -> str:
-    """The slug of a measured camera (``"Nikon D850"`` -> ``"nikon_d850"``), without loading
-    its curves or importing colour-science.
-
-    Raises
-    ------
-    ConfigError
-        An unknown camera; the message lists :func:`camera_names`.
-    """
-    slug = _slug(str(name))
-    if slug not in _camera_sources():
-        raise ConfigError(
-            f"unknown camera {name!r}; valid: 'ideal' or one of {', '.join(camera_names())}"
-        )
-    return slug
-
-
-#: The table of each camera's sensor figures, beside the curves (one row per camera and figure,
-#: with its unit and source).
-FIGURES_FILE = "sensor_figures.csv"
-
-#: The figures a named ``sensor.model`` sets when the scene leaves them unset: table figure ->
-#: ``[sensor]`` key.
-SENSOR_FIGURE_KEYS = {"full_well_e": "full_well_e", "read_noise_e": "read_noise_e", "bit_depth": "bit_depth",
-                      "pixel_pitch_um": "pixel_pitch_um", "base_iso": "base_iso"}
-
-
-@dataclass(frozen=True)
-class CameraFigure:
-    """One published (or assumed) figure of a camera's sensor: value, unit, and where it comes
-    from (``source`` starts with ``"assumed:"`` where no published figure was found, saying why
-    the value was chosen)."""
-
-    value: float
-    unit: str
-    source: str
-
-
-@functools.lru_cache(maxsize=1)
-def _figure_table() -> dict[str, dict[str, CameraFigure]]:
-    folder = resources.files("spectral_cam") / "data" / "cameras"
-    table: dict[str, dict[str, CameraFigure]] = {}
-    with (folder / FIGURES_FILE).open(encoding="utf-8") as handle:
-        for row in csv.DictReader(handle):
-            value = float(row["value"])
-            table.setdefault(row["camera"], {})[row["figure"]] = CameraFigure(
-                int(value) if row["figure"] in ("bit_depth", "width_px", "height_px") else value,
-                row["unit"], row["source"])
-    return table
-
-
-def camera_figures(name: str) -> dict[str, CameraFigure]:
-    """The published figures of a measured camera's sensor (``spectral_cam/data/cameras/
-    sensor_figures.csv``): ``full_well_e`` (e⁻ at base ISO), ``read_noise_e`` (e⁻ at base ISO),
-    ``bit_depth``, ``pixel_pitch_um`` (µm, the sensor's width over its columns), ``width_px``,
-    ``height_px`` (effective pixels), ``sensor_width_mm``, ``sensor_height_mm`` and
-    ``base_iso``, each a :class:`CameraFigure` with its source.
-
-    Raises
-    ------
-    ConfigError
-        An unknown camera (the message lists :func:`camera_names`), or ``"ideal"``, which is no
-        camera and has no figures.
-
-    Examples
-    --------
-    >>> camera_figures("Nikon D850")["base_iso"].value
-    64.0
-    """
-    slug = validate_camera(name)
-    return dict(_figure_table()[slug])
-
-
-def with_camera_figures(table: dict, *, default_size_px: tuple[int, int]) -> dict:
-    """A ``[sensor]`` table with its named camera's figures filled in for the keys it leaves
-    unset (:data:`SENSOR_FIGURE_KEYS`; explicit keys win), and with ``keep_field_of_view`` the
-    pitch that spreads ``width_px`` × ``height_px`` over the camera's published sensor (the
-    largest that fits both sides, so the frame is the biggest of its aspect ratio on the
-    sensor, as a camera's aspect modes are). A table that names no model (or ``"ideal"``) keeps
-    the generic defaults (:func:`figure_record` says afterwards which figure came from where).
-    ``default_size_px`` is the frame (width, height) a table that leaves it unset gets (the
-    scene's defaults: passed in, since this layer sits below ``scene``).
-
-    Raises
-    ------
-    ConfigError
-        ``keep_field_of_view`` with an ``"ideal"`` model (no published size) or with a
-        ``pixel_pitch_um`` that disagrees with the derived one.
-    """
-    model = table.get("model")
-    if not isinstance(model, str) or model == "ideal":
-        if table.get("keep_field_of_view") is True:
-            raise ConfigError("sensor.keep_field_of_view = true needs a camera's published sensor size: name "
-                              f"sensor.model (one of {', '.join(camera_names())}); 'ideal' has none")
-        return table
-    figures = camera_figures(model)
-    filled = {key: figures[figure].value for figure, key in SENSOR_FIGURE_KEYS.items() if key not in table}
-    out = dict(table, **filled)
-    # which keys the camera set, kept by a resolved scene.toml (where every key is written out)
-    earlier = table.get("model_figures", ())
-    earlier = set(earlier) if isinstance(earlier, (list, tuple)) else set()
-    out["model_figures"] = tuple(key for key in SENSOR_FIGURE_KEYS.values() if key in earlier | set(filled))
-    if table.get("keep_field_of_view") is True:
-        pitch = _pitch_keeping_view(figures, out, default_size_px)
-        given = table.get("pixel_pitch_um")
-        number = isinstance(given, (int, float)) and not isinstance(given, bool)
-        if number and abs(given - pitch.value) > 1e-6 * pitch.value:
-            raise ConfigError(f"sensor.pixel_pitch_um = {given!r} with sensor.keep_field_of_view = true: the pitch is "
-                              f"then the camera's sensor over the pixels ({pitch.value:.6g} µm); set one of them")
-        out["pixel_pitch_um"] = pitch.value
-    return out
-
-
-def _pitch_keeping_view(figures: dict[str, CameraFigure], table: dict,
-                        default_size_px: tuple[int, int]) -> CameraFigure:
-    """The pitch (µm) that puts ``width_px`` × ``height_px`` on the camera's published sensor."""
-    width, height = table.get("width_px", default_size_px[0]), table.get("height_px", default_size_px[1])
-    if not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in (width, height)):
-        return figures["pixel_pitch_um"]  # SensorSection refuses the size itself
-    size_w, size_h = figures["sensor_width_mm"].value, figures["sensor_height_mm"].value
-    pitch = min(size_w / width, size_h / height) * 1e3  # the widest frame of this aspect on the sensor
-    return CameraFigure(pitch, "um", f"keep_field_of_view: the {size_w:g} × {size_h:g} mm sensor over "
-                                     f"{width} × {height} px ({figures['sensor_width_mm'].source})")
-
-
-def figure_record(sensor) -> dict:
-    """Where each of a sensor's figures came from (meta.json ``sensor_figures``): for every
-    :data:`SENSOR_FIGURE_KEYS` key its value and ``"camera table (<model>): <source>"`` when the
-    named camera set it (``sensor.model_figures``), ``"keep_field_of_view: ..."`` for a pitch
-    derived from the camera's size, ``"default"`` for the generic default of a sensor that names
-    no camera, else ``"scene"``."""
-    import dataclasses
-
-    defaults = {field.name: field.default for field in dataclasses.fields(sensor)}  # the section's own
-    figures = {} if sensor.model == "ideal" else camera_figures(sensor.model)
-    size = (sensor.width_px, sensor.height_px)
-    view = (_pitch_keeping_view(figures, {"width_px": size[0], "height_px": size[1]}, size)
-            if figures and getattr(sensor, "keep_field_of_view", False) else None)
-    from_model = set(getattr(sensor, "model_figures", ()))
-    record = {}
-    for figure, key in SENSOR_FIGURE_KEYS.items():
-        value = getattr(sensor, key)
-        if view is not None and key == "pixel_pitch_um" and _same(value, view.value):
-            origin = view.source
-        elif key in from_model and _same(value, figures[figure].value):
-            origin = f"camera table ({sensor.model}): {figures[figure].source}"
-        elif not from_model and value == defaults[key]:
-            origin = "default" + (" (generic: name sensor.model for the camera's own)" if figures else "")
-        else:
-            origin = "scene"
-        record[key] = {"value": value, "from": origin}
-    return record
-
-
-def _same(a: float, b: float) -> bool:
-    return abs(float(a) - float(b)) <= 1e-9 * max(abs(float(b)), 1e-300)
+#: Each kind of reflectance (:func:`_resolve_reflectance`) → its spectrum from the value.
+_REFLECTANCE_BUILDERS = {"flat": _flat, "csv": functools.partial(load_spectrum_csv, maximum=1.0), "patch": _patch}
 
 
 # ----------------------------------------------------------------------------- filters
@@ -679,11 +498,8 @@ def _resolve_transmission(spec: float | str | None) -> tuple[str, object]:
         return "none", None
     if isinstance(spec, str) and spec.strip().lower() in ("", "none", "1"):
         return "none", None
-    if isinstance(spec, str) and spec.strip().lower().startswith("ir_cut:"):
-        try:
-            cutoff = float(spec.split(":", 1)[1])
-        except ValueError:
-            cutoff = -1.0
+    cutoff = _prefixed_number(spec, "ir_cut") if isinstance(spec, str) else None
+    if cutoff is not None:
         if not 500 <= cutoff <= 800:
             raise ConfigError(f"transmission {spec!r}: use 'ir_cut:<cut-off nm>' with 500 <= nm <= 800")
         return "ir_cut", cutoff
@@ -721,15 +537,22 @@ def transmission(spec: float | str | None) -> Spectrum | None:
     """A filter/lens transmission: ``None``/``1`` (none), a number in (0, 1], a CSV path, or
     ``"ir_cut:<nm>"`` (an idealised IR-cut filter, see :func:`ir_cut_filter`)."""
     kind, value = _resolve_transmission(spec)
-    if kind == "none":
-        return None
-    if kind == "ir_cut":
-        return ir_cut_filter(value)
-    if kind == "flat":
-        return reflectance(value)
-    sd = load_spectrum_csv(value)
-    _check_transmission_values(spec, np.asarray(sd.values))
+    return _TRANSMISSION_BUILDERS[kind](value)
+
+
+def _no_filter(_value) -> None:
+    return None
+
+
+def _transmission_csv(path) -> Spectrum:
+    sd = load_spectrum_csv(path)
+    _check_transmission_values(path, np.asarray(sd.values))
     return sd
+
+
+#: Each kind of transmission (:func:`_resolve_transmission`) → its spectrum (None: no filter).
+_TRANSMISSION_BUILDERS = {"none": _no_filter, "ir_cut": ir_cut_filter, "flat": reflectance,
+                          "csv": _transmission_csv}
 
 
 # ----------------------------------------------------------------------------- sampling
