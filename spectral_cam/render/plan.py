@@ -244,6 +244,43 @@ def _xml_focal_length_mm(config: SceneConfig) -> float | None:
     return focal_length_for_fov(fov.fov_x_deg, config.sensor.width_m, config.lens.focus_distance_m)
 
 
+def _focused(config: SceneConfig, frame: ThinLens) -> tuple[SceneConfig, dict | None, ThinLens]:
+    """``lens.focus_object`` resolved (:func:`spectral_cam.render.focus.resolve_focus`): the config,
+    the focus decision (None without a focus object) and the frame's lens, refocused.
+
+    A focal length derived from an XML camera (left unset by the user) is derived again where the
+    focus moves, to keep that camera's field of view (issue 26: a warning blamed a focal length
+    the user never set)."""
+    from .focus import resolve_focus
+
+    derived_mm = _xml_focal_length_mm(config)
+    keeps_xml_view = derived_mm is not None and abs(config.lens.focal_length_mm / derived_mm - 1.0) <= 1e-9
+    config, focus_record, frame = resolve_focus(config, frame)
+    if focus_record is not None and keeps_xml_view:
+        focal_mm = _xml_focal_length_mm(config)
+        config = config.replace(**{"lens.focal_length_mm": focal_mm})
+        frame = dataclasses.replace(frame, focal_length_m=focal_mm * 1e-3)
+    return config, focus_record, frame
+
+
+def _choices(config: SceneConfig, decisions: dict, *, lens_model: str, variant: str, camera_film: bool,
+             diffract: bool, subframes: int) -> dict:
+    """The config keys the plan resolved (no ``"auto"`` left where it chose before rendering), for
+    :meth:`SceneConfig.replace`: what ``scene.toml`` writes."""
+    choices = {"lens.model": lens_model, "render.variant": variant,
+               "render.bands": "camera" if camera_film else decisions["bands"]["choice"],
+               "render.estimator": decisions["estimator"]["choice"]}
+    choices["render.diffraction"] = "on" if diffract else "off"
+    if config.motion.moving:
+        choices["motion.subframes"] = subframes
+    if not config.scene.mitsuba_xml and config.scene.light == "auto":
+        from ..presets import PRESETS
+        from ..presets.outdoor import light_kind
+
+        choices["scene.light"] = light_kind(config) if "light" in PRESETS[config.scene.preset].options else "illuminant"
+    return choices
+
+
 def _lens_model_decision(config: SceneConfig, capture: ThinLens, depth: np.ndarray | None) -> tuple[str, dict]:
     from .decisions import decide_lens_model
 
@@ -372,7 +409,6 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     from ..spectra import parse_bands
     from .decisions import decide_bands, decide_diffraction, decide_estimator
     from .depth import render_depth
-    from .focus import resolve_focus
     from .lights import resolve_light
     from .memory import (available_bytes, check_render_memory, estimate_render_bytes, lens_bytes_per_pixel,
                          sensor_bytes_per_pixel)
@@ -385,18 +421,9 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     variant, decisions["variant"] = choose_variant_record(config.render.variant)
     mi.set_variant(variant)
     frame = ThinLens.from_config(config.lens, config.sensor) if lens is None else lens.layout_lens
-    # a focal length derived from an XML camera (left unset by the user) must be derived again
-    # where focus_object moves the focus, to keep that camera's field of view (issue 26: a
-    # warning blamed a focal length the user never set)
-    derived_mm = _xml_focal_length_mm(config)
-    keeps_xml_view = derived_mm is not None and abs(config.lens.focal_length_mm / derived_mm - 1.0) <= 1e-9
-    config, focus_record, frame = resolve_focus(config, frame)
+    config, focus_record, frame = _focused(config, frame)
     if focus_record is not None:
         decisions["focus"] = focus_record
-        if keeps_xml_view:
-            focal_mm = _xml_focal_length_mm(config)
-            config = config.replace(**{"lens.focal_length_mm": focal_mm})
-            frame = dataclasses.replace(frame, focal_length_m=focal_mm * 1e-3)
     capture = frame.widened(config.sensor.crop_margin_px) if with_margin else frame
     warn_wide_view(frame)
     config, decisions["illuminant"] = resolve_light(config, lens=frame, variant=variant)
@@ -438,18 +465,8 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
                             what=f"this frame with the {lens_model} lens model that lens.model = \"auto\" chose")
     check_tiling(config, traced)  # after the margin, which can push the frame into tiles; before any radiance
 
-    choices = {"lens.model": lens_model, "render.variant": variant,
-               "render.bands": "camera" if camera_film else decisions["bands"]["choice"],
-               "render.estimator": decisions["estimator"]["choice"]}
-    choices["render.diffraction"] = "on" if diffract else "off"
-    if config.motion.moving:
-        choices["motion.subframes"] = subframes
-    if not config.scene.mitsuba_xml and config.scene.light == "auto":
-        from ..presets import PRESETS
-        from ..presets.outdoor import light_kind
-
-        choices["scene.light"] = light_kind(config) if "light" in PRESETS[config.scene.preset].options else "illuminant"
-    resolved = config.replace(**choices)
+    resolved = config.replace(**_choices(config, decisions, lens_model=lens_model, variant=variant,
+                                         camera_film=camera_film, diffract=diffract, subframes=subframes))
     spp = resolved.render.max_spp if resolved.render.spp == "auto" else int(resolved.render.spp)
     pixels = float(traced.width_px) * traced.height_px
     budget = {"memory_bytes": memory, "memory_available_bytes": available_bytes(), "time_s": None,
