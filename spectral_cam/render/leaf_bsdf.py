@@ -108,194 +108,237 @@ def hemispherical_transmissivity(eta: float) -> float:
 
 
 def _bsdf_class(mi):
+    """The leaf's ``mi.BSDF`` subclass for the active variant; its maths are the module's
+    functions below, which take the instance (``leaf``) and the variant's ``mi`` and ``dr``."""
     import drjit as dr
 
-    def texture(props, name):
-        return props.get_texture(name) if name in props else None
-
-    # defined per variant: its base class is the active variant's (mi.BSDF), which exists only once a variant is set
-    # (and each variant registers its own class: mi.register_*)
+    # Mitsuba requires this class inside a function: a Python BSDF must subclass the active
+    # variant's mi.BSDF, which exists only once mi.set_variant has run and is another class in each
+    # variant (register() makes and registers one per variant). Only the overrides Mitsuba calls
+    # stay here; the maths are module-level functions.
     class Leaf(mi.BSDF):
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
-            self.reflectance = props.get_texture("reflectance")
-            self.transmittance = props.get_texture("transmittance")
-            self.vein = texture(props, "vein")
-            self.age = texture(props, "age")
-            self.wood = texture(props, "wood")
-            names = ["reflectance_vein", "transmittance_vein", "reflectance_old", "transmittance_old",
-                     "reflectance_wood"]
-            self.spectra = {name: texture(props, name) for name in names}
-            if self.vein is not None and self.spectra["reflectance_vein"] is None:
-                raise ValueError(f"{PLUGIN}: 'vein' needs reflectance_vein and transmittance_vein")
-            if self.age is not None and self.spectra["reflectance_old"] is None:
-                raise ValueError(f"{PLUGIN}: 'age' needs reflectance_old and transmittance_old")
-            if self.wood is not None and self.spectra["reflectance_wood"] is None:
-                raise ValueError(f"{PLUGIN}: 'wood' needs reflectance_wood")
-            self.cuticle = "eta" in props
-            self.eta = float(props.get("eta", 1.0))
-            self.alpha = float(props.get("alpha", 0.3))
-            self.t_diffuse = hemispherical_transmissivity(self.eta) if self.cuticle else 1.0
-            # opaque (not literals): plants of other roughness compile to the same kernels
-            self.eta_v = dr.opaque(mi.Float, self.eta)
-            self.alpha_v = dr.opaque(mi.Float, self.alpha)
-            self.inv_t_diffuse_v = dr.opaque(mi.Float, 1.0 / self.t_diffuse)
-            both = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
-            reflection = mi.BSDFFlags.DiffuseReflection | both
-            transmission = mi.BSDFFlags.DiffuseTransmission | both
-            glossy = mi.BSDFFlags.GlossyReflection | both
-            self.m_components = [reflection, transmission] + ([glossy] if self.cuticle else [])
-            self.m_flags = reflection | transmission | (glossy if self.cuticle else mi.BSDFFlags(0))
-
-        # ------------------------------------------------------------- spectra at a point
-        def _mix(self, si, active, young, vein_name, old_name):
-            value = young.eval(si, active)
-            if self.vein is not None:
-                value = dr.lerp(value, self.spectra[vein_name].eval(si, active), self.vein.eval_1(si, active))
-            if self.age is not None:
-                value = dr.lerp(value, self.spectra[old_name].eval(si, active), self.age.eval_1(si, active))
-            return value
-
-        def _spectra(self, si, active):
-            """(ρ, τ, bark, w): the body's reflectance and transmittance here, the bark's
-            reflectance and the bark's weight."""
-            rho = self._mix(si, active, self.reflectance, "reflectance_vein", "reflectance_old")
-            tau = self._mix(si, active, self.transmittance, "transmittance_vein", "transmittance_old")
-            if self.wood is None:
-                return rho, tau, None, mi.Float(0.0)
-            return rho, tau, self.spectra["reflectance_wood"].eval(si, active), self.wood.eval_1(si, active)
-
-        def _fresnel(self, cos_theta):
-            return mi.fresnel(dr.abs(cos_theta), self.eta_v)[0] if self.cuticle else mi.Float(0.0)
-
-        def _lobe_weights(self, si, rho, tau, bark, w):
-            """Unnormalised probabilities of the specular, reflected and transmitted lobes."""
-            leaf = 1.0 - w
-            f_i = self._fresnel(mi.Frame3f.cos_theta(si.wi))
-            spec = leaf * f_i
-            refl = leaf * (1.0 - f_i) * dr.mean(rho)
-            if bark is not None:
-                refl += w * dr.mean(bark)
-            trans = leaf * (1.0 - f_i) * dr.mean(tau)
-            return spec, refl, trans
-
-        def _probabilities(self, si, rho, tau, bark, w):
-            spec, refl, trans = self._lobe_weights(si, rho, tau, bark, w)
-            total = spec + refl + trans
-            ok = total > 0
-            p_spec = dr.select(ok, spec / dr.maximum(total, 1e-12), 0.0)
-            p_refl = dr.select(ok, refl / dr.maximum(total, 1e-12), 1.0)
-            return p_spec, p_refl, 1.0 - p_spec - p_refl
-
-        def _distribution(self):
-            return mi.MicrofacetDistribution(mi.MicrofacetType.GGX, self.alpha_v, self.alpha_v, True)
-
-        def _local(self, si, wo):
-            """ωi and ωo mirrored so that ωi lies above the surface (both faces alike)."""
-            flip = dr.select(mi.Frame3f.cos_theta(si.wi) >= 0, 1.0, -1.0)
-            wi = mi.Vector3f(si.wi.x, si.wi.y, si.wi.z * flip)
-            return wi, mi.Vector3f(wo.x, wo.y, wo.z * flip)
-
-        def _spec_eval_pdf(self, si, wo, want_pdf=True):
-            """The specular lobe's f·|cos θo| and its pdf (per solid angle) at ωo."""
-            wi, wo = self._local(si, wo)
-            cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
-            valid = (cos_i > 0) & (cos_o > 0)
-            h = dr.normalize(wi + wo)
-            distr = self._distribution()
-            d = distr.eval(h)
-            g = distr.G(wi, wo, h)
-            dot_ih = dr.dot(wi, h)
-            f = mi.fresnel(dr.maximum(dot_ih, 0.0), self.eta_v)[0]
-            value = f * d * g / (4.0 * dr.maximum(cos_i, 1e-12))
-            if not want_pdf:
-                return dr.select(valid, value, 0.0), None
-            pdf = distr.pdf(wi, h) / (4.0 * dr.maximum(dr.abs(dr.dot(wo, h)), 1e-12))
-            return dr.select(valid, value, 0.0), dr.select(valid, pdf, 0.0)
-
-        def _body_factor(self, si, wo):
-            if not self.cuticle:
-                return mi.Float(1.0)
-            f_i = self._fresnel(mi.Frame3f.cos_theta(si.wi))
-            f_o = self._fresnel(mi.Frame3f.cos_theta(wo))
-            return (1.0 - f_i) * (1.0 - f_o) * self.inv_t_diffuse_v
-
-        def _eval_pdf(self, si, wo, active, want_pdf=True):
-            rho, tau, bark, w = self._spectra(si, active)
-            cos_o = mi.Frame3f.cos_theta(wo)
-            same = mi.Frame3f.cos_theta(si.wi) * cos_o > 0
-            lambert = dr.abs(cos_o) * dr.inv_pi
-            body = self._body_factor(si, wo) * (1.0 - w)
-            value = dr.select(same, rho, tau) * body * lambert
-            if bark is not None:
-                value += dr.select(same, bark, 0.0) * w * lambert
-            if self.cuticle:
-                spec, spec_pdf = self._spec_eval_pdf(si, wo, want_pdf)
-                value += spec * (1.0 - w)
-            if not want_pdf:  # eval alone: no lobe probabilities, no pdfs (fewer operations to compile)
-                return value & active, None
-            p_spec, p_refl, p_trans = self._probabilities(si, rho, tau, bark, w)
-            pdf = dr.select(same, p_refl, p_trans) * lambert
-            if self.cuticle:
-                pdf += p_spec * spec_pdf
-            return value & active, dr.select(active, pdf, 0.0)
+            _init_leaf(mi, dr, self, props)
 
         def sample(self, ctx, si, sample1, sample2, active=True):
-            rho, tau, bark, w = self._spectra(si, active)
-            p_spec, p_refl, p_trans = self._probabilities(si, rho, tau, bark, w)
-            choose_spec = sample1 < p_spec
-            reflect = sample1 < p_spec + p_refl
-            local = mi.warp.square_to_cosine_hemisphere(sample2)  # z >= 0
-            side = dr.select(mi.Frame3f.cos_theta(si.wi) >= 0, 1.0, -1.0)
-            wo = mi.Vector3f(local.x, local.y, dr.select(reflect, side, -side) * local.z)
-            if self.cuticle:
-                wi_local, _ = self._local(si, wo)
-                m, _ = self._distribution().sample(wi_local, sample2)
-                spec_wo = mi.reflect(wi_local, m)
-                # a microfacet normal that reflects below the horizon: the sample is lost (the pdf
-                # counts the lobe on ωi's side only, so keeping it would bias the transmission)
-                active = active & ~(choose_spec & (mi.Frame3f.cos_theta(spec_wo) <= 0))
-                spec_wo = mi.Vector3f(spec_wo.x, spec_wo.y, spec_wo.z * side)
-                wo = dr.select(choose_spec, spec_wo, wo)
-            value, pdf = self._eval_pdf(si, wo, active)
-            bs = mi.BSDFSample3f()
-            bs.wo = wo
-            bs.pdf = pdf
-            bs.eta = 1.0
-            bs.sampled_type = dr.select(choose_spec, mi.UInt32(+mi.BSDFFlags.GlossyReflection),
-                                        dr.select(reflect, mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
-                                                  mi.UInt32(+mi.BSDFFlags.DiffuseTransmission)))
-            bs.sampled_component = dr.select(choose_spec, mi.UInt32(2),
-                                             dr.select(reflect, mi.UInt32(0), mi.UInt32(1)))
-            weight = value / dr.maximum(pdf, 1e-20)
-            return bs, weight & (active & (pdf > 0))
+            return _sample(mi, dr, self, si, sample1, sample2, active)
 
         def eval(self, ctx, si, wo, active=True):
-            return self._eval_pdf(si, wo, active, want_pdf=False)[0]
+            return _eval_pdf(mi, dr, self, si, wo, active, want_pdf=False)[0]
 
         def pdf(self, ctx, si, wo, active=True):
-            return self._eval_pdf(si, wo, active)[1]
+            return _eval_pdf(mi, dr, self, si, wo, active)[1]
 
         def eval_pdf(self, ctx, si, wo, active=True):
-            return self._eval_pdf(si, wo, active)
+            return _eval_pdf(mi, dr, self, si, wo, active)
 
         def eval_diffuse_reflectance(self, si, active=True):
-            """The body's reflectance at normal incidence ((1 − F(0))·ρ under a cuticle; the
-            bark's where ``wood``): what an albedo label reads."""
-            rho, tau, bark, w = self._spectra(si, active)
-            value = rho * (1.0 - self._fresnel(mi.Float(1.0))) * (1.0 - w)
-            if bark is not None:
-                value += bark * w
-            return value & active
+            return _diffuse_reflectance(mi, dr, self, si, active)
 
         def traverse(self, callback):  # nothing to optimise: the leaf's spectra come from its traits
             pass
 
         def to_string(self):
-            cuticle = f", eta={self.eta:g}, alpha={self.alpha:g}" if self.cuticle else ""
-            return f"{PLUGIN}[reflectance={self.reflectance}, transmittance={self.transmittance}{cuticle}]"
+            return _describe(self)
 
     return Leaf
+
+
+# ----------------------------------------------------------------------------- the leaf's parameters
+def _texture(props, name):
+    return props.get_texture(name) if name in props else None
+
+
+def _init_leaf(mi, dr, leaf, props) -> None:
+    """Read the plugin's properties onto ``leaf``: its spectra and traits, the cuticle (``eta``,
+    ``alpha``) and the lobes' flags."""
+    leaf.reflectance = props.get_texture("reflectance")
+    leaf.transmittance = props.get_texture("transmittance")
+    leaf.vein = _texture(props, "vein")
+    leaf.age = _texture(props, "age")
+    leaf.wood = _texture(props, "wood")
+    names = ["reflectance_vein", "transmittance_vein", "reflectance_old", "transmittance_old",
+             "reflectance_wood"]
+    leaf.spectra = {name: _texture(props, name) for name in names}
+    if leaf.vein is not None and leaf.spectra["reflectance_vein"] is None:
+        raise ValueError(f"{PLUGIN}: 'vein' needs reflectance_vein and transmittance_vein")
+    if leaf.age is not None and leaf.spectra["reflectance_old"] is None:
+        raise ValueError(f"{PLUGIN}: 'age' needs reflectance_old and transmittance_old")
+    if leaf.wood is not None and leaf.spectra["reflectance_wood"] is None:
+        raise ValueError(f"{PLUGIN}: 'wood' needs reflectance_wood")
+    leaf.cuticle = "eta" in props
+    leaf.eta = float(props.get("eta", 1.0))
+    leaf.alpha = float(props.get("alpha", 0.3))
+    leaf.t_diffuse = hemispherical_transmissivity(leaf.eta) if leaf.cuticle else 1.0
+    # opaque (not literals): plants of other roughness compile to the same kernels
+    leaf.eta_v = dr.opaque(mi.Float, leaf.eta)
+    leaf.alpha_v = dr.opaque(mi.Float, leaf.alpha)
+    leaf.inv_t_diffuse_v = dr.opaque(mi.Float, 1.0 / leaf.t_diffuse)
+    both = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+    reflection = mi.BSDFFlags.DiffuseReflection | both
+    transmission = mi.BSDFFlags.DiffuseTransmission | both
+    glossy = mi.BSDFFlags.GlossyReflection | both
+    leaf.m_components = [reflection, transmission] + ([glossy] if leaf.cuticle else [])
+    leaf.m_flags = reflection | transmission | (glossy if leaf.cuticle else mi.BSDFFlags(0))
+
+
+def _describe(leaf) -> str:
+    cuticle = f", eta={leaf.eta:g}, alpha={leaf.alpha:g}" if leaf.cuticle else ""
+    return f"{PLUGIN}[reflectance={leaf.reflectance}, transmittance={leaf.transmittance}{cuticle}]"
+
+
+# ----------------------------------------------------------------------------- spectra at a point
+def _mix(dr, leaf, si, active, young, vein_name, old_name):
+    """A spectrum of the young lamina, blended towards the veins' by ``vein``, then towards an old
+    leaf's by ``age``."""
+    value = young.eval(si, active)
+    if leaf.vein is not None:
+        value = dr.lerp(value, leaf.spectra[vein_name].eval(si, active), leaf.vein.eval_1(si, active))
+    if leaf.age is not None:
+        value = dr.lerp(value, leaf.spectra[old_name].eval(si, active), leaf.age.eval_1(si, active))
+    return value
+
+
+def _spectra(mi, dr, leaf, si, active):
+    """(ρ, τ, bark, w): the body's reflectance and transmittance here, the bark's
+    reflectance and the bark's weight."""
+    rho = _mix(dr, leaf, si, active, leaf.reflectance, "reflectance_vein", "reflectance_old")
+    tau = _mix(dr, leaf, si, active, leaf.transmittance, "transmittance_vein", "transmittance_old")
+    if leaf.wood is None:
+        return rho, tau, None, mi.Float(0.0)
+    return rho, tau, leaf.spectra["reflectance_wood"].eval(si, active), leaf.wood.eval_1(si, active)
+
+
+def _fresnel(mi, dr, leaf, cos_theta):
+    return mi.fresnel(dr.abs(cos_theta), leaf.eta_v)[0] if leaf.cuticle else mi.Float(0.0)
+
+
+# ----------------------------------------------------------------------------- lobes
+def _lobe_weights(mi, dr, leaf, si, rho, tau, bark, w):
+    """Unnormalised probabilities of the specular, reflected and transmitted lobes."""
+    body = 1.0 - w
+    f_i = _fresnel(mi, dr, leaf, mi.Frame3f.cos_theta(si.wi))
+    spec = body * f_i
+    refl = body * (1.0 - f_i) * dr.mean(rho)
+    if bark is not None:
+        refl += w * dr.mean(bark)
+    trans = body * (1.0 - f_i) * dr.mean(tau)
+    return spec, refl, trans
+
+
+def _probabilities(mi, dr, leaf, si, rho, tau, bark, w):
+    spec, refl, trans = _lobe_weights(mi, dr, leaf, si, rho, tau, bark, w)
+    total = spec + refl + trans
+    ok = total > 0
+    p_spec = dr.select(ok, spec / dr.maximum(total, 1e-12), 0.0)
+    p_refl = dr.select(ok, refl / dr.maximum(total, 1e-12), 1.0)
+    return p_spec, p_refl, 1.0 - p_spec - p_refl
+
+
+def _distribution(mi, leaf):
+    return mi.MicrofacetDistribution(mi.MicrofacetType.GGX, leaf.alpha_v, leaf.alpha_v, True)
+
+
+def _local(mi, dr, si, wo):
+    """ωi and ωo mirrored so that ωi lies above the surface (both faces alike)."""
+    flip = dr.select(mi.Frame3f.cos_theta(si.wi) >= 0, 1.0, -1.0)
+    wi = mi.Vector3f(si.wi.x, si.wi.y, si.wi.z * flip)
+    return wi, mi.Vector3f(wo.x, wo.y, wo.z * flip)
+
+
+def _spec_eval_pdf(mi, dr, leaf, si, wo, want_pdf=True):
+    """The specular lobe's f·|cos θo| and its pdf (per solid angle) at ωo."""
+    wi, wo = _local(mi, dr, si, wo)
+    cos_i, cos_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
+    valid = (cos_i > 0) & (cos_o > 0)
+    h = dr.normalize(wi + wo)
+    distr = _distribution(mi, leaf)
+    d = distr.eval(h)
+    g = distr.G(wi, wo, h)
+    dot_ih = dr.dot(wi, h)
+    f = mi.fresnel(dr.maximum(dot_ih, 0.0), leaf.eta_v)[0]
+    value = f * d * g / (4.0 * dr.maximum(cos_i, 1e-12))
+    if not want_pdf:
+        return dr.select(valid, value, 0.0), None
+    pdf = distr.pdf(wi, h) / (4.0 * dr.maximum(dr.abs(dr.dot(wo, h)), 1e-12))
+    return dr.select(valid, value, 0.0), dr.select(valid, pdf, 0.0)
+
+
+def _body_factor(mi, dr, leaf, si, wo):
+    """(1 − F(θi))·(1 − F(θo))/t̄ under a cuticle, 1 without."""
+    if not leaf.cuticle:
+        return mi.Float(1.0)
+    f_i = _fresnel(mi, dr, leaf, mi.Frame3f.cos_theta(si.wi))
+    f_o = _fresnel(mi, dr, leaf, mi.Frame3f.cos_theta(wo))
+    return (1.0 - f_i) * (1.0 - f_o) * leaf.inv_t_diffuse_v
+
+
+# ----------------------------------------------------------------------------- the BSDF's queries
+def _eval_pdf(mi, dr, leaf, si, wo, active, want_pdf=True):
+    """(f·|cos θo|, pdf) at ωo: the body's lobes, the bark's and the cuticle's (pdf None when not
+    wanted)."""
+    rho, tau, bark, w = _spectra(mi, dr, leaf, si, active)
+    cos_o = mi.Frame3f.cos_theta(wo)
+    same = mi.Frame3f.cos_theta(si.wi) * cos_o > 0
+    lambert = dr.abs(cos_o) * dr.inv_pi
+    body = _body_factor(mi, dr, leaf, si, wo) * (1.0 - w)
+    value = dr.select(same, rho, tau) * body * lambert
+    if bark is not None:
+        value += dr.select(same, bark, 0.0) * w * lambert
+    if leaf.cuticle:
+        spec, spec_pdf = _spec_eval_pdf(mi, dr, leaf, si, wo, want_pdf)
+        value += spec * (1.0 - w)
+    if not want_pdf:  # eval alone: no lobe probabilities, no pdfs (fewer operations to compile)
+        return value & active, None
+    p_spec, p_refl, p_trans = _probabilities(mi, dr, leaf, si, rho, tau, bark, w)
+    pdf = dr.select(same, p_refl, p_trans) * lambert
+    if leaf.cuticle:
+        pdf += p_spec * spec_pdf
+    return value & active, dr.select(active, pdf, 0.0)
+
+
+def _sample(mi, dr, leaf, si, sample1, sample2, active):
+    """A lobe chosen by its expected albedo, then a GGX visible normal or a cosine-weighted
+    direction on its side: the ``mi.BSDFSample3f`` and its weight f·|cos θo|/pdf."""
+    rho, tau, bark, w = _spectra(mi, dr, leaf, si, active)
+    p_spec, p_refl, p_trans = _probabilities(mi, dr, leaf, si, rho, tau, bark, w)
+    choose_spec = sample1 < p_spec
+    reflect = sample1 < p_spec + p_refl
+    local = mi.warp.square_to_cosine_hemisphere(sample2)  # z >= 0
+    side = dr.select(mi.Frame3f.cos_theta(si.wi) >= 0, 1.0, -1.0)
+    wo = mi.Vector3f(local.x, local.y, dr.select(reflect, side, -side) * local.z)
+    if leaf.cuticle:
+        wi_local, _ = _local(mi, dr, si, wo)
+        m, _ = _distribution(mi, leaf).sample(wi_local, sample2)
+        spec_wo = mi.reflect(wi_local, m)
+        # a microfacet normal that reflects below the horizon: the sample is lost (the pdf
+        # counts the lobe on ωi's side only, so keeping it would bias the transmission)
+        active = active & ~(choose_spec & (mi.Frame3f.cos_theta(spec_wo) <= 0))
+        spec_wo = mi.Vector3f(spec_wo.x, spec_wo.y, spec_wo.z * side)
+        wo = dr.select(choose_spec, spec_wo, wo)
+    value, pdf = _eval_pdf(mi, dr, leaf, si, wo, active)
+    bs = mi.BSDFSample3f()
+    bs.wo = wo
+    bs.pdf = pdf
+    bs.eta = 1.0
+    bs.sampled_type = dr.select(choose_spec, mi.UInt32(+mi.BSDFFlags.GlossyReflection),
+                                dr.select(reflect, mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
+                                          mi.UInt32(+mi.BSDFFlags.DiffuseTransmission)))
+    bs.sampled_component = dr.select(choose_spec, mi.UInt32(2),
+                                     dr.select(reflect, mi.UInt32(0), mi.UInt32(1)))
+    weight = value / dr.maximum(pdf, 1e-20)
+    return bs, weight & (active & (pdf > 0))
+
+
+def _diffuse_reflectance(mi, dr, leaf, si, active):
+    """The body's reflectance at normal incidence ((1 − F(0))·ρ under a cuticle; the
+    bark's where ``wood``): what an albedo label reads."""
+    rho, tau, bark, w = _spectra(mi, dr, leaf, si, active)
+    value = rho * (1.0 - _fresnel(mi, dr, leaf, mi.Float(1.0))) * (1.0 - w)
+    if bark is not None:
+        value += bark * w
+    return value & active
 
 
 def register(mi) -> None:
