@@ -80,66 +80,81 @@ TILE_COLUMNS = 2048
 _M = 2
 
 
-def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
-    """RCD of a band X (h, w even, a red site at (0, 0)) whose four planes are R, Gr, Gb, B.
+class _Band:
+    """A band X (h, w even, a red site at (0, 0)), its four planes R, Gr, Gb, B, its buffers, and the
+    operations RCD's steps are written in: OpenCV's add, subtract, absdiff, multiply and divide
+    (``ops``; they round as NumPy's), shifted views of plane quantities (``at``, ``along``), and the
+    recurring sums in a fixed left-to-right float32 order."""
 
-    Every expression is evaluated in the order of float32 operations of the full-resolution
-    NumPy formulation (left to right; OpenCV's add, subtract, absdiff, multiply and divide round
-    as NumPy's), so the result equals it: RCD's gradients meet ε = 10⁻⁵ in flat regions, where a
-    different rounding of a green (6·10⁻⁸) would move a weight by 1 %. A sum that two expressions
-    share (ε + |x₋₁ − x₊₁|) is formed once; the gradient |x[k] − x[k − 1]| along an axis on a
-    plane serves every step that reads it.
+    def __init__(self, X, R, Gr, Gb, B, scratch):
+        import cv2
 
-    Returns the (h, w) red, green and blue of the band (scratch buffers), valid :data:`REACH_PX`
-    pixels in from every side.
-    """
-    import cv2
+        self.cv2, self.X, self.R, self.Gr, self.Gb, self.B, self.scratch = cv2, X, R, Gr, Gb, B, scratch
+        self.h, self.w = X.shape
+        self.hq, self.wq = self.h // 2, self.w // 2
+        self.ops = cv2.add, cv2.subtract, cv2.absdiff, cv2.multiply, cv2.divide
 
-    h, w = X.shape
-    hq, wq = h // 2, w // 2
-    m = _M
-    add, subtract, absdiff, multiply, divide = cv2.add, cv2.subtract, cv2.absdiff, cv2.multiply, cv2.divide
+    def buf(self, key, shape=None, dtype=_F32):
+        return self.scratch("rcd:" + key, shape or (self.hq, self.wq), dtype)
 
-    def buf(key, shape=None, dtype=_F32):
-        return scratch("rcd:" + key, shape or (hq, wq), dtype)
+    def at(self, P, di=0, dj=0):
+        m = _M
+        return P[m + di:self.hq - m + di, m + dj:self.wq - m + dj]
 
-    def at(P, di=0, dj=0):
-        return P[m + di:hq - m + di, m + dj:wq - m + dj]
+    def along(self, P, axis, k):  # at(P) shifted by k samples along axis
+        return self.at(P, k, 0) if axis == 0 else self.at(P, 0, k)
 
-    def along(P, axis, k):  # at(P) shifted by k samples along axis
-        return at(P, k, 0) if axis == 0 else at(P, 0, k)
+    def plane(self, key):  # a plane quantity (its margin unset) and its interior
+        P = self.buf(key)
+        return P, self.at(P)
 
-    def plane(key):  # a plane quantity (its margin unset) and its interior
-        P = buf(key)
-        return P, at(P)
+    def temp(self, key):  # an interior-sized temporary
+        return self.buf("tmp:" + key, (self.hq - 2 * _M, self.wq - 2 * _M))
 
-    def temp(key):  # an interior-sized temporary
-        return buf("tmp:" + key, (hq - 2 * m, wq - 2 * m))
+    def view(self, F, dy=0, dx=0):  # a full-resolution quantity 4 pixels in, shifted by (dy, dx)
+        return F[4 + dy:self.h - 4 + dy, 4 + dx:self.w - 4 + dx]
 
-    def chain(first, *terms, dst):  # ((first + t₁) + t₂) + …, left to right
+    def chain(self, first, *terms, dst):  # ((first + t₁) + t₂) + …, left to right
+        add = self.cv2.add
         add(first, terms[0], dst=dst)
         for term in terms[1:]:
             add(dst, term, dst=dst)
         return dst
 
-    def weighted(a, x, b, y, dst, t):  # (a·x + b·y) / (a + b)
+    def weighted(self, a, x, b, y, dst, t):  # (a·x + b·y) / (a + b)
+        add, multiply = self.cv2.add, self.cv2.multiply
         add(multiply(a, x, dst=dst), multiply(b, y, dst=t), dst=dst)
-        return divide(dst, add(a, b, dst=t), dst=dst)
+        return self.cv2.divide(dst, add(a, b, dst=t), dst=dst)
 
-    def blend(d, one_minus_d, x, y, dst, t):  # d·x + (1 − d)·y
-        return add(multiply(d, x, dst=dst), multiply(one_minus_d, y, dst=t), dst=dst)
+    def blend(self, d, one_minus_d, x, y, dst, t):  # d·x + (1 − d)·y
+        multiply = self.cv2.multiply
+        return self.cv2.add(multiply(d, x, dst=dst), multiply(one_minus_d, y, dst=t), dst=dst)
 
-    def high_pass(terms, six_x0, dst, t):
+    def high_pass(self, terms, six_x0, dst, t):
         """((((x₋₃ − x₋₁) − x₊₁) + x₊₃) − 3 (x₋₂ + x₊₂)) + 6 x₀ (a constant region: exactly zero)"""
+        add, subtract = self.cv2.add, self.cv2.subtract
         m3, m1, p1, p3, m2, p2 = terms
         add(subtract(subtract(m3, m1, dst=dst), p1, dst=dst), p3, dst=dst)
         np.multiply(add(m2, p2, dst=t), _F32(3), out=t)
         return add(subtract(dst, t, dst=dst), six_x0, dst=dst)
 
-    # 1. vertical / horizontal discrimination, at every pixel of the band (4 pixels in)
-    def view(F, dy=0, dx=0):
-        return F[4 + dy:h - 4 + dy, 4 + dx:w - 4 + dx]
+    def interleave(self, planes, F):  # four plane quantities → the band at full resolution
+        for rows, pair in ((F[0::2], planes[:2]), (F[1::2], planes[2:])):
+            dst = rows.reshape(self.hq, self.wq, 2)
+            if self.cv2.merge(pair, dst=dst) is not dst:  # pragma: no cover
+                raise RuntimeError("cv2.merge did not write into the band")
+        return F
 
+
+def _discrimination(band: _Band):
+    """Step 1: the vertical / horizontal discrimination VH at every site, as d (``d_at``) and
+    1 − d (``omd_at``, interior) per plane; the band-sized buffers a, b, v, s, t it used."""
+    cv2, X = band.cv2, band.X
+    add, subtract, absdiff, multiply, divide = band.ops
+    at, buf, chain = band.at, band.buf, band.chain
+    h, w, hq, wq, view, high_pass = band.h, band.w, band.hq, band.wq, band.view, band.high_pass
+
+    # 1. vertical / horizontal discrimination, at every pixel of the band (4 pixels in)
     a, b, v, s, t = (buf(key, (h, w)) for key in ("a", "b", "v", "s", "t"))
     for F in (a, b, v):  # the margins that the sums and means below read: zero, as in the whole frame
         F[:4], F[-4:], F[:, :4], F[:, -4:] = 0, 0, 0, 0
@@ -161,6 +176,14 @@ def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
         for c, key in enumerate(keys):
             d_at[key] = cv2.extractChannel(pairs, c, dst=buf("vh_" + key))
     omd_at = {key: subtract(1.0, at(d), dst=buf("omd_" + key, at(d).shape)) for key, d in d_at.items()}
+    return (a, b, v, s, t), d_at, omd_at
+
+
+def _low_pass(band: _Band):
+    """Step 2: the low-pass at red and blue sites, clamped at zero."""
+    cv2, R, Gr, Gb, B = band.cv2, band.R, band.Gr, band.Gb, band.B
+    add = band.cv2.add
+    at, plane, temp, chain = band.at, band.plane, band.temp, band.chain
 
     # 2. the low-pass, clamped at zero where it forms a ratio, at red and blue sites:
     #    (x₀ + ½ (((N + S) + W) + E)) + ¼ (((NW + NE) + SW) + SE); o is the site's offset in the planes
@@ -174,6 +197,16 @@ def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
                                dst=temp("l2")), _F32(0.25), out=temp("l2"))
         cv2.max(add(add(at(C), t1, dst=inner), t2, dst=inner), 0.0, dst=inner)
         low[site] = L
+    return low
+
+
+def _green(band: _Band, low, d_at, omd_at):
+    """Step 3: green at red and blue sites (``g_at``); the gradients along each axis (``grad``) and ε plus
+    the greens' (``e_green``), which step 4b reads again."""
+    R, Gr, Gb, B = band.R, band.Gr, band.Gb, band.B
+    add, subtract, absdiff, multiply, divide = band.ops
+    at, along, plane, temp, chain = band.at, band.along, band.plane, band.temp, band.chain
+    weighted, blend = band.weighted, band.blend
 
     # 3. green at red and blue sites. Along an axis, with P the green plane of the neighbours and o
     #    the site's offset in it (x₋₁ = P[k − 1 + o], x₊₁ = P[k + o]), a[k] = |P[k] − P[k − 1]|,
@@ -212,6 +245,15 @@ def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
         G, inner = plane("g_" + site)
         blend(at(d_at[site]), omd_at[site], horizontal, vertical, inner, temp("r"))
         g_at[site] = G
+    return g_at, grad, e_green
+
+
+def _diagonal_discrimination(band: _Band):
+    """Step 4a's first half: the diagonal discrimination PQ at red and blue sites (interior)."""
+    cv2, R, B = band.cv2, band.R, band.B
+    add, _, absdiff, multiply, divide = band.ops
+    at, plane, temp, buf, chain = band.at, band.plane, band.temp, band.buf, band.chain
+    high_pass = band.high_pass
 
     # 4a. red at blue and blue at red sites, along the diagonals: first the diagonal discrimination
     #     at both (p: (1, 1), q: (1, −1)), from the squared diagonal high-pass summed over three
@@ -248,6 +290,16 @@ def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
         np.copyto(P, centre)
         cv2.copyTo(neighbours, mask, dst=P)
         pq[site] = P
+    return pq
+
+
+def _colour_at_other_sites(band: _Band, g_at, pq):
+    """Step 4a's second half: red at blue sites and blue at red sites (``colour_at``), and the colour
+    differences to green at red and blue sites (``diff_at``)."""
+    R, B = band.R, band.B
+    add, subtract, absdiff, multiply = band.ops[:4]
+    at, plane, temp, buf, chain = band.at, band.plane, band.temp, band.buf, band.chain
+    weighted = band.weighted
 
     #     then each colour at the other's sites: with C the colour's plane, g, pq at the other's
     #     sites, o the site's offset in C, a[k] = |C[k] − C[k − s]| and b[k] = |g[k] − g[k − s]| for
@@ -284,6 +336,15 @@ def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
         colour_at[colour] = value
     diff_at["r_at_b"] = subtract(colour_at["r"], g_at["b"], dst=buf("diff_rb"))
     diff_at["b_at_r"] = subtract(colour_at["b"], g_at["r"], dst=buf("diff_br"))
+    return colour_at, diff_at
+
+
+def _colour_at_greens(band: _Band, grad, e_green, colour_at, diff_at, d_at, omd_at):
+    """Step 4b: red and blue at the two green sites (``out_at[colour, green site]``)."""
+    R, Gr, Gb, B = band.R, band.Gr, band.Gb, band.B
+    add, _, absdiff, multiply = band.ops[:4]
+    at, along, plane, temp, chain = band.at, band.along, band.plane, band.temp, band.chain
+    weighted = band.weighted
 
     # 4b. red and blue at green sites, along the row and the column: at a green site with P the
     #     colour's plane along the axis and o the site's offset in it, c[k] = |P[k] − P[k − 1]|,
@@ -316,15 +377,19 @@ def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
             add(at(G), multiply(omd_at[gsite], vertical, dst=vertical), dst=inner)
             add(inner, multiply(at(d_at[gsite]), horizontal, dst=horizontal), dst=inner)
             out_at[colour, gsite] = value
+    return out_at
+
+
+def _finish(band: _Band, full, g_at, colour_at, diff_at, out_at, median: bool):
+    """Step 5: the band's red, green and blue at full resolution, red and blue through one 3 × 3
+    median of their difference from green when ``median``."""
+    cv2, R, Gr, Gb, B = band.cv2, band.R, band.Gr, band.Gb, band.B
+    add, subtract = band.ops[:2]
+    at = band.at
+    a, b, v, s, t = full
+    interleave = band.interleave
 
     # 5. false-colour suppression: one 3 × 3 median of each colour difference, green kept
-    def interleave(planes, F):  # four plane quantities → the band at full resolution
-        for rows, pair in ((F[0::2], planes[:2]), (F[1::2], planes[2:])):
-            dst = rows.reshape(hq, wq, 2)
-            if cv2.merge(pair, dst=dst) is not dst:  # pragma: no cover
-                raise RuntimeError("cv2.merge did not write into the band")
-        return F
-
     green = interleave((g_at["r"], Gr, Gb, g_at["b"]), a)
     out = [None, green, None]
     for channel, colour, D_r, D_b in ((0, "r", diff_at["r"], diff_at["r_at_b"]),
@@ -340,6 +405,30 @@ def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
                       (colour_at["b"], out_at["b", "gr"], out_at["b", "gb"], B))
             out[channel] = interleave(planes, b if channel == 0 else v)
     return out
+    return out
+
+
+def _rcd_planes(X, R, Gr, Gb, B, scratch, median: bool):
+    """RCD of a band X (h, w even, a red site at (0, 0)) whose four planes are R, Gr, Gb, B.
+
+    Every expression is evaluated in the order of float32 operations of the full-resolution
+    NumPy formulation (left to right; OpenCV's add, subtract, absdiff, multiply and divide round
+    as NumPy's), so the result equals it: RCD's gradients meet ε = 10⁻⁵ in flat regions, where a
+    different rounding of a green (6·10⁻⁸) would move a weight by 1 %. A sum that two expressions
+    share (ε + |x₋₁ − x₊₁|) is formed once; the gradient |x[k] − x[k − 1]| along an axis on a
+    plane serves every step that reads it.
+
+    Returns the (h, w) red, green and blue of the band (scratch buffers), valid :data:`REACH_PX`
+    pixels in from every side.
+    """
+    band = _Band(X, R, Gr, Gb, B, scratch)
+    full, d_at, omd_at = _discrimination(band)
+    low = _low_pass(band)
+    g_at, grad, e_green = _green(band, low, d_at, omd_at)
+    pq = _diagonal_discrimination(band)
+    colour_at, diff_at = _colour_at_other_sites(band, g_at, pq)
+    out_at = _colour_at_greens(band, grad, e_green, colour_at, diff_at, d_at, omd_at)
+    return _finish(band, full, g_at, colour_at, diff_at, out_at, median)
 
 
 def _band_planes(X, scratch):
@@ -388,7 +477,7 @@ def rcd(mosaic: np.ndarray, cfa: str = "RGGB", *, median: bool = True, band_rows
     phase) by :data:`REACH_PX` plus the phase shift that puts a red site at the padded band's
     (0, 0); each band of output rows is demosaiced with that much context (made only for the band:
     the padded frame is never formed), so the result does not depend on the cut into bands. As
-    :func:`spectral_cam.isp.demosaic.by_planes`, each thread runs its share of the bands in order,
+    :func:`spectral_cam.isp.plane_bands.by_planes`, each thread runs its share of the bands in order,
     reusing its buffers, and ``cv2.merge`` writes the band's three channels into the output.
 
     Parameters
