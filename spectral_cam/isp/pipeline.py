@@ -17,6 +17,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field
 
@@ -183,19 +184,63 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None, shading
         raise ConfigError(f"develop() needs an ISPConfig; got {type(config).__name__}")
     timings: dict[str, float] = {}
     info: dict = {"config": config.to_dict()}
-    clock = time.perf_counter
 
-    t = clock()
-    mosaic = normalise(raw.mosaic, black_level=raw.black_level, white_level=raw.white_level)
-    monochrome = str(raw.cfa).lower() == "none"
-    linear_raw = raw.cfa == LINEAR  # three colours per pixel already: no mosaic to denoise or demosaic
-    cfa = raw.cfa if monochrome or linear_raw else check_cfa(raw.cfa, allow_extended=True)
-    # the image is the raw's default crop: the margin around it is demosaiced (so the crop's
-    # edges are interpolated from real data) and then dropped; statistics come from the crop
-    crop = _crop_slices(raw)
-    timings["normalise"] = clock() - t
+    with _timed(timings, "normalise"):
+        mosaic = normalise(raw.mosaic, black_level=raw.black_level, white_level=raw.white_level)
+        monochrome = str(raw.cfa).lower() == "none"
+        linear_raw = raw.cfa == LINEAR  # three colours per pixel already: no mosaic to denoise or demosaic
+        cfa = raw.cfa if monochrome or linear_raw else check_cfa(raw.cfa, allow_extended=True)
+        # the image is the raw's default crop: the margin around it is demosaiced (so the crop's
+        # edges are interpolated from real data) and then dropped; statistics come from the crop
+        crop = _crop_slices(raw)
+    with _timed(timings, "denoise"):
+        mosaic = _denoised(raw, mosaic, cfa, config, linear_raw, info)
+    with _timed(timings, "shading"):
+        mosaic = _shading_corrected(mosaic, cfa, config, shading_table, linear_raw, info)
+    if monochrome:
+        with _timed(timings, "white_balance"):
+            gains = np.ones(3)
+            mask = clipped_mask(mosaic, radius_px=0)[crop]
+            rgb = np.repeat(mosaic[crop][..., None], 3, axis=-1)
+        timings["demosaic"] = 0.0
+    else:
+        with _timed(timings, "white_balance"):
+            gains, balanced = _white_balanced(raw, mosaic, cfa, crop, config, linear_raw)
+        with _timed(timings, "demosaic"):
+            rgb, mask = _demosaiced(mosaic, balanced, cfa, crop, config, linear_raw, info)
 
-    t = clock()
+    with _timed(timings, "highlights"):
+        # gains are normalised to a smallest gain of 1, so every channel saturates at >= 1
+        rgb = handle_highlights(rgb, mask, level=float(gains.min()), method=config.highlights)
+    with _timed(timings, "colour"):
+        transform, source = (None, "none") if monochrome else colour_transform(raw, config.colour_matrix, gains[:3],
+                                                                                 camera_to_xyz)
+        scene = rgb if transform is None else camera_to_linear_srgb(rgb, transform)
+    with _timed(timings, "tone"):
+        # the RAW's BaselineExposure (what its exposure index asks of the rendering) plus the user's
+        ev = float(getattr(raw, "baseline_exposure", 0.0) or 0.0) + config.exposure_ev
+        image = tone_map(scene, method=config.tone, ev=ev)
+        linear = apply_exposure(scene, ev=ev) if ev != 0 else scene
+    with _timed(timings, "sharpen"):
+        if config.sharpen > 0:
+            image = unsharp_mask(image, amount=config.sharpen, radius_px=config.sharpen_radius_px)
+            np.clip(image, 0.0, 1.0, out=image)  # display values stay in [0, 1]
+
+    info.update(_record(raw, gains, source, mask, ev, transform))
+    return DevelopedImage(np.ascontiguousarray(image, dtype=np.float32),
+                          np.ascontiguousarray(linear, dtype=np.float32), timings, info)
+
+
+@contextlib.contextmanager
+def _timed(timings: dict[str, float], stage: str):
+    """Time the block as ``timings[stage]`` (s, wall clock)."""
+    start = time.perf_counter()
+    yield
+    timings[stage] = time.perf_counter() - start
+
+
+def _denoised(raw, mosaic: np.ndarray, cfa: str, config: ISPConfig, linear_raw: bool, info: dict) -> np.ndarray:
+    """The denoise stage: the mosaic denoised under the RAW's noise model (or one estimated from it)."""
     strength = config.denoise_strength
     if strength > 0 and linear_raw:
         info["denoise"] = "skipped: the Poisson–Gaussian model holds on a raw mosaic, not on linear RGB"
@@ -203,87 +248,62 @@ def develop(raw, config: ISPConfig | None = None, *, camera_to_xyz=None, shading
         noise = noise_model_of(raw) or estimate_noise(mosaic, cfa)
         mosaic = denoise_mosaic(mosaic, cfa, noise=noise, strength=strength, method=config.denoise_method)
         info["noise_model"] = {"S": noise.gain, "O": noise.offset, "source": noise.source}
-    timings["denoise"] = clock() - t
+    return mosaic
 
-    t = clock()
+
+def _shading_corrected(mosaic: np.ndarray, cfa: str, config: ISPConfig, shading_table, linear_raw: bool,
+                       info: dict) -> np.ndarray:
+    """The lens-shading stage: the mosaic times a flat-field table's gains, when one is given or configured."""
     if shading_table is None and config.shading != "off":
         from .shading import load_shading_table
 
         shading_table = load_shading_table(config.shading)
-    if shading_table is not None:
-        if linear_raw:
-            raise ConfigError("lens-shading correction works on a raw mosaic; this RAW is linear (three colours "
-                              "per pixel): set isp.shading = 'off'")
-        from .shading import correct_shading
+    if shading_table is None:
+        return mosaic
+    if linear_raw:
+        raise ConfigError("lens-shading correction works on a raw mosaic; this RAW is linear (three colours "
+                          "per pixel): set isp.shading = 'off'")
+    from .shading import correct_shading
 
-        mosaic = correct_shading(mosaic, cfa, shading_table)
-        info["shading"] = "flat-field table" if config.shading == "off" else config.shading
-    timings["shading"] = clock() - t
+    info["shading"] = "flat-field table" if config.shading == "off" else config.shading
+    return correct_shading(mosaic, cfa, shading_table)
 
-    if monochrome:
-        t = clock()
-        gains = np.ones(3)
-        mask = clipped_mask(mosaic, radius_px=0)[crop]
-        rgb = np.repeat(mosaic[crop][..., None], 3, axis=-1)
-        timings["white_balance"] = clock() - t
-        timings["demosaic"] = 0.0
-    else:
-        t = clock()
-        # the crop's statistics (a Bayer tile has a name at every phase); a larger tile's crop off its
-        # tile grid: the whole mosaic's
-        rows, cols = (1, 1) if linear_raw or is_bayer(cfa) else cfa_period(cfa)
-        on_grid = crop[0].start % rows == 0 and crop[1].start % cols == 0
-        stats, stats_cfa = (mosaic[crop], cfa if linear_raw else cfa_at(cfa, crop[0].start, crop[1].start)) \
-            if on_grid else (mosaic, cfa)
-        gains = white_balance_gains(stats, stats_cfa, method=config.white_balance, as_shot_neutral=raw.as_shot_neutral,
-                                    gains=config.wb_gains or None)
-        balanced = apply_white_balance(mosaic, cfa, gains=gains)
-        timings["white_balance"] = clock() - t
 
-        t = clock()
-        if linear_raw:
-            rgb, mask = balanced[crop], clipped_mask(mosaic, radius_px=0).any(axis=-1)[crop]
-        else:
-            method = method_for(cfa, config.demosaic)
-            if method != config.demosaic:
-                info["demosaic"] = f"{method} ({config.demosaic} needs a 2×2 Bayer mosaic; this RAW is {cfa})"
-            rgb = demosaic(balanced, cfa, method=method)[crop]
-            mask = clipped_mask(mosaic, radius_px=2)[crop]
-        timings["demosaic"] = clock() - t
+def _white_balanced(raw, mosaic: np.ndarray, cfa: str, crop, config: ISPConfig, linear_raw: bool):
+    """(gains, balanced mosaic): gains estimated on the crop's statistics (a Bayer tile has a name at
+    every phase); a larger tile's crop off its tile grid: the whole mosaic's."""
+    rows, cols = (1, 1) if linear_raw or is_bayer(cfa) else cfa_period(cfa)
+    on_grid = crop[0].start % rows == 0 and crop[1].start % cols == 0
+    stats, stats_cfa = (mosaic[crop], cfa if linear_raw else cfa_at(cfa, crop[0].start, crop[1].start)) \
+        if on_grid else (mosaic, cfa)
+    gains = white_balance_gains(stats, stats_cfa, method=config.white_balance, as_shot_neutral=raw.as_shot_neutral,
+                                gains=config.wb_gains or None)
+    return gains, apply_white_balance(mosaic, cfa, gains=gains)
 
-    t = clock()
-    # gains are normalised to a smallest gain of 1, so every channel saturates at >= 1
-    rgb = handle_highlights(rgb, mask, level=float(gains.min()), method=config.highlights)
-    timings["highlights"] = clock() - t
 
-    t = clock()
-    transform, source = (None, "none") if monochrome else colour_transform(raw, config.colour_matrix, gains[:3],
-                                                                             camera_to_xyz)
-    scene = rgb if transform is None else camera_to_linear_srgb(rgb, transform)
-    timings["colour"] = clock() - t
+def _demosaiced(mosaic: np.ndarray, balanced: np.ndarray, cfa: str, crop, config: ISPConfig, linear_raw: bool,
+                info: dict):
+    """(cropped camera RGB, its clipped mask): the balanced mosaic demosaiced by the method that takes
+    its tile (:func:`~spectral_cam.isp.demosaic.method_for`, recorded when it differs), or a linear
+    RAW's RGB as it is."""
+    if linear_raw:
+        return balanced[crop], clipped_mask(mosaic, radius_px=0).any(axis=-1)[crop]
+    method = method_for(cfa, config.demosaic)
+    if method != config.demosaic:
+        info["demosaic"] = f"{method} ({config.demosaic} needs a 2×2 Bayer mosaic; this RAW is {cfa})"
+    return demosaic(balanced, cfa, method=method)[crop], clipped_mask(mosaic, radius_px=2)[crop]
 
-    t = clock()
-    # the RAW's BaselineExposure (what its exposure index asks of the rendering) plus the user's
-    ev = float(getattr(raw, "baseline_exposure", 0.0) or 0.0) + config.exposure_ev
-    image = tone_map(scene, method=config.tone, ev=ev)
-    linear = apply_exposure(scene, ev=ev) if ev != 0 else scene
-    timings["tone"] = clock() - t
 
-    t = clock()
-    if config.sharpen > 0:
-        image = unsharp_mask(image, amount=config.sharpen, radius_px=config.sharpen_radius_px)
-        np.clip(image, 0.0, 1.0, out=image)  # display values stay in [0, 1]
-    timings["sharpen"] = clock() - t
-
-    info.update({
+def _record(raw, gains: np.ndarray, source: str, mask: np.ndarray, ev: float, transform) -> dict:
+    """What the develop applied, for ``DevelopedImage.meta``."""
+    record = {
         "white_balance_gains": [float(g) for g in gains],
         "colour_transform": source,
         "clipped_fraction": float(mask.mean()) if mask.size else 0.0,
         "exposure_ev": ev,
         "baseline_exposure_ev": float(getattr(raw, "baseline_exposure", 0.0) or 0.0),
         "crop": None if getattr(raw, "crop", None) is None else [int(v) for v in raw.crop],
-    })
+    }
     if isinstance(transform, np.ndarray):
-        info["colour_transform_matrix"] = transform.tolist()
-    return DevelopedImage(np.ascontiguousarray(image, dtype=np.float32),
-                          np.ascontiguousarray(linear, dtype=np.float32), timings, info)
+        record["colour_transform_matrix"] = transform.tolist()
+    return record
