@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures as cf
+import contextlib
 import itertools
 import time
 from dataclasses import dataclass, field
@@ -361,11 +362,14 @@ def _run(spec, total, per_point, output, rows, bar, summary, manifest, *, force,
     try:
         if first is None:
             return
-        with open_executor(executor, scheduler, workers, dashboard=dashboard) as (pool, window, threads):
-            tasks = ({**task, "render_threads": render_threads or threads}
-                     for task in itertools.chain([first], planned))
-            _run_tasks(pool, item_function, tasks, rows, items_dir, window=window, retries=retries,
-                       bar=bar, summary=summary, manifest=manifest, owned=executor is None)
+        with _interrupt_latch() as latch:
+            with open_executor(executor, scheduler, workers, dashboard=dashboard) as (pool, window, threads):
+                tasks = ({**task, "render_threads": render_threads or threads}
+                         for task in itertools.chain([first], planned))
+                _run_tasks(pool, item_function, tasks, rows, items_dir, window=window, retries=retries,
+                           bar=bar, summary=summary, manifest=manifest, owned=executor is None, latch=latch)
+                latch.check()  # one swallowed as the loop's last futures were freed: the workers are still ours
+            latch.check()  # one swallowed while the executor closed
     finally:
         write_manifest(manifest, rows)
         summary.manifest = manifest
@@ -378,6 +382,65 @@ def _write_classes(output: Path, spec: DatasetSpec, rows: dict) -> None:
 
 
 # ----------------------------------------------------------------------------- the result loop
+class _InterruptLatch:
+    """Remembers an interrupt (SIGINT, SIGTERM) whose handler raised, so that :meth:`check` raises it
+    again should it have been swallowed on its way up.
+
+    Python runs a signal's handler in the main thread wherever that thread is, finalisers
+    included, and an exception raised inside a finaliser (``__del__``, a weakref callback) is
+    printed as "Exception ignored" and dropped. Between tiny items the driver frees each item's
+    futures, and a Dask future's ``__del__`` releases its key in Python code (``Client._dec_ref``):
+    a Ctrl-C landing there was lost, and the CLI's watchdog ended the run 10 s later with "no
+    partial output was kept" (issue 41). Only interrupts a handler raised are latched: a handler
+    that chooses not to raise is left to decide.
+
+    References
+    ----------
+    .. [1] Python documentation, ``signal``: "Python signal handlers are always executed in the
+       main Python thread"; ``sys.unraisablehook`` (exceptions raised in ``__del__`` are ignored).
+    """
+
+    def __init__(self):
+        self.interrupt: KeyboardInterrupt | None = None
+
+    def wrap(self, handler: Callable) -> Callable:
+        """``handler`` (a callable signal handler), latching the interrupt it raises."""
+        def latched(signum, frame):
+            try:
+                handler(signum, frame)
+            except KeyboardInterrupt as exc:
+                self.interrupt = exc
+                raise
+        return latched
+
+    def check(self) -> None:
+        """Raise the latched interrupt (a swallowed one: one on its way up never returns here)."""
+        if self.interrupt is not None:
+            raise self.interrupt.with_traceback(None)
+
+
+@contextlib.contextmanager
+def _interrupt_latch() -> Iterator[_InterruptLatch]:
+    """An :class:`_InterruptLatch` on SIGINT's and SIGTERM's Python handlers while the run renders
+    (main thread only; an ignored or default disposition is left as it is); the handlers are
+    restored after."""
+    import signal
+    import threading
+
+    latch = _InterruptLatch()
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            handler = signal.getsignal(signum)
+            if callable(handler):
+                previous[signum] = signal.signal(signum, latch.wrap(handler))
+    try:
+        yield latch
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
 class _InFlight:
     """The tasks of a run between the (lazy) task iterator and their rows: up to ``window`` in
     flight, a task whose worker died resubmitted first (``retries`` times)."""
@@ -442,9 +505,10 @@ class _InFlight:
 
 
 def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, bar, summary, manifest,
-               owned: bool = False) -> None:
+               owned: bool = False, latch: _InterruptLatch | None = None) -> None:
     """Keep ``window`` tasks in flight, drawing new ones from the (lazy) ``tasks`` iterator and
-    resubmitting those whose worker died (``retries`` times). On the way out the tasks in flight
+    resubmitting those whose worker died (``retries`` times); after each round, raise an
+    interrupt a finaliser swallowed (``latch``). On the way out the tasks in flight
     are cancelled, except after an interrupt on an executor this run made (``owned``): closing it
     stops them, and a cancelled running task only makes each worker log a warning."""
     flight = _InFlight(pool, item_function, tasks, items_dir, window=window, retries=retries)
@@ -463,6 +527,8 @@ def _run_tasks(pool, item_function, tasks, rows, items_dir, *, window, retries, 
             if time.perf_counter() - last_manifest > MANIFEST_EVERY_S:
                 write_manifest(manifest, rows)
                 last_manifest = time.perf_counter()
+            if latch is not None:
+                latch.check()
     except KeyboardInterrupt:
         if not owned:
             flight.cancel()

@@ -2,10 +2,14 @@
 and "killing" warnings from every worker, then "no partial output was kept" although the finished
 items were kept. The terminal's Ctrl-C (SIGINT to the whole process group) now ends the run in
 one line that says how many items are done and that the same command resumes; the manifest
-agrees with the item folders on disk, no staging folder is left, and rerunning resumes."""
+agrees with the item folders on disk, no staging folder is left, and rerunning resumes.
+
+Issue 41: a Ctrl-C landing in a finaliser the driver runs between items (a Dask future's ``__del__``)
+raised its KeyboardInterrupt there, where Python prints and drops it; the run now stops all the same."""
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import os
 import signal
 import subprocess
@@ -14,6 +18,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+from spectral_cam.apps.dataset import DatasetInterrupted, generate_dataset, spec_from_dict
 
 from .reading import read_manifest
 
@@ -87,3 +93,50 @@ def test_ctrl_c_keeps_the_finished_items_says_so_and_the_same_command_resumes(tm
     assert f"{ITEMS} items, {ITEMS - len(kept)} rendered, {len(kept)} resumed, 0 failed" in err
     assert before == {name: (out / "items" / name / "raw.dng").stat().st_mtime_ns for name in kept}
     assert [row["status"] for row in read_manifest(out)] == ["done"] * ITEMS
+
+
+class _InterruptsWhenFreed:
+    """Raises SIGINT in this process from its finaliser, as a Ctrl-C landing in a Dask future's
+    ``__del__`` (``Client._dec_ref``, run in the driver when the loop frees an item's future): Python
+    runs the handler there, and the KeyboardInterrupt it raises is printed and dropped."""
+
+    def __del__(self):
+        signal.raise_signal(signal.SIGINT)
+
+
+class _FreeingExecutor(cf.Executor):
+    """Runs each task at submission; its first future carries an :class:`_InterruptsWhenFreed`."""
+
+    _max_workers = 1
+
+    def __init__(self):
+        self.submitted = 0
+
+    def submit(self, fn, /, *args, **kwargs):
+        future: cf.Future = cf.Future()
+        future.set_result(fn(*args, **kwargs))
+        self.submitted += 1
+        if self.submitted == 1:
+            future.finaliser = _InterruptsWhenFreed()
+        return future
+
+
+def _not_rendered(task: dict) -> dict:
+    return {"index": task["index"], "status": "failed", "files": [], "error": "not rendered"}
+
+
+@pytest.mark.timeout(120)
+def test_an_interrupt_a_finaliser_swallows_still_stops_the_run(tmp_path, monkeypatch):
+    swallowed = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: swallowed.append(unraisable.exc_type))
+    spec = spec_from_dict({"sensor": {"width_px": 24, "height_px": 16}, "render": {"spp": 2}})
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # as Python starts a program
+    try:
+        with pytest.raises(DatasetInterrupted) as stopped:
+            generate_dataset(spec, tmp_path / "out", n=6, executor=_FreeingExecutor(), item_function=_not_rendered,
+                             progress=False)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert swallowed == [KeyboardInterrupt]  # Python dropped it: the run saw it only through its latch
+    assert stopped.value.total == 6 and stopped.value.failed < 6  # it stopped before the last items
+    assert [row["status"] for row in read_manifest(tmp_path / "out")] == ["failed"] * stopped.value.failed
