@@ -192,10 +192,17 @@ def _interrupts_ignored() -> Iterator[None]:
 def _silence_dask() -> dict:
     """Silence Dask's, tornado's and asyncio's loggers (workers "still alive ..., killing", and the
     tracebacks of results in transfer when the scheduler closes, which its event loop logs through
-    tornado); returns their levels before."""
+    tornado); returns their levels before. Their children with a level of their own too: Dask's
+    configuration sets ``tornado.application`` to ERROR (and ``distributed.client``,
+    ``distributed.gc`` to WARNING), so silencing ``tornado`` alone still let the event loop's
+    CommClosedError tracebacks through (seen under load)."""
     import logging
 
-    loggers = [logging.getLogger(name) for name in ("distributed", "tornado", "asyncio")]
+    roots = ("distributed", "tornado", "asyncio")
+    loggers = [logging.getLogger(name) for name in roots]
+    loggers += [logger for name, logger in list(logging.Logger.manager.loggerDict.items())
+                if isinstance(logger, logging.Logger) and logger.level != logging.NOTSET
+                and name.split(".")[0] in roots and name not in roots]
     levels = {logger: logger.level for logger in loggers}
     for logger in loggers:
         logger.setLevel(logging.CRITICAL + 1)
