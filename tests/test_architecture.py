@@ -115,7 +115,7 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
 FLOORS: tuple[tuple[str, ...], ...] = (
     ("errors", "registry", "keys", "io", "records", "machine", "progress", "viz", "_lazy_colour"),
     ("cfa", "image", "exr", "spectral_exr", "xml_scene", "solar", "metering"),
-    ("spectrum", "cie", "spectra", "colour_ground_truth", "reflectance_sets", "leaves",
+    ("spectrum", "cie", "spectra", "cameras", "colour_ground_truth", "reflectance_sets", "leaves",
      "soil_moisture", "textures"),
     ("optics",),
     ("metrics",),

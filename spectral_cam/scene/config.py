@@ -27,7 +27,7 @@ from .section import fail as _fail
 from .section import section_class, section_keys
 
 __all__ = ["SceneConfig", "load_scene", "scene_from_dict", "parse_override", "read_toml", "section_from_table",
-           "SECTION_NAMES", "PHYSICAL_RANGES"]
+           "SECTION_NAMES", "physical_ranges"]
 
 #: The sections of a scene file, in the order they are written.
 SECTION_NAMES = ("scene", "illuminant", "sky", "lens", "sensor", "exposure", "motion", "render", "isp")

@@ -173,7 +173,7 @@ def expose(
     sensor, exposure = config.sensor, config.exposure
     frame_seed = config.render.seed if frame_seed is None else frame_seed
     if getattr(sensor, "kind", "cmos") != "cmos":
-        from .kinds import SENSOR_KINDS
+        from .kind_registry import SENSOR_KINDS
 
         entry = SENSOR_KINDS[sensor.kind]
         raise SensorError(f"sensor.kind = {sensor.kind!r} ({entry.description}) is not an integrating sensor: "

@@ -319,7 +319,7 @@ def expose_photon_counting(radiance, config, *, frame_seed: int | None = None,
     from .radiometry import electron_rates, signal_model, validate_radiance
     from .temporal import frame_row_factors
 
-    from .kinds import SENSOR_KINDS
+    from .kind_registry import SENSOR_KINDS
 
     config = _with_scene_light(config, radiance)
     sensor = config.sensor
