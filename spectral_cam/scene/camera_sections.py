@@ -115,6 +115,15 @@ def _angular_response(value, sensor):
 def _kind(value, sensor):
     from ..sensor.kinds import validate_sensor_keys
 
+    problem = validate_sensor_keys(sensor)
+    return problem if problem and problem[0] == "sensor.kind" else None
+
+
+def _kind_keys_set(sensor):
+    """A key set for a kind it does not belong to: checked after every kind's own keys, so a value out of
+    its own range (a dead time of 2 s on a CMOS) is refused for its range first."""
+    from ..sensor.kinds import validate_sensor_keys
+
     return validate_sensor_keys(sensor)
 
 
@@ -160,7 +169,8 @@ SENSOR = SectionSpec("sensor", "SensorSection", owner="every sensor kind", doc="
     Key("angular_response_deg", "off", "float | str | tuple", "the pixels' acceptance: half response at θ½ "
         "degrees of chief-ray angle, one or per channel (lens and colour shading); off", (_angular_response,)),
     Key("shutter", "global", "str", "global (every row at once) or rolling (row by row, row_time_s apart)",
-        (one_of(("global", "rolling"), "'global' every row at once, 'rolling' row by row, row_time_s apart"),)),
+        (lambda v, s: None if v in ("global", "rolling") else "valid: 'global' (every row at once), 'rolling' (row by "
+         "row, row_time_s apart)",)),
     Key("row_time_s", 10e-6, "float", "a rolling shutter's readout time of one row",
         (number_in(0.0, 0.01, rule="must be the readout time of one row in (0, 0.01] s (a full-frame sensor "
                    "reads a row in ~5-20 µs)"),
@@ -168,7 +178,7 @@ SENSOR = SectionSpec("sensor", "SensorSection", owner="every sensor kind", doc="
          "sensor reads a row in ~5-20 µs)")),
     Key("kind", "cmos", "str", "the sensor kind: cmos (integrating) or a registered one (qis, spad, event)",
         (_kind,)),
-), properties={"width_m": property(lambda self: self.width_px * self.pixel_pitch_um * 1e-6),
+), checks=(_kind_keys_set,), properties={"width_m": property(lambda self: self.width_px * self.pixel_pitch_um * 1e-6),
                "height_m": property(lambda self: self.height_px * self.pixel_pitch_um * 1e-6)})
 
 

@@ -66,7 +66,9 @@ class Section:
         for key in self._keys:
             problem = key.problem(self._section_name, self)
             if problem:
-                fail(*problem)
+                name, value, rule = problem
+                # a list key's value is echoed as the scene file writes it ([1.0, 2.0], not a tuple)
+                fail(name, list(value) if isinstance(value, tuple) else value, rule)
         spec = SECTION_SPECS[self._section_name]
         extra = EXTENDERS[self._section_name][1](self) if self._section_name in EXTENDERS else ()
         for check in (*spec.checks, *extra):

@@ -74,7 +74,8 @@ SCENE = SectionSpec("scene", "SceneSection", owner="the scene", doc="""What is i
 
 
 def _preset_checks(scene) -> tuple:
-    return () if scene.mitsuba_xml or scene.preset not in PRESETS else PRESETS[scene.preset].checks
+    # the named preset's checks even beside an XML scene, as before the keys were declared
+    return PRESETS[scene.preset].checks if scene.preset in PRESETS else ()
 
 
 # ----------------------------------------------------------------------------- [illuminant]
@@ -143,16 +144,20 @@ SKY = SectionSpec("sky", "SkySection", owner="the outdoor presets' sun and sky",
 
 
 # ----------------------------------------------------------------------------- [motion]
+def _velocity(value, motion):
+    return "give three numbers within ±1e5" if triple_within(1e5)(value, motion) else None
+
+
 MOTION = SectionSpec("motion", "MotionSection", owner="the motion", doc="""Motion during the exposure, in the camera's own frame (x
     image-left, y up, z the view): the camera's velocity and angular velocity, and the velocity of the shape
     named ``object`` (or, with none, of the whole scene). Rendered as ``subframes`` time-stratified sub-frames;
     needs a fixed ``exposure.time_s`` and ``render.spp``.""", keys=(
     Key("camera_velocity_mps", (0.0, 0.0, 0.0), "tuple[float, ...]", "the camera's velocity",
-        (triple_within(1e5),)),
+        (_velocity,)),
     Key("camera_angular_velocity_dps", (0.0, 0.0, 0.0), "tuple[float, ...]", "[yaw, pitch, roll] rates",
-        (triple_within(1e5),)),
+        (_velocity,)),
     Key("object_velocity_mps", (0.0, 0.0, 0.0), "tuple[float, ...]", "the velocity of the shape `object` "
-        "(without one, of the whole scene)", (triple_within(1e5),)),
+        "(without one, of the whole scene)", (_velocity,)),
     Key("object", "", "str", "the moving shape: an XML id or a preset's object_3 (its parts move with it)"),
     Key("subframes", "auto", "int | str", "auto (one per half pixel of the largest motion) or a count",
         (lambda v, s: None if v == "auto" else whole_in(1, 4096, "give 'auto' or a whole number in 1..4096")(v, s),)),
@@ -183,6 +188,13 @@ def _variant(value, render):
     return None
 
 
+def _max_depth(value, render):
+    if not (isinstance(value, int) and value >= 1):
+        return "must be a whole number >= 1"
+    # Mitsuba's integrators hold it as a 32-bit int: a larger one would fail only when the render starts
+    return None if value < 2 ** 31 else "must be a whole number >= 1 and < 2**31 (Mitsuba's path length is an int32)"
+
+
 RENDER = SectionSpec("render", "RenderSection", owner="the renderer", doc="""Monte-Carlo rendering: samples per pixel, spectral bands,
     Mitsuba variant, seed, the estimator that turns passes into a pixel (docs/design.md, "Rendering").""", keys=(
     Key("spp", 64, "int | str", "samples per pixel, or auto (rounds until the Monte-Carlo noise is <= 0.3 of "
@@ -191,7 +203,7 @@ RENDER = SectionSpec("render", "RenderSection", owner="the renderer", doc="""Mon
         (_bands,)),
     Key("variant", "auto", "str", "auto or a spectral Mitsuba variant", (_variant,)),
     Key("seed", 0, "int", "the render's seed", (whole_in(0, 2 ** 63, "must be a whole number >= 0"),)),
-    Key("max_depth", 8, "int", "path length", (whole_in(1, 2 ** 31, "must be a whole number >= 1"),)),
+    Key("max_depth", 8, "int", "path length", (_max_depth,)),
     Key("diffraction", "auto", "str", "auto, on or off (the Airy PSF per band)", (one_of(DIFFRACTION_MODES),)),
     Key("spectral_output", True, "bool", "write radiance.exr"),
     Key("radiance_precision", "float", "str", "radiance.exr's pixel type: float or half",
