@@ -15,6 +15,7 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,10 +23,11 @@ import numpy as np
 from ..errors import ConfigError
 from ..exr import write_exr_channels
 from ..io import atomic_path
-from ..registry import Registry
+from ..registry import Entry, Registry
 
 __all__ = [
     "ENCODERS",
+    "EncoderEntry",
     "FORMAT_SUFFIXES",
     "quantise",
     "write_png",
@@ -274,16 +276,60 @@ def _exr(dev, path, **_):
     return write_exr(dev.linear, path)
 
 
+@dataclass(frozen=True)
+class EncoderEntry(Entry):
+    """An output format: its encoder (``function(developed, path, *, quality)``), the suffix
+    :func:`write_outputs` gives its file, and the suffixes :func:`write_image` reads as it
+    (``reads_suffixes``; the first that no other format claims)."""
+
+    suffix: str = ""
+    reads_suffixes: tuple[str, ...] = ()
+
+
+class Encoders(Registry):
+    """The :class:`EncoderEntry` registry: a format's suffixes live in its entry, so a format added
+    by a user's module writes and is recognised like the bundled ones."""
+
+    def add(self, name: str, function, *, options: tuple[str, ...] = (), description: str = "",
+            suffix: str = "", reads_suffixes: tuple[str, ...] = ()) -> EncoderEntry:
+        """Register ``function`` as output format ``name`` writing ``<stem><suffix>`` (default
+        ``.<name>``)."""
+        if name in self._entries:
+            raise ValueError(f"{self.kind} {name!r} is registered twice")
+        suffix = suffix or f".{name}"
+        if not suffix.startswith("."):
+            raise ValueError(f"{self.kind} {name!r}: a suffix starts with a dot, e.g. suffix='.png'")
+        entry = EncoderEntry(name, function, tuple(options), description, suffix=suffix,
+                             reads_suffixes=tuple(s.lower() for s in reads_suffixes))
+        self._entries[name] = entry
+        return entry
+
+    def suffixes(self) -> dict[str, str]:
+        """Format name -> the suffix its file is written with."""
+        return {name: entry.suffix for name, entry in self._entries.items()}
+
+    def by_suffix(self) -> dict[str, str]:
+        """A path's suffix (lower case) -> the format that reads it (the first registered claiming it)."""
+        out: dict[str, str] = {}
+        for name, entry in self._entries.items():
+            for suffix in entry.reads_suffixes:
+                out.setdefault(suffix, name)
+        return out
+
+
 #: Encoders by output-format name; each takes a DevelopedImage and a path.
-ENCODERS = Registry("output format")
-ENCODERS.add("png", _png8, description="8-bit sRGB PNG")
-ENCODERS.add("png16", _png16, description="16-bit sRGB PNG")
-ENCODERS.add("jpeg", _jpeg, options=("quality",), description="JPEG")
-ENCODERS.add("tiff", _tiff, description="16-bit TIFF")
-ENCODERS.add("exr", _exr, description="linear sRGB OpenEXR")
-#: File suffix each format writes with :func:`write_outputs`.
-FORMAT_SUFFIXES = {"png": ".png", "png16": ".16bit.png", "jpeg": ".jpg", "tiff": ".tif", "exr": ".exr"}
-_BY_SUFFIX = {".png": "png", ".jpg": "jpeg", ".jpeg": "jpeg", ".tif": "tiff", ".tiff": "tiff", ".exr": "exr"}
+ENCODERS = Encoders("output format")
+ENCODERS.add("png", _png8, description="8-bit sRGB PNG", suffix=".png", reads_suffixes=(".png",))
+ENCODERS.add("png16", _png16, description="16-bit sRGB PNG", suffix=".16bit.png")
+ENCODERS.add("jpeg", _jpeg, options=("quality",), description="JPEG", suffix=".jpg", reads_suffixes=(".jpg", ".jpeg"))
+ENCODERS.add("tiff", _tiff, description="16-bit TIFF", suffix=".tif", reads_suffixes=(".tif", ".tiff"))
+ENCODERS.add("exr", _exr, description="linear sRGB OpenEXR", suffix=".exr", reads_suffixes=(".exr",))
+
+
+def __getattr__(name: str):
+    if name == "FORMAT_SUFFIXES":  # File suffix each format writes with write_outputs (live: a user's format too)
+        return ENCODERS.suffixes()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def write_image(developed, path: str | Path, *, format: str | None = None, quality: int = 95) -> Path:
@@ -317,10 +363,11 @@ def write_image(developed, path: str | Path, *, format: str | None = None, quali
     """
     path = Path(path)
     if format is None:
-        format = _BY_SUFFIX.get(path.suffix.lower())
+        by_suffix = ENCODERS.by_suffix()
+        format = by_suffix.get(path.suffix.lower())
         if format is None:
             raise ConfigError(f"cannot tell the image format of {str(path)!r}; use a suffix among "
-                              f"{', '.join(_BY_SUFFIX)}")
+                              f"{', '.join(by_suffix)}")
     return ENCODERS[format](developed, path, quality=quality)
 
 
@@ -354,6 +401,6 @@ def write_outputs(developed, directory: str | Path, formats, *, stem: str = "ima
     written = []
     for name in formats:
         ENCODERS.check(name)
-        written.append(write_image(developed, Path(directory) / f"{stem}{FORMAT_SUFFIXES[name]}",
+        written.append(write_image(developed, Path(directory) / f"{stem}{ENCODERS[name].suffix}",
                                    format=name, quality=quality))
     return written

@@ -10,6 +10,8 @@ pixel as the square root of its linear value (the develop's ``.linear``), comput
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -62,3 +64,24 @@ def test_a_name_nobody_registered_is_still_refused_with_the_live_list(registries
         ISPConfig(tone="toy_late")
     TONE.add("toy_late", _square_root, dng_curve=None)
     assert ISPConfig(tone="toy_late").tone == "toy_late"
+
+
+def test_an_output_format_registered_later_writes_with_its_own_suffix(registries, tmp_path):
+    """A format's suffixes live in its entry: write_outputs names the file by it and write_image
+    recognises a path by the suffixes it reads (a second list beside ENCODERS gave a KeyError)."""
+    from spectral_cam.isp.encode import write_image, write_outputs
+
+    def _bytes(developed, path, **_):
+        Path(path).write_bytes(np.ascontiguousarray(developed.image, np.float32).tobytes())
+        return Path(path)
+
+    ENCODERS.add("toy_raw32", _bytes, description="a test's toy: float32 bytes", suffix=".f32",
+                 reads_suffixes=(".f32",))
+    rng = np.random.default_rng(4)
+    developed = develop(RawImage(rng.integers(300, 3000, (8, 8)).astype(np.uint16), "RGGB", 0.0, 4095),
+                        ISPConfig(demosaic="bilinear", colour_matrix="none", white_balance="grey_world"))
+    (written,) = write_outputs(developed, tmp_path, ["toy_raw32"])
+    assert written.name == "image.f32" and written.stat().st_size == 8 * 8 * 3 * 4  # H × W × 3 float32
+    assert write_image(developed, tmp_path / "again.F32").stat().st_size == 8 * 8 * 3 * 4
+    with pytest.raises(ConfigError, match=r"\.f32"):  # the message lists the live suffixes
+        write_image(developed, tmp_path / "x.unknown")
