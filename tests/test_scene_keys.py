@@ -94,8 +94,7 @@ def test_every_bundled_key_default_passes_its_own_checks_and_is_documented():
 def test_readme_key_table_is_the_declarations():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert key_table.markdown_block() in readme, (
-        "README's key table differs from the declarations; replace the block between its markers with "
-        "spectral_cam.scene.key_table.markdown_block()")
+        "README's key table differs from the declarations: python -m spectral_cam.scene.key_table README.md")
 
 
 def test_spectral_cam_keys_lists_a_section_and_refuses_an_unknown_one(capsys):
@@ -106,3 +105,23 @@ def test_spectral_cam_keys_lists_a_section_and_refuses_an_unknown_one(capsys):
     assert out.startswith("[sensor]") and "sensor kind qis:\n    jot_frames = 256" in out and "[lens]" not in out
     assert main(["keys", "lenses"]) == 2
     assert "unknown section(s) lenses; valid: scene, illuminant" in capsys.readouterr().err
+
+
+def test_a_sensor_kinds_keys_are_its_options_and_its_checks_run_when_it_is_chosen():
+    """add_kind lists a kind's declared keys among its options (as Registry.add does), and the kind's
+    own combination checks run for a sensor of that kind only."""
+    def gain_below_full_well(sensor):
+        if sensor.toy_gain * 1000 > sensor.full_well_e:
+            return "sensor.toy_gain", sensor.toy_gain, "the toy's gain times 1000 e⁻ must fit the full well"
+        return None
+
+    SENSOR_KINDS.add_kind(SensorKind("toy_checked", SENSOR_KINDS["cmos"].function, description="a toy",
+                                     keys=(Key("toy_gain", 1.5, "float", "the toy's gain"),),
+                                     checks=(gain_below_full_well,)))
+    try:
+        assert "toy_gain" in SENSOR_KINDS["toy_checked"].options
+        with pytest.raises(ConfigError, match="must fit the full well"):
+            sc.scene_from_dict({"sensor": {"kind": "toy_checked", "toy_gain": 30.0}})
+        assert sc.scene_from_dict({"sensor": {"kind": "cmos", "toy_gain": 30.0}}).sensor.toy_gain == 30.0
+    finally:
+        SENSOR_KINDS.remove("toy_checked")

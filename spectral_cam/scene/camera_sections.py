@@ -176,7 +176,7 @@ SENSOR = SectionSpec("sensor", "SensorSection", owner="every sensor kind", doc="
                    "reads a row in ~5-20 µs)"),
          lambda v, s: None if v > 0 else "must be the readout time of one row in (0, 0.01] s (a full-frame "
          "sensor reads a row in ~5-20 µs)")),
-    Key("kind", "cmos", "str", "the sensor kind: cmos (integrating) or a registered one (qis, spad, event)",
+    Key("kind", "cmos", "str", "the sensor kind: cmos (integrating) or another registered kind (their keys below)",
         (_kind,)),
 ), checks=(_kind_keys_set,), properties={"width_m": property(lambda self: self.width_px * self.pixel_pitch_um * 1e-6),
                "height_m": property(lambda self: self.height_px * self.pixel_pitch_um * 1e-6)})

@@ -237,6 +237,13 @@ def _lens_checks(lens) -> tuple:
     return tuple(check for entry in LENS_MODELS.values() for check in entry.checks)
 
 
+def _sensor_checks(sensor) -> tuple:
+    """The chosen kind's own combination checks (an unknown kind is the ``kind`` key's to refuse)."""
+    from ..sensor.kinds import SENSOR_KINDS
+
+    return SENSOR_KINDS[sensor.kind].checks if sensor.kind in SENSOR_KINDS else ()
+
+
 def _sensor_keys() -> list:
     from ..sensor.kinds import SENSOR_KINDS
 
@@ -245,4 +252,4 @@ def _sensor_keys() -> list:
 
 SECTION_SPECS.update({spec.name: spec for spec in (SCENE, ILLUMINANT, SKY, LENS, SENSOR, EXPOSURE, MOTION, RENDER)})
 EXTENDERS.update({"scene": (preset_keys, _preset_checks), "lens": (_lens_keys, _lens_checks),
-                  "sensor": (_sensor_keys, lambda sensor: ())})
+                  "sensor": (_sensor_keys, _sensor_checks)})

@@ -14,6 +14,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -112,9 +113,13 @@ class SensorKinds(Registry):
     """The registry of :class:`SensorKind` entries (a :class:`~spectral_cam.registry.Registry`)."""
 
     def add_kind(self, kind: SensorKind) -> SensorKind:
-        """Register a :class:`SensorKind` (a name can be registered once)."""
+        """Register a :class:`SensorKind` (a name can be registered once); the keys it declares are among
+        its options, as for any registry entry."""
         if kind.name in self._entries:
             raise ValueError(f"{self.kind} {kind.name!r} is registered twice")
+        missing = tuple(key.name for key in kind.keys if key.name not in kind.options)
+        if missing:
+            kind = dataclasses.replace(kind, options=kind.options + missing)
         self._entries[kind.name] = kind
         return kind
 
