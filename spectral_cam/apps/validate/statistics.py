@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .run import ValidationResult
+    from .results import ValidationResult
 
 __all__ = ["compare_pipelines", "significance_text", "pivot", "sensitivity_metamerism_index", "cct_sweep",
            "illuminant_metamerism_index", "pipeline_metamerism", "METAMERISM_COLUMNS"]
