@@ -32,6 +32,7 @@ import numpy as np
 
 from ..solar import enu_to_camera, sun_position
 from .common import PRESETS, light_irradiance, spectrum_dict
+from .relief import GroundRelief, ReliefBSDF, cell_texels, displaced_ground
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
@@ -272,6 +273,8 @@ def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     :func:`ground_texels` on a side (about a pixel each at the look point; its height map twice
     as many), mirrored beyond; the bump map's scale is a height-map texel
     in metres (its heights are in texels), so the relief's slopes are the same in every view.
+    Returned as a :class:`~spectral_cam.presets.relief.ReliefBSDF` carrying that height map, so
+    that :func:`ground` displaces the ground by it where the frame sees it (micro-shadows).
 
     References
     ----------
@@ -304,8 +307,11 @@ def textured_ground_bsdf(config: "SceneConfig", lens: "ThinLens", mi) -> dict:
     maps += [abundances[k] * wetness for k in wettable] if wetness.any() else []
     spectra = endmembers + ([wet_spectrum(endmembers[k]) for k in wettable] if wetness.any() else [])
     texel_m = GROUND_TEXTURE_VIEWS * view_width_m(config, lens) / relief_texels
-    return mixed_bsdf(mi, spectra, np.stack(maps), to_uv=_texture_uv(config, lens, mi), height=np.array(height),
+    bsdf = mixed_bsdf(mi, spectra, np.stack(maps), to_uv=_texture_uv(config, lens, mi), height=np.array(height),
                       bump_scale=texel_m)
+    tan_half = (lens.sensor_width_m / (2 * lens.image_distance_m), lens.sensor_height_m / (2 * lens.image_distance_m))
+    return ReliefBSDF(bsdf, GroundRelief(height, texel_m, band_texels=GROUND_CLOD_TEXELS, tan_half=tan_half,
+                                         cell=cell_texels(relief_texels, lens.width_px, GROUND_TEXTURE_VIEWS)))
 
 
 def _texture_uv(config: "SceneConfig", lens: "ThinLens", mi, turn_deg: float = 0.0):
@@ -355,9 +361,13 @@ def backdrop(config: "SceneConfig", lens: "ThinLens", mi, view: GroundView) -> d
                          "to_world": view.transform(mi, mi.ScalarTransform4f(frame))}}
 
 
-def ground(view: GroundView, mi, bsdf: dict) -> dict:
-    """The ground plane (z = 0 in the ground frame), :data:`GROUND_SIZE_M` on a side."""
+def ground(view: GroundView, mi, bsdf: dict):
+    """The ground plane (z = 0 in the ground frame), :data:`GROUND_SIZE_M` on a side; a
+    textured ground's (:func:`textured_ground_bsdf`, which carries its relief) as one mesh,
+    displaced by its relief where the frame sees it (:func:`spectral_cam.presets.relief.displaced_ground`)."""
     half = GROUND_SIZE_M / 2
+    if isinstance(bsdf, ReliefBSDF):
+        return displaced_ground(view, mi, bsdf, half)
     return {"type": "rectangle", "to_world": view.transform(mi, mi.ScalarTransform4f().scale([half, half, 1.0])),
             "bsdf": bsdf}
 
