@@ -45,6 +45,12 @@ RELIEF_FRAME_MARGIN = 0.15
 #: Cells of the patch's rim that stay flat (where the surrounding quads overlap it), and cells
 #: of the smoothstep from there to the full relief (a slope of ~0.1 down to the sunk surface).
 RELIEF_FLAT_CELLS, RELIEF_TAPER_CELLS = 2, 16
+#: Towards the height map's edge (where a low view sees the patch end) the relief fades out over
+#: this share of its half-side: a gradient of brightness, not a line, where cast shadows stop.
+RELIEF_BORDER_FADE = 0.4
+#: And where the patch reaches farther than this many times the look point's distance (depth
+#: along the view), it fades out from there to its farthest node: cells a fraction of a pixel.
+RELIEF_FAR_START = 1.3
 #: The relief is lowered so that this quantile of its nodes touches the plane z = 0 (the few
 #: higher crests are cut flat there): the ground lies under the plane the objects stand on.
 RELIEF_CREST_QUANTILE = 0.995
@@ -132,12 +138,14 @@ def patch_cells(view, relief: GroundRelief):
     return int(rows[0]), first, last
 
 
-def patch_mesh(relief: GroundRelief, r0: int, first: np.ndarray, last: np.ndarray):
+def patch_mesh(relief: GroundRelief, r0: int, first: np.ndarray, last: np.ndarray, view=None):
     """Vertices (ground frame, m), faces (facing up) of the displaced cells: each node at
     ``w``·min(b − b₉₉.₅, 0)·``texel_m``, b the band of :func:`band_heights` and b₉₉.₅ its
     :data:`RELIEF_CREST_QUANTILE` over the patch's nodes, ``w`` 0 within
     :data:`RELIEF_FLAT_CELLS` cells of the patch's edge and rising by a smoothstep over
-    :data:`RELIEF_TAPER_CELLS`, so the rim is the plane z = 0 and the rest lies under it."""
+    :data:`RELIEF_TAPER_CELLS`, over the outer :data:`RELIEF_BORDER_FADE` of the height map and,
+    with the ``view``, beyond :data:`RELIEF_FAR_START` look distances (the depth along the view),
+    so the rim is the plane z = 0 and the rest lies under it."""
     import cv2
 
     lines = _node_coords(relief)
@@ -150,12 +158,20 @@ def patch_mesh(relief: GroundRelief, r0: int, first: np.ndarray, last: np.ndarra
     inner = padded[:-1, :-1] & padded[:-1, 1:] & padded[1:, :-1] & padded[1:, 1:]  # all four cells in it
     distance = cv2.distanceTransform(np.pad(inner, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
     t = np.clip((distance - RELIEF_FLAT_CELLS) / RELIEF_TAPER_CELLS, 0.0, 1.0)
-    weight = t * t * (3 - 2 * t)
     rows_t = (r0 + np.arange(cells.shape[0] + 1)) * relief.cell  # node rows and columns in texels
     cols_t = (c0 + np.arange(cells.shape[1] + 1)) * relief.cell
+    n = relief.height.shape[0]
+    inset = np.minimum.outer(np.minimum(rows_t, n - 1 - rows_t), np.minimum(cols_t, n - 1 - cols_t)) / (n / 2)
+    t *= np.clip(inset / RELIEF_BORDER_FADE, 0.0, 1.0)  # fades out before the height map ends
+    north, east = np.meshgrid(lines[r0:r0 + cells.shape[0] + 1], lines[c0:c1 + 1], indexing="ij")
+    if view is not None:  # a low view: fade out from RELIEF_FAR_START look distances to the farthest node
+        depth = view.to_camera(np.stack([east, north, np.zeros_like(east)], axis=-1))[..., 2]
+        start, end = RELIEF_FAR_START * float(np.linalg.norm(view.camera_m)), float(depth[used].max())
+        if end > start:
+            t *= np.clip((end - depth) / (end - start), 0.0, 1.0)
+    weight = t * t * (3 - 2 * t)
     band = band_heights(relief.height, relief.band_texels)[np.ix_(rows_t, cols_t)]
     band = np.minimum(band - np.quantile(band[used], RELIEF_CREST_QUANTILE), 0.0)  # under z = 0, crests on it
-    north, east = np.meshgrid(lines[r0:r0 + cells.shape[0] + 1], lines[c0:c1 + 1], indexing="ij")
     index = np.full(used.shape, -1, np.int64)
     index[used] = np.arange(used.sum())
     vertices = np.stack([east[used], north[used], (weight * band * relief.texel_m)[used]], axis=-1)
@@ -190,7 +206,7 @@ def ground_mesh(view, relief: GroundRelief, half_m: float):
     cells = patch_cells(view, relief)
     if cells is None:
         return None
-    vertices, faces = patch_mesh(relief, *cells)
+    vertices, faces = patch_mesh(relief, *cells, view=view)
     quads = surround_quads(relief, *cells, half_m)
     x0, x1, y0, y1 = quads.T
     corners = np.stack([np.stack([x0, y0], -1), np.stack([x1, y0], -1), np.stack([x1, y1], -1),
