@@ -1,4 +1,4 @@
-"""Colorimetry: the one ground truth for colour accuracy, and XYZ of spectra under a light.
+"""The one ground truth for colour accuracy: XYZ of spectra under a light, and its linear sRGB.
 
 One definition everywhere (docs/design.md, "Ground truth"): CIE 1931 2° XYZ of the spectral radiance under
 the scene illuminant → Bradford chromatic adaptation from the illuminant's white to D65

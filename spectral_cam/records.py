@@ -1,4 +1,5 @@
-"""Records: JSON and CSV files, number formatting and provenance, written one way everywhere.
+"""Result files written one way everywhere: JSON and CSV, numbers formatted for people, provenance
+(package versions).
 
 Every result a command writes (``meta.json``, ``results.json``, ``summary.csv``, the
 manifest, the validation CSVs) goes through these functions: JSON is strict (non-finite

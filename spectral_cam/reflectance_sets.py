@@ -1,7 +1,6 @@
-"""Reflectance sets: measured surface spectra to put in front of the sensor (charts, dataset
-presets, validation): the ColorChecker, the 190 rawtoaces training spectra, the 99 CIE 2017
-samples, the CIE 13.3 and NIST CQS samples, leaves and soils of the USGS spectral library
-(``spectral_cam/data/usgs_splib07``), or a CSV table.
+"""Measured surface spectra by set name, to put in front of the sensor (charts, dataset presets,
+validation): the ColorChecker, 190 rawtoaces training spectra, 99 CIE 2017 samples, the CIE 13.3
+and NIST CQS samples, USGS leaves and soils (``spectral_cam/data/usgs_splib07``), or a CSV table.
 
 References
 ----------

@@ -1,4 +1,5 @@
-"""Spectral data: wavelength bands, illuminants, reflectances, camera sensitivities, filters.
+"""Wavelength bands and the spectra a scene names: illuminants, reflectances, camera sensitivities,
+filters.
 
 Everything here is a plain function returning :class:`Spectrum` objects (tabulated
 wavelengths and values, ``.to_colour()`` for colour-science), or NumPy arrays sampled on a band

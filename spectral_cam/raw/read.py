@@ -1,4 +1,5 @@
-"""RAW reading: any raw file LibRaw supports (DNG or a camera's own format), through rawpy.
+"""A RawImage from any raw file: whatever LibRaw supports (DNG or a camera's own format), read
+through rawpy.
 
 LibRaw does not expose a DNG's ColorMatrix directly: its ``color_matrix`` is the camera →
 sRGB matrix it derived from it (``rgb_xyz_matrix`` stays zero for DNGs), so the XYZ →

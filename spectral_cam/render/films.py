@@ -1,4 +1,4 @@
-"""Films: what each pixel of a render integrates.
+"""What each pixel of a render integrates: the Mitsuba films of box bands or of the camera's curves.
 
 ``band_film``: one box-shaped unit-sensitivity ``specfilm`` channel per band (each value a
 band integral of radiance). ``camera_film``: the three photon-weighted camera curves and the

@@ -1,5 +1,5 @@
-"""Scene files: TOML -> validated, frozen :class:`SceneConfig`, whose sections are assembled from
-the keys their owners declare.
+"""A scene file (TOML) read into a validated, frozen :class:`SceneConfig`, whose sections are
+assembled from the keys their owners declare.
 
 - :mod:`.config`: :class:`SceneConfig`, reading (:func:`load_scene`, :func:`scene_from_dict`),
   overrides and TOML writing;

@@ -1,4 +1,5 @@
-"""Scene files: TOML -> validated, frozen :class:`SceneConfig`.
+"""Reading and writing scene files: TOML or a dict, with overrides → validated, frozen
+:class:`SceneConfig`, and back to TOML.
 
 A scene file says only what differs from the defaults; any key can be overridden with
 ``section.key=value`` strings (the CLI's ``--set``) or an ``overrides`` mapping. Each section is

@@ -1,5 +1,6 @@
-"""Exposure: the metered time (a camera's meter, ISO 12232 mid grey; or expose to the right),
-the exposure index the rendering must honour, and the noise-free electrons of a frame.
+"""How long a frame is exposed and what it collects: the metered time (a camera's meter, ISO 12232
+mid grey; or expose to the right), the exposure index the rendering must honour, and the noise-free
+electrons of a frame.
 
 References
 ----------

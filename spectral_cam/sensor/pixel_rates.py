@@ -1,4 +1,4 @@
-"""Pixel rates: a radiance cube through the signal model's weights to each pixel's photo-electron rate.
+"""Each pixel's photo-electron rate: a radiance cube through the signal model's weights and the CFA.
 
 The cube is read once, in row chunks on threads (:mod:`spectral_cam.sensor.parallel`), and checked
 while it is read (NaN, ±Inf, negative values, float32 overflow are refused with the pixel named):

@@ -1,4 +1,5 @@
-"""Radiometry: band radiance → irradiance on the sensor → photo-electrons per band and channel.
+"""The camera equation and quantum efficiency: band radiance → irradiance on the sensor →
+photo-electrons per band and channel.
 
 1. the camera equation (:func:`camera_equation_irradiance`):
    ``E_b = π·L_b·T(λ_b) / (1 + 4·N_w²) · cos⁴θ`` (W·m⁻²), from band integrals of radiance
