@@ -16,6 +16,8 @@ import cv2
 import numpy as np
 import pytest
 
+import spectral_cam as sc
+
 from spectral_cam.render.robust import GINI_THRESHOLD, adaptive_median_of_means, lone_outlier
 
 pytestmark = pytest.mark.timeout(120)
@@ -33,8 +35,13 @@ def _lab(spectra: np.ndarray) -> np.ndarray:
 
 
 def _isolated_chroma_outliers(lab: np.ndarray, delta_e: float = 10.0) -> np.ndarray:
+    """Pixels whose (a*, b*) lie > ``delta_e`` from their 5 × 5 median and > 2× as far as any of
+    their 8 neighbours' (a speckle, not an edge between two colours)."""
     a, b = (np.ascontiguousarray(lab[..., i], np.float32) for i in (1, 2))
-    return np.hypot(a - cv2.medianBlur(a, 5), b - cv2.medianBlur(b, 5)) > delta_e
+    offset = np.hypot(a - cv2.medianBlur(a, 5), b - cv2.medianBlur(b, 5))
+    ring = np.ones((3, 3), np.uint8)
+    ring[1, 1] = 0
+    return (offset > delta_e) & (offset > 2 * cv2.dilate(offset, ring, borderType=cv2.BORDER_REFLECT))
 
 
 def _grey_passes(rng, k: int, shape: tuple, noise: float) -> np.ndarray:
@@ -62,7 +69,7 @@ def test_a_coloured_caustic_pass_under_the_gini_gate_leaves_no_speckle():
     assert pairwise.max() < GINI_THRESHOLD  # the gate alone would keep the mean here
 
     mean_lab = _lab(passes.mean(axis=0))
-    assert _isolated_chroma_outliers(mean_lab)[hit].mean() > 0.9
+    assert _isolated_chroma_outliers(mean_lab)[hit].mean() > 0.8  # a few hits touch one another
     estimate, share = adaptive_median_of_means(passes)
     lab = _lab(estimate)
     assert not _isolated_chroma_outliers(lab).any()
@@ -103,3 +110,25 @@ def test_a_median_pixel_takes_its_colour_from_more_passes():
         return np.hypot(lab[..., 1] - ref[1], lab[..., 2] - ref[2]).mean()
 
     assert chroma_error(estimate) <= 0.75 * chroma_error(middle_two)
+
+
+@pytest.mark.timeout(900)
+def test_the_glass_sphere_scene_keeps_few_isolated_chroma_outliers():
+    """The bundled glass and copper spheres under a small lamp at 160 × 106 px (its view kept: 3×
+    the pixel pitch), 8 passes of 8 spp (the default 64 spp as the estimator splits it): the
+    plain mean of the passes leaves isolated chroma outliers at 0.29–0.41 % of the pixels
+    (caustics on the cloth; 3 seed sets measured); the estimate of the same passes ≤ 0.4× as
+    many and ≤ 0.15 % of the pixels (measured 13–17 of 16 960; the former rule 16–20). Colour
+    noise that every pass shares stays: only more samples reduce it."""
+    scene = sc.load_scene("scenes/glass_sphere.toml")
+    small = {"sensor.width_px": 160, "sensor.height_px": 106, "sensor.pixel_pitch_um": 3 * scene.sensor.pixel_pitch_um,
+             "render.spp": 8, "render.estimator": "mean", "render.bands": "400:700:10"}
+    passes = np.stack([np.asarray(sc.render(scene.replace(**small, **{"render.seed": 500 + k}), with_depth=False).data)
+                       for k in range(8)])
+    white = np.percentile(passes.mean(axis=0).sum(axis=-1), 99) / WAVELENGTHS.size  # the 99th percentile: L* 100
+    mean = _isolated_chroma_outliers(_lab(passes.mean(axis=0) / white)).sum()
+    estimate, _ = adaptive_median_of_means(passes)
+    robust = _isolated_chroma_outliers(_lab(estimate / white)).sum()
+    pixels = passes[0, ..., 0].size
+    assert mean >= 0.002 * pixels, mean
+    assert robust <= 0.4 * mean and robust <= 0.0015 * pixels, (robust, mean)
