@@ -48,6 +48,8 @@ RELIEF_FLAT_CELLS, RELIEF_TAPER_CELLS = 2, 16
 #: Towards the height map's edge (where a low view sees the patch end) the relief fades out over
 #: this share of its half-side: a gradient of brightness, not a line, where cast shadows stop.
 RELIEF_BORDER_FADE = 0.4
+#: The flat quads around the patch are cut to at most this many times as long as wide.
+RELIEF_CHUNK_ASPECT = 8.0
 #: And where the patch reaches farther than this many times the look point's distance (depth
 #: along the view), it fades out from there to its farthest node: cells a fraction of a pixel.
 RELIEF_FAR_START = 1.3
@@ -181,19 +183,46 @@ def patch_mesh(relief: GroundRelief, r0: int, first: np.ndarray, last: np.ndarra
     return vertices, faces
 
 
+def _chunks(x0: float, x1: float, y0: float, y1: float) -> list:
+    """A rectangle cut across its long side into pieces at most :data:`RELIEF_CHUNK_ASPECT` times
+    as long as wide (none when it is empty)."""
+    if x1 <= x0 or y1 <= y0:
+        return []
+    long_x = (x1 - x0) >= (y1 - y0)
+    length, width = (x1 - x0, y1 - y0) if long_x else (y1 - y0, x1 - x0)
+    cuts = np.linspace(0.0, 1.0, int(np.ceil(length / (RELIEF_CHUNK_ASPECT * width))) + 1)
+    if long_x:
+        xs = x0 + cuts * (x1 - x0)
+        return [(u, v, y0, y1) for u, v in zip(xs[:-1], xs[1:])]
+    ys = y0 + cuts * (y1 - y0)
+    return [(x0, x1, u, v) for u, v in zip(ys[:-1], ys[1:])]
+
+
 def surround_quads(relief: GroundRelief, r0: int, first: np.ndarray, last: np.ndarray, half_m: float):
     """(x0, x1, y0, y1) rectangles (m) that cover the ground square of half side ``half_m`` but
-    the patch's cells one cell inside its edge (which the patch keeps flat)."""
+    the patch's cells one cell inside its edge (which the patch keeps flat): a strip a row
+    between the hole and the patch's inset bounding box, then rings around the box each twice as
+    wide as the last out to the square's edge, every piece cut to at most
+    :data:`RELIEF_CHUNK_ASPECT` times as long as wide. Mitsuba's float32 ray–triangle test is
+    off by ~ε·length·aspect beside a triangle's edges: a 200 m × 1.5 m quad beside the patch let
+    rays through 1 mm inside its edge, 200 m strips a row high 154 of 20 000 vertical rays."""
     lines = _node_coords(relief)
-    rows = len(first)
-    quads = [(-half_m, half_m, -half_m, lines[r0 + 1]), (-half_m, half_m, lines[r0 + rows - 1], half_m)]
+    cell = float(lines[1] - lines[0])
+    rows, west, east = len(first), int(first.min()) + 1, int(last.max())  # node columns of the box, inset
+    box = np.array([lines[west], lines[east], lines[r0 + 1], max(lines[r0 + rows - 1], lines[r0 + 1])])
+    quads = []
     for i in range(1, rows - 1):
         y0, y1 = lines[r0 + i], lines[r0 + i + 1]
         a, b = first[i] + 1, last[i]  # the hole: cells a … b − 1, node columns a … b
-        if b - a < 1:
-            quads.append((-half_m, half_m, y0, y1))
-        else:
-            quads += [(-half_m, lines[a], y0, y1), (lines[b], half_m, y0, y1)]
+        parts = [(box[0], box[1])] if b - a < 1 else [(box[0], lines[a]), (lines[b], box[1])]
+        for x0, x1 in parts:
+            quads += _chunks(x0, x1, y0, y1)
+    inner, grow = box, cell
+    while inner[0] > -half_m or inner[1] < half_m or inner[2] > -half_m or inner[3] < half_m:
+        outer = np.clip(inner + np.array([-grow, grow, -grow, grow]), -half_m, half_m)
+        quads += (_chunks(outer[0], outer[1], outer[2], inner[2]) + _chunks(outer[0], outer[1], inner[3], outer[3])
+                  + _chunks(outer[0], inner[0], inner[2], inner[3]) + _chunks(inner[1], outer[1], inner[2], inner[3]))
+        inner, grow = outer, 2.0 * grow
     return np.array(quads, dtype=np.float64)
 
 
