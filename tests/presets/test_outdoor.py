@@ -128,7 +128,7 @@ def test_depth_labels_are_the_ground_planes_analytic_depth(make_scene):
     """Ground only: each pixel's depth (one ray through a random point of the pixel) lies
     between the plane's depths at the pixel's top and bottom edges (± 1e-4 relative, float32);
     rows whose pixels see only sky are infinite."""
-    config = _ground_only(make_scene)
+    config = _ground_only(make_scene, ground="flat")  # a plane: the textured ground has relief
     depth = render(config).depth_m
     top, bottom = _plane_depth(config, depth.shape, 0.0), _plane_depth(config, depth.shape, 1.0)
     ground = np.isfinite(top) & np.isfinite(bottom)
@@ -221,7 +221,8 @@ def test_vegetation_renders_green_plants_on_soil_with_depth(make_scene):
     """Plants stand above the ground (nearer than the plane at their pixels) and are greener
     than the soil: the clean green chromaticity g = G/(R+G+B) of plant pixels exceeds the soil's."""
     config = make_scene(scene={"preset": "vegetation", "object_count": 6, "object_size": [0.25, 0.35],
-                               "dry_fraction": 0.0, "distance_m": 3.0, "view_pitch_deg": -35.0},
+                               "dry_fraction": 0.0, "distance_m": 3.0, "view_pitch_deg": -35.0,
+                               "ground": "flat"},  # a plane to compare depths with (textured has relief)
                         sensor={"width_px": 96, "height_px": 64}, lens={"model": "pinhole", "focal_length_mm": 4.0},
                         render={"spp": 16, "max_depth": 2})
     image = render(config)
