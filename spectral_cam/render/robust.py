@@ -1,4 +1,4 @@
-"""Fireflies: a robust estimate of a pixel's radiance from the means of K independent passes.
+"""A pixel's radiance robust to fireflies, from the means of K independent passes.
 
 A firefly is a pixel whose few samples found a rare, very bright path (a caustic through glass,
 a glint off metal seen through a diffuse bounce): one pass's mean is far above the others'. The
