@@ -1,18 +1,28 @@
 """The textured ground's relief as geometry where the camera resolves it, so that clods and
 cracks cast shadows (a bump map only shades: it tilts the normal, and nothing occludes the sun).
 
-The ground of the outdoor presets is one mesh (:func:`displaced_ground`): near the look point, over
-the cells of the height map that the frame sees (widened by :data:`RELIEF_FRAME_MARGIN`), a grid of
-cells :func:`cell_texels` texels on a side (about :data:`RELIEF_CELL_PX` pixels at the look point)
-whose nodes stand at the height map's heights — its band finer than a Gaussian of
-``band_texels`` (the clods, cracks and litter edges; the hollows' gentle swell, rms slope ~0.1,
-stays a bump), lowered so that its crests touch the plane z = 0 (:data:`RELIEF_CREST_QUANTILE`):
-objects and plants stand on the crests as on the plane before, and no ground comes nearer the
-camera than that plane, which the plant masks of ``apps/sequence/drift.py`` and the health label
-rely on; around it, the rest of the ground square as flat quads. The patch is flat along its rim
-(:data:`RELIEF_FLAT_CELLS` cells, then a smoothstep over :data:`RELIEF_TAPER_CELLS`) and the
-quads' hole lies one cell inside that rim, so the two overlap where both are the plane z = 0 and
-no ray slips between them.
+The ground of the outdoor presets is one mesh (:func:`displaced_ground`), made the way terrain
+renderers make theirs [4]_, [5]_: over the part of the ground the frame sees (widened by
+:data:`RELIEF_FRAME_MARGIN`), a quadtree of square cells (:func:`ring_cells`) whose level L has
+cells ``cell``·2^L texels on a side (:func:`cell_texels`: about :data:`RELIEF_CELL_PX` pixels at
+the look point) and reaches from :data:`RELIEF_RING_START`·2^(L−1) to :data:`RELIEF_RING_START`·2^L
+look distances (depth along the view), so that a cell stays 1–2 pixels wide at any distance, out
+to the level whose cells reach :data:`RELIEF_RING_END_BAND` of the band's σ (:func:`ring_levels`). Level L's nodes stand on the
+height map's band finer than a Gaussian of ``band_texels`` (the clods, cracks and litter edges;
+the hollows' gentle swell, rms slope ~0.1, stays a bump), low-passed by a Gaussian of half its
+cell (level 0 not at all) so that relief finer than a cell does not alias, and lowered so that
+its crests touch the plane z = 0 (:data:`RELIEF_CREST_QUANTILE`): objects and plants stand on the
+crests, and no ground comes nearer the camera than that plane, which the plant masks of
+``apps/sequence/drift.py`` and the health label rely on. Over the outer half of its range (in
+log depth) a level's nodes morph into the next level's surface (geomorphing [5]_), so the
+relief, and the share of the ground its facets shadow, fades with distance without a step, and
+a fine node on a coarse cell's edge lies on that edge: no crack at the seams. Beyond the height
+map the heights are mirrored, as the texture is. Under it all lies the ground square as a flat
+backstop just below the deepest node (rings of quads, every one at most
+:data:`RELIEF_CHUNK_ASPECT` times as long as wide): the ground beyond the frame and the far end,
+and whatever float precision lets slip between triangles (a T-junction's float rounding; no
+skirt needed). An object out there stands up to the relief's depth (centimetres) above it,
+unseen.
 
 Every vertex has the normal +z: Mitsuba's ``bumpmap`` replaces the component of ∂p/∂u and ∂p/∂v
 along the shading normal by the texture's gradient, so with a vertical shading normal a tilted
@@ -26,6 +36,10 @@ References
    the normal only).
 .. [2] Cook, R. L. (1984). Shade trees. SIGGRAPH '84, 223–231 (displacement: the geometry moves).
 .. [3] Mitsuba 3, plugin ``bumpmap`` (``frame``: ∂p/∂u ← ∂p/∂u + n·(∂h/∂u − n·∂p/∂u)).
+.. [4] Losasso, F., & Hoppe, H. (2004). Geometry clipmaps: terrain rendering using nested regular
+   grids. ACM Transactions on Graphics 23(3), 769–776.
+.. [5] Ulrich, T. (2002). Rendering massive terrains using chunked level of detail control.
+   SIGGRAPH 2002 course notes (geomorphing between levels; skirts).
 """
 
 from __future__ import annotations
@@ -34,26 +48,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RELIEF_CELL_PX", "RELIEF_CREST_QUANTILE", "GroundRelief", "ReliefBSDF", "cell_texels", "band_heights", "patch_cells",
-           "patch_mesh", "surround_quads", "ground_mesh", "displaced_ground"]
+__all__ = ["RELIEF_CELL_PX", "RELIEF_CREST_QUANTILE", "RELIEF_RING_START", "GroundRelief", "ReliefBSDF",
+           "cell_texels", "band_heights", "ring_levels", "level_heights", "morphed_heights", "ring_cells",
+           "ground_mesh", "displaced_ground"]
 
 #: The mesh's cells are about this many pixels wide at the look point: the relief a pixel sees.
 RELIEF_CELL_PX = 1.5
-#: The patch covers the frame widened by this share of its half-width and half-height on each
+#: The mesh covers the frame widened by this share of its half-width and half-height on each
 #: side: the sensor's crop margin, and clods just outside the frame that shade it.
 RELIEF_FRAME_MARGIN = 0.15
-#: Cells of the patch's rim that stay flat (where the surrounding quads overlap it), and cells
-#: of the smoothstep from there to the full relief (a slope of ~0.1 down to the sunk surface).
-RELIEF_FLAT_CELLS, RELIEF_TAPER_CELLS = 2, 16
-#: Towards the height map's edge (where a low view sees the patch end) the relief fades out over
-#: this share of its half-side: a gradient of brightness, not a line, where cast shadows stop.
-RELIEF_BORDER_FADE = 0.4
-#: The flat quads around the patch are cut to at most this many times as long as wide.
+#: Level L of the mesh (cells 2^L times the finest) reaches from this times 2^(L−1) to this
+#: times 2^L look distances: its cells are 1–2 pixels wide there, as level 0's at the look point.
+RELIEF_RING_START = 1.5
+#: Levels go on until their cells are this many times the band's σ; the last morphs into the
+#: band low-passed by a Gaussian of its cell, whose slopes (rms 0.04 for the presets' clods of rms
+#: slope 0.6: 0.60, 0.26, 0.11, 0.04 at σ = 0, 2, 4, 8 texels) cast no shadow for a sun above
+#: ~5°: beyond it the bump map alone shades the ground.
+RELIEF_RING_END_BAND = 0.5
+#: The flat backstop's quads are cut to at most this many times as long as wide.
 RELIEF_CHUNK_ASPECT = 8.0
-#: And where the patch reaches farther than this many times the look point's distance (depth
-#: along the view), it fades out from there to its farthest node: cells a fraction of a pixel.
-RELIEF_FAR_START = 1.3
-#: The relief is lowered so that this quantile of its nodes touches the plane z = 0 (the few
+#: Each level is lowered so that this quantile of its heights touches the plane z = 0 (the few
 #: higher crests are cut flat there): the ground lies under the plane the objects stand on.
 RELIEF_CREST_QUANTILE = 0.995
 
@@ -109,78 +123,142 @@ def band_heights(height: np.ndarray, band_texels: float) -> np.ndarray:
         np.float64)
 
 
-def _node_coords(relief: GroundRelief) -> np.ndarray:
-    """Ground coordinates (m) of the mesh's node lines: node k stands on texel centre k·cell."""
-    n = relief.height.shape[0]
-    return ((np.arange(0, n, relief.cell) + 0.5) / n - 0.5) * relief.extent_m
+def cell_texels(relief_texels: int, width_px: int, views: float) -> int:
+    """Texels on a side of a mesh cell: :data:`RELIEF_CELL_PX` pixels at the look point, for a
+    height map of ``relief_texels`` spanning ``views`` view widths of ``width_px`` pixels
+    (at least 1).
+
+    Examples
+    --------
+    >>> cell_texels(2048, 480, 3.0)  # 1.42 texels a pixel: cells of 2 texels, 1.4 px
+    2
+    """
+    return max(1, int(round(RELIEF_CELL_PX * relief_texels / (views * width_px))))
 
 
-def patch_cells(view, relief: GroundRelief):
-    """The cells the frame sees: ``(r0, first, last)``, cell rows ``r0 …`` (north) each from
-    column ``first[i]`` to ``last[i]`` (east, inclusive), or None when the frame sees none. A cell
-    counts when its centre, on z = 0, lies in the frame widened by :data:`RELIEF_FRAME_MARGIN`;
-    the frame's footprint on a plane is convex, so each row's cells are one run."""
-    lines = _node_coords(relief)
-    centres = (lines[:-1] + lines[1:]) / 2
-    east, north = np.meshgrid(centres, centres)  # [row (north), column (east)]
-    cam = view.to_camera(np.stack([east, north, np.zeros_like(east)], axis=-1))
-    z = cam[..., 2]
-    tan_w, tan_h = (t * (1.0 + RELIEF_FRAME_MARGIN) for t in relief.tan_half)
-    seen = (z > 0) & (np.abs(cam[..., 0]) < tan_w * z) & (np.abs(cam[..., 1]) < tan_h * z)
-    rows = np.flatnonzero(seen.any(axis=1))
-    if rows.size == 0:
-        return None
-    rows = np.arange(rows[0], rows[-1] + 1)
-    first = np.array([np.argmax(seen[r]) if seen[r].any() else -1 for r in rows])
-    last = np.array([seen.shape[1] - 1 - np.argmax(seen[r, ::-1]) if seen[r].any() else -1 for r in rows])
-    keep = first >= 0  # a convex footprint has no empty row inside; kept safe anyway
-    if not keep.all():
-        rows, first, last = rows[keep], first[keep], last[keep]
-        rows = rows[0] + np.arange(len(rows))
-    return int(rows[0]), first, last
-
-
-def patch_mesh(relief: GroundRelief, r0: int, first: np.ndarray, last: np.ndarray, view=None):
-    """Vertices (ground frame, m), faces (facing up) of the displaced cells: each node at
-    ``w``·min(b − b₉₉.₅, 0)·``texel_m``, b the band of :func:`band_heights` and b₉₉.₅ its
-    :data:`RELIEF_CREST_QUANTILE` over the patch's nodes, ``w`` 0 within
-    :data:`RELIEF_FLAT_CELLS` cells of the patch's edge and rising by a smoothstep over
-    :data:`RELIEF_TAPER_CELLS`, over the outer :data:`RELIEF_BORDER_FADE` of the height map and,
-    with the ``view``, beyond :data:`RELIEF_FAR_START` look distances (the depth along the view),
-    so the rim is the plane z = 0 and the rest lies under it."""
+def band_heights(height: np.ndarray, band_texels: float) -> np.ndarray:
+    """The relief finer than a Gaussian of σ = ``band_texels`` texels: ``height`` less its
+    low-pass (OpenCV, mirrored at the edges as the texture is), zero mean."""
     import cv2
 
-    lines = _node_coords(relief)
-    c0, c1 = int(first.min()), int(last.max()) + 1  # the cells' bounding box, columns c0 … c1 − 1
-    cells = np.zeros((len(first), c1 - c0), bool)
-    for i, (a, b) in enumerate(zip(first, last)):
-        cells[i, a - c0:b - c0 + 1] = True
-    padded = np.pad(cells, 1)
-    used = padded[:-1, :-1] | padded[:-1, 1:] | padded[1:, :-1] | padded[1:, 1:]  # nodes of a patch cell
-    inner = padded[:-1, :-1] & padded[:-1, 1:] & padded[1:, :-1] & padded[1:, 1:]  # all four cells in it
-    distance = cv2.distanceTransform(np.pad(inner, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
-    t = np.clip((distance - RELIEF_FLAT_CELLS) / RELIEF_TAPER_CELLS, 0.0, 1.0)
-    rows_t = (r0 + np.arange(cells.shape[0] + 1)) * relief.cell  # node rows and columns in texels
-    cols_t = (c0 + np.arange(cells.shape[1] + 1)) * relief.cell
-    n = relief.height.shape[0]
-    inset = np.minimum.outer(np.minimum(rows_t, n - 1 - rows_t), np.minimum(cols_t, n - 1 - cols_t)) / (n / 2)
-    t *= np.clip(inset / RELIEF_BORDER_FADE, 0.0, 1.0)  # fades out before the height map ends
-    north, east = np.meshgrid(lines[r0:r0 + cells.shape[0] + 1], lines[c0:c1 + 1], indexing="ij")
-    if view is not None:  # a low view: fade out from RELIEF_FAR_START look distances to the farthest node
-        depth = view.to_camera(np.stack([east, north, np.zeros_like(east)], axis=-1))[..., 2]
-        start, end = RELIEF_FAR_START * float(np.linalg.norm(view.camera_m)), float(depth[used].max())
-        if end > start:
-            t *= np.clip((end - depth) / (end - start), 0.0, 1.0)
-    weight = t * t * (3 - 2 * t)
-    band = band_heights(relief.height, relief.band_texels)[np.ix_(rows_t, cols_t)]
-    band = np.minimum(band - np.quantile(band[used], RELIEF_CREST_QUANTILE), 0.0)  # under z = 0, crests on it
-    index = np.full(used.shape, -1, np.int64)
-    index[used] = np.arange(used.sum())
-    vertices = np.stack([east[used], north[used], (weight * band * relief.texel_m)[used]], axis=-1)
-    v00, v01 = index[:-1, :-1][cells], index[:-1, 1:][cells]  # (row, column): north, east
-    v10, v11 = index[1:, :-1][cells], index[1:, 1:][cells]
-    faces = np.concatenate([np.stack([v00, v01, v11], -1), np.stack([v00, v11, v10], -1)])  # counter-clockwise
-    return vertices, faces
+    field = np.asarray(height, dtype=np.float32)
+    return (field - cv2.GaussianBlur(field, (0, 0), float(band_texels), borderType=cv2.BORDER_REFLECT)).astype(
+        np.float64)
+
+
+def ring_levels(relief: GroundRelief) -> int:
+    """The coarsest level of the mesh: the first whose cells, ``cell``·2^L texels, reach
+    :data:`RELIEF_RING_END_BAND` times the band's σ (0 when the finest cells already do)."""
+    return max(0, int(np.ceil(np.log2(RELIEF_RING_END_BAND * relief.band_texels / relief.cell))))
+
+
+def level_heights(relief: GroundRelief) -> list:
+    """Node heights (texels) of every level and of the one after the last (the last morphs into
+    it), each on the height map's texels: the band of :func:`band_heights` low-passed by a
+    Gaussian of σ = half the level's cell (OpenCV, mirrored; level 0 as it is), lowered by its
+    :data:`RELIEF_CREST_QUANTILE` and cut at 0."""
+    import cv2
+
+    band = band_heights(relief.height, relief.band_texels).astype(np.float32)
+    fields = []
+    for level in range(ring_levels(relief) + 2):
+        sigma = 0.5 * relief.cell * 2 ** level
+        low = band if level == 0 else cv2.GaussianBlur(band, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+        low = low.astype(np.float64)
+        fields.append(np.minimum(low - np.quantile(low, RELIEF_CREST_QUANTILE), 0.0))
+    return fields
+
+
+def _mirror(t: np.ndarray, n: int) -> np.ndarray:
+    """Texel index ``t`` (any integer) folded into 0 … n − 1 as a mirrored texture is."""
+    t = np.mod(t, 2 * n)
+    return np.where(t < n, t, 2 * n - 1 - t)
+
+
+def _at(field: np.ndarray, col: np.ndarray, row: np.ndarray) -> np.ndarray:
+    n = field.shape[0]
+    return field[_mirror(row, n), _mirror(col, n)]
+
+
+def _texel_m(relief: GroundRelief, t) -> np.ndarray:
+    """Ground coordinate (m) of texel index ``t`` (its centre; the map spans 0 … n − 1)."""
+    return (np.asarray(t, dtype=np.float64) + 0.5 - relief.height.shape[0] / 2) * relief.texel_m
+
+
+def _level_of_depth(view, depth_m: np.ndarray) -> np.ndarray:
+    """The continuous level log2(depth / (:data:`RELIEF_RING_START`·look distance)) + 1: level L
+    reaches from L to L + 1 (negative near the camera, where level 0 goes on)."""
+    look = RELIEF_RING_START * float(np.linalg.norm(view.camera_m))
+    return np.log2(np.maximum(depth_m, 1e-9) / look) + 1.0
+
+
+def morphed_heights(view, relief: GroundRelief, fields: list, level: np.ndarray, col: np.ndarray,
+                    row: np.ndarray) -> np.ndarray:
+    """Heights (texels) of nodes at texel indices ``col``, ``row`` of cells at ``level``: the
+    level's own (``fields`` of :func:`level_heights`) blended by a smoothstep, over the outer
+    half of the level's range, into the next level's surface there (its cells cut along the
+    south-west–north-east diagonal, linear on each half), which it reaches at the range's end."""
+    z = np.empty(len(col))
+    for lv in np.unique(level):
+        sel = level == lv
+        c, r = col[sel], row[sel]
+        own, coarse, s = fields[lv], fields[lv + 1], relief.cell * 2 ** (lv + 1)
+        i, j = np.floor_divide(c, s) * s, np.floor_divide(r, s) * s
+        a, b = (c - i) / s, (r - j) / s
+        z00, z01, z10, z11 = _at(coarse, i, j), _at(coarse, i + s, j), _at(coarse, i, j + s), _at(coarse, i + s, j + s)
+        target = np.where(a >= b, z00 + a * (z01 - z00) + b * (z11 - z01), z00 + b * (z10 - z00) + a * (z11 - z10))
+        depth = view.to_camera(np.stack([_texel_m(relief, c), _texel_m(relief, r), np.zeros(len(c))], -1))[:, 2]
+        t = np.clip(2.0 * (_level_of_depth(view, depth) - lv) - 1.0, 0.0, 1.0)
+        mu = t * t * (3 - 2 * t)
+        z[sel] = (1 - mu) * _at(own, c, r) + mu * target
+    return z
+
+
+def _cell_corners(relief: GroundRelief, i: np.ndarray, j: np.ndarray, s: int) -> np.ndarray:
+    """Ground points (m) of the corners of cells (``i``, ``j``) of ``s`` texels: [cell, corner, xyz]."""
+    cols = np.stack([i, i + 1, i, i + 1], -1) * s
+    rows = np.stack([j, j, j + 1, j + 1], -1) * s
+    return np.stack([_texel_m(relief, cols), _texel_m(relief, rows), np.zeros(cols.shape)], -1)
+
+
+def _split(view, relief: GroundRelief, i, j, level: int, top: int, half_m: float):
+    """Of cells (``i``, ``j``) at ``level``: the leaves (kept at this level) and the cells to
+    split. A cell is dropped when all its corners lie outside one plane of the widened frame or
+    beyond the last level's range (the frame's footprint is convex: what is left meets it, or
+    nearly), or outside the ground square; it is a leaf when its nearest corner's continuous
+    level (:func:`_level_of_depth`) is at least ``level``, if it lies wholly in the square."""
+    corners = _cell_corners(relief, i, j, relief.cell * 2 ** level)
+    cam = view.to_camera(corners)
+    x, y, z = cam[..., 0], cam[..., 1], cam[..., 2]
+    tan_w, tan_h = (t * (1.0 + RELIEF_FRAME_MARGIN) for t in relief.tan_half)
+    far = RELIEF_RING_START * float(np.linalg.norm(view.camera_m)) * 2.0 ** top
+    outside = ((x > tan_w * z).all(-1) | (-x > tan_w * z).all(-1) | (y > tan_h * z).all(-1)
+               | (-y > tan_h * z).all(-1) | (z > far).all(-1))
+    in_square = (np.abs(corners[..., :2]) <= half_m).all(-1)
+    inside, outside = in_square.all(-1), outside | ~in_square.any(-1)
+    nearest = _level_of_depth(view, z.min(-1))
+    leaf = ~outside & inside & ((nearest >= level) | (level == 0))
+    split = ~outside & ~leaf & (level > 0)
+    return (i[leaf], j[leaf]), (i[split], j[split])
+
+
+def ring_cells(view, relief: GroundRelief, half_m: float) -> list:
+    """The mesh's cells: per level L (0 … :func:`ring_levels`), the indices (i, j) of its cells,
+    texels i·s … (i + 1)·s east and j·s … (j + 1)·s north, s = ``cell``·2^L; a quadtree from cells
+    a quarter of the ground square's half side, split down to each cell's level (:func:`_split`)."""
+    top = ring_levels(relief)
+    root = max(top, int(np.ceil(np.log2(half_m / (4.0 * relief.cell * relief.texel_m)))))
+    s = relief.cell * 2 ** root
+    k = int(np.ceil((half_m / relief.texel_m + relief.height.shape[0]) / s)) + 1
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(-k, k), np.arange(-k, k)))
+    leaves = [None] * (top + 1)
+    for level in range(root, -1, -1):
+        leaf, (i, j) = _split(view, relief, i, j, level, top, half_m)
+        if level <= top:  # above it, a leaf lies beyond ``far``: no leaf (the backstop is there)
+            leaves[level] = leaf
+        i = np.concatenate([2 * i, 2 * i + 1, 2 * i, 2 * i + 1])
+        j = np.concatenate([2 * j, 2 * j, 2 * j + 1, 2 * j + 1])
+    return leaves
 
 
 def _chunks(x0: float, x1: float, y0: float, y1: float) -> list:
@@ -198,27 +276,14 @@ def _chunks(x0: float, x1: float, y0: float, y1: float) -> list:
     return [(x0, x1, u, v) for u, v in zip(ys[:-1], ys[1:])]
 
 
-def surround_quads(relief: GroundRelief, r0: int, first: np.ndarray, last: np.ndarray, half_m: float):
-    """(x0, x1, y0, y1) rectangles (m) that cover the ground square of half side ``half_m`` but
-    the patch's cells one cell inside its edge (which the patch keeps flat): a strip a row
-    between the hole and the patch's inset bounding box, then rings around the box each twice as
-    wide as the last out to the square's edge, every piece cut to at most
-    :data:`RELIEF_CHUNK_ASPECT` times as long as wide. Mitsuba's float32 ray–triangle test is
-    off by ~ε·length·aspect beside a triangle's edges: a 200 m × 1.5 m quad beside the patch let
-    rays through 1 mm inside its edge, 200 m strips a row high 154 of 20 000 vertical rays."""
-    lines = _node_coords(relief)
-    cell = float(lines[1] - lines[0])
-    rows, west, east = len(first), int(first.min()) + 1, int(last.max())  # node columns of the box, inset
-    box = np.array([lines[west], lines[east], lines[r0 + 1], max(lines[r0 + rows - 1], lines[r0 + 1])])
-    quads = []
-    for i in range(1, rows - 1):
-        y0, y1 = lines[r0 + i], lines[r0 + i + 1]
-        a, b = first[i] + 1, last[i]  # the hole: cells a … b − 1, node columns a … b
-        parts = [(box[0], box[1])] if b - a < 1 else [(box[0], lines[a]), (lines[b], box[1])]
-        for x0, x1 in parts:
-            quads += _chunks(x0, x1, y0, y1)
-    inner, grow = box, cell
-    while inner[0] > -half_m or inner[1] < half_m or inner[2] > -half_m or inner[3] < half_m:
+def backstop_quads(half_m: float, start_m: float) -> np.ndarray:
+    """(x0, x1, y0, y1) rectangles (m) covering the ground square of half side ``half_m``: a
+    square of half side ``start_m`` and rings around it each twice as wide as the last, every
+    piece cut to at most :data:`RELIEF_CHUNK_ASPECT` times as long as wide (Mitsuba's float32
+    ray–triangle test is off by ~ε·length·aspect beside a triangle's edges)."""
+    inner, grow = np.array([-start_m, start_m, -start_m, start_m]), start_m
+    quads = [tuple(inner)]
+    while inner[1] < half_m:
         outer = np.clip(inner + np.array([-grow, grow, -grow, grow]), -half_m, half_m)
         quads += (_chunks(outer[0], outer[1], outer[2], inner[2]) + _chunks(outer[0], outer[1], inner[3], outer[3])
                   + _chunks(outer[0], inner[0], inner[2], inner[3]) + _chunks(inner[1], outer[1], inner[2], inner[3]))
@@ -226,23 +291,48 @@ def surround_quads(relief: GroundRelief, r0: int, first: np.ndarray, last: np.nd
     return np.array(quads, dtype=np.float64)
 
 
+def _cell_faces(relief: GroundRelief, leaves: list):
+    """Unique node texel indices (col, row), each node's finest level, and the faces (facing up,
+    two a cell, cut along the south-west–north-east diagonal) of the cells ``leaves``."""
+    corners, levels = [], []
+    for level, (i, j) in enumerate(leaves):
+        s = relief.cell * 2 ** level
+        corners.append(np.stack([np.stack([i, j], -1), np.stack([i + 1, j], -1), np.stack([i, j + 1], -1),
+                                 np.stack([i + 1, j + 1], -1)], 1) * s)  # v00, v01 (east), v10 (north), v11
+        levels.append(np.full(len(i), level))
+    corners, levels = np.concatenate(corners), np.concatenate(levels)
+    offset = int(np.abs(corners).max()) + 1
+    keys = (corners[..., 1] + offset) * (2 * offset + 1) + (corners[..., 0] + offset)
+    unique, inverse = np.unique(keys.ravel(), return_inverse=True)
+    inverse = inverse.reshape(keys.shape)
+    node_level = np.full(len(unique), 1 << 30)
+    np.minimum.at(node_level, inverse, np.repeat(levels[:, None], 4, 1))
+    col, row = unique % (2 * offset + 1) - offset, unique // (2 * offset + 1) - offset
+    v00, v01, v10, v11 = inverse.T
+    faces = np.concatenate([np.stack([v00, v01, v11], -1), np.stack([v00, v11, v10], -1)])
+    return col, row, node_level, faces
+
+
 def ground_mesh(view, relief: GroundRelief, half_m: float):
     """Vertices (ground frame, m), faces (facing up) and texture coordinates of the whole ground
-    square: the displaced patch (:func:`patch_mesh`) and the flat quads around it
-    (:func:`surround_quads`); the texture coordinates those of a ``rectangle`` of half side
-    ``half_m`` (0.5 + position / 2·half), so the ground's BSDF maps onto it as before. None when
-    the frame sees no cell."""
-    cells = patch_cells(view, relief)
-    if cells is None:
+    square: the cells of :func:`ring_cells` at :func:`morphed_heights` and the flat backstop of
+    :func:`backstop_quads` a texel under the deepest node; the texture coordinates those of a
+    ``rectangle`` of half side ``half_m`` (0.5 + position / 2·half), so the ground's BSDF maps
+    onto it as before. None when the frame sees no cell."""
+    leaves = ring_cells(view, relief, half_m)
+    if sum(len(i) for i, _ in leaves) == 0:
         return None
-    vertices, faces = patch_mesh(relief, *cells, view=view)
-    quads = surround_quads(relief, *cells, half_m)
+    col, row, level, faces = _cell_faces(relief, leaves)
+    z = morphed_heights(view, relief, level_heights(relief), level, col, row) * relief.texel_m
+    vertices = np.stack([_texel_m(relief, col), _texel_m(relief, row), z], -1)
+    quads = backstop_quads(half_m, relief.extent_m / 8)
     x0, x1, y0, y1 = quads.T
     corners = np.stack([np.stack([x0, y0], -1), np.stack([x1, y0], -1), np.stack([x1, y1], -1),
                         np.stack([x0, y1], -1)], axis=1).reshape(-1, 2)
     base = len(vertices) + 4 * np.arange(len(quads))[:, None]
     quad_faces = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]])
-    vertices = np.concatenate([vertices, np.column_stack([corners, np.zeros(len(corners))])])
+    floor = float(z.min()) - relief.texel_m
+    vertices = np.concatenate([vertices, np.column_stack([corners, np.full(len(corners), floor)])])
     faces = np.concatenate([faces, quad_faces])
     return vertices, faces, 0.5 + vertices[:, :2] / (2.0 * half_m)
 
