@@ -123,29 +123,6 @@ def band_heights(height: np.ndarray, band_texels: float) -> np.ndarray:
         np.float64)
 
 
-def cell_texels(relief_texels: int, width_px: int, views: float) -> int:
-    """Texels on a side of a mesh cell: :data:`RELIEF_CELL_PX` pixels at the look point, for a
-    height map of ``relief_texels`` spanning ``views`` view widths of ``width_px`` pixels
-    (at least 1).
-
-    Examples
-    --------
-    >>> cell_texels(2048, 480, 3.0)  # 1.42 texels a pixel: cells of 2 texels, 1.4 px
-    2
-    """
-    return max(1, int(round(RELIEF_CELL_PX * relief_texels / (views * width_px))))
-
-
-def band_heights(height: np.ndarray, band_texels: float) -> np.ndarray:
-    """The relief finer than a Gaussian of σ = ``band_texels`` texels: ``height`` less its
-    low-pass (OpenCV, mirrored at the edges as the texture is), zero mean."""
-    import cv2
-
-    field = np.asarray(height, dtype=np.float32)
-    return (field - cv2.GaussianBlur(field, (0, 0), float(band_texels), borderType=cv2.BORDER_REFLECT)).astype(
-        np.float64)
-
-
 def ring_levels(relief: GroundRelief) -> int:
     """The coarsest level of the mesh: the first whose cells, ``cell``·2^L texels, reach
     :data:`RELIEF_RING_END_BAND` times the band's σ (0 when the finest cells already do)."""
