@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
 __all__ = ["Key", "Problem", "number_in", "whole_in", "one_of", "boolean", "fraction_in", "triple_within",
-           "is_number", "declared_once"]
+           "is_number", "declared_once", "non_negative_whole"]
 
 #: What a check returns: None (fine), a rule for this key, or (key, value, rule) naming another.
 Problem = None | str | tuple[str, Any, str]
@@ -104,10 +104,11 @@ def is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def number_in(low: float, high: float, unit: str = "", *, rule: str = "") -> Callable:
-    """A finite number in ``[low, high]``; the message gives the range and unit (or ``rule``)."""
+def number_in(low: float, high: float, unit: str = "", *, rule: str = "", open_low: bool = False) -> Callable:
+    """A finite number in ``[low, high]`` (``(low, high]`` with ``open_low``); the message gives the range
+    and unit (or ``rule``)."""
     def check(value, section) -> Problem:
-        if is_number(value) and low <= value <= high:
+        if is_number(value) and (low < value if open_low else low <= value) and value <= high:
             return None
         return rule or f"must be a number in [{low:g}, {high:g}]" + (f" {unit}" if unit else "")
     return check
@@ -128,6 +129,11 @@ def whole_in(low: int, high: int, rule: str = "") -> Callable:
             return None
         return rule or f"must be a whole number in {low}..{high}"
     return check
+
+
+def non_negative_whole() -> Callable:
+    """A whole number >= 0 (a seed)."""
+    return whole_in(0, 2 ** 63, "must be a whole number >= 0")
 
 
 def one_of(values: Iterable[str] | Callable[[], Iterable[str]], rule: str = "") -> Callable:

@@ -41,6 +41,11 @@ SPECTRUM_STEP_NM = 5.0
 PRESETS = Registry("scene preset")
 
 
+def reads_light(preset: str) -> bool:
+    """Whether ``preset`` stands on the ground of ``outdoor.GroundView`` under the sky (it reads ``light``)."""
+    return preset in PRESETS and "light" in PRESETS[preset].options
+
+
 @dataclass(frozen=True)
 class Patch:
     """A chart patch in pixel coordinates (continuous; 0 at the top-left image corner)."""

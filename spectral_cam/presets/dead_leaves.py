@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..keys import Key, whole_in
+from ..keys import Key, non_negative_whole
 from .common import PRESETS, facing_rectangle, light_irradiance, spectrum_dict
 from .keys import reflectance_set
 
@@ -224,7 +224,7 @@ _LEAF_KEYS = (
          "discs cover",)),
     Key("leaf_reflectances", "cie2017", "str", "the reflectance set the discs draw from, or a CSV",
         (reflectance_set(),)),
-    Key("leaf_seed", 0, "int", "the layout's seed", (whole_in(0, 2 ** 63, "must be a whole number >= 0"),)),
+    Key("leaf_seed", 0, "int", "the layout's seed", (non_negative_whole(),)),
 )
 
 

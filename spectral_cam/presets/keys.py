@@ -10,8 +10,8 @@ References
 from __future__ import annotations
 
 from .. import spectra
-from ..keys import Key, fraction_in, one_of, whole_in
-from .common import PRESETS
+from ..keys import Key, fraction_in, non_negative_whole, one_of, whole_in
+from .common import PRESETS, reads_light
 
 __all__ = ["SHARED_KEYS", "SCENE_LIGHTS", "GROUND_KINDS", "preset_keys", "reflectance_set", "outdoor_presets"]
 
@@ -24,7 +24,7 @@ GROUND_KINDS = ("textured", "checker", "flat", "table")
 
 def outdoor_presets() -> list[str]:
     """The presets on the ground of ``outdoor.GroundView`` under the sky (those reading ``light``)."""
-    return [name for name in PRESETS if "light" in PRESETS[name].options]
+    return [name for name in PRESETS if reads_light(name)]
 
 
 def reflectance_set(*, also: tuple[str, ...] = ()):
@@ -44,7 +44,7 @@ def _depths(value, scene):
 def _light(value, scene):
     if value not in SCENE_LIGHTS:
         return f"valid: {', '.join(SCENE_LIGHTS)}"
-    if value in ("sunsky", "overcast") and (scene.mitsuba_xml or "light" not in PRESETS[scene.preset].options):
+    if value in ("sunsky", "overcast") and (scene.mitsuba_xml or not reads_light(scene.preset)):
         return (f"the sun and sky light the outdoor presets ({', '.join(outdoor_presets())}); "
                 f"{scene.mitsuba_xml or scene.preset!r} brings its own light")
     return None
@@ -98,7 +98,7 @@ SHARED_KEYS = (
         "at the look point", (_object_size,)),
     Key("object_reflectances", "cie2017", "str", "the reflectance set objects' colours come from, or a CSV",
         (reflectance_set(),)),
-    Key("layout_seed", 0, "int", "draws the layout", (whole_in(0, 2 ** 63, "must be a whole number >= 0"),)),
+    Key("layout_seed", 0, "int", "draws the layout", (non_negative_whole(),)),
     Key("ground", "textured", "str", "textured (measured soils and litter in fractal patches with relief), "
         "checker, flat (one soil) or table (a wooden table top before a stone wall)",
         (one_of(GROUND_KINDS, "textured: measured soils and litter mixed in fractal patches with relief; checker: "

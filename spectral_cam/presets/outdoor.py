@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..solar import enu_to_camera, sun_position
-from .common import PRESETS, light_irradiance, spectrum_dict
+from .common import light_irradiance, reads_light, spectrum_dict
 from .relief import GroundRelief, ReliefBSDF, cell_texels, displaced_ground
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -140,7 +140,7 @@ def light_kind(config: "SceneConfig") -> str:
 def lit_by_sky(config: "SceneConfig") -> bool:
     """Whether ``config`` is a preset lit by Mitsuba's sun and sky (its light is read from the
     render like an XML scene's emitters, :mod:`spectral_cam.render.lights`)."""
-    return (not config.scene.mitsuba_xml and "light" in PRESETS[config.scene.preset].options
+    return (not config.scene.mitsuba_xml and reads_light(config.scene.preset)
             and light_kind(config) in ("sunsky", "overcast"))
 
 

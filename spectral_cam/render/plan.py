@@ -274,10 +274,10 @@ def _choices(config: SceneConfig, decisions: dict, *, lens_model: str, variant: 
     if config.motion.moving:
         choices["motion.subframes"] = subframes
     if not config.scene.mitsuba_xml and config.scene.light == "auto":
-        from ..presets import PRESETS
+        from ..presets.common import reads_light
         from ..presets.outdoor import light_kind
 
-        choices["scene.light"] = light_kind(config) if "light" in PRESETS[config.scene.preset].options else "illuminant"
+        choices["scene.light"] = light_kind(config) if reads_light(config.scene.preset) else "illuminant"
     return choices
 
 

@@ -14,7 +14,7 @@ References
 from __future__ import annotations
 
 from ..cfa import CFA_PATTERNS
-from ..keys import Key, boolean, number_in, one_of, whole_in
+from ..keys import Key, boolean, non_negative_whole, number_in, one_of, whole_in
 from .section import SectionSpec
 
 __all__ = ["LENS", "SENSOR", "EXPOSURE"]
@@ -150,7 +150,7 @@ SENSOR = SectionSpec("sensor", "SensorSection", owner="every sensor kind", doc="
     Key("cfa", "RGGB", "str", "the colour filter array: RGGB, BGGR, GRBG, GBRG; XTRANS; QUAD_RGGB; RGBW; none",
         (_cfa,)),
     Key("peak_qe", 0.6, "float", "peak quantum efficiency",
-        (number_in(0.0, 1.0, rule="must lie in (0, 1]"), lambda v, s: None if v > 0 else "must lie in (0, 1]")),
+        (number_in(0.0, 1.0, rule="must lie in (0, 1]", open_low=True),)),
     Key("full_well_e", 20000.0, "float", "full-well capacity", range=(1.0, 1e9, "e⁻")),
     Key("read_noise_e", 2.5, "float", "read noise", range=(0.0, 1e6, "e⁻")),
     Key("dark_current_e_per_s", 1.0, "float", "dark current (a QIS's or SPAD's dark count rate)",
@@ -161,7 +161,7 @@ SENSOR = SectionSpec("sensor", "SensorSection", owner="every sensor kind", doc="
     Key("black_level_dn", 256, "int", "black level", (_black_level,)),
     Key("base_iso", 100.0, "float", "the ISO at unity analogue gain", range=(1.0, 1e7, "")),
     Key("ir_cut", 1.0, "float | str", "IR-cut filter: a number, a CSV or ir_cut:650", (_ir_cut,)),
-    Key("seed", 0, "int", "noise seed", (whole_in(0, 2 ** 63, "must be a whole number >= 0"),)),
+    Key("seed", 0, "int", "noise seed", (non_negative_whole(),)),
     Key("shot_noise", True, "bool", "photon shot noise"),
     Key("vignetting", True, "bool", "cos⁴ falloff of a thin lens"),
     Key("olpf", "off", "float | str", "optical low-pass filter: off, camera (where its maker says it has one), "
@@ -173,9 +173,7 @@ SENSOR = SectionSpec("sensor", "SensorSection", owner="every sensor kind", doc="
          "row, row_time_s apart)",)),
     Key("row_time_s", 10e-6, "float", "a rolling shutter's readout time of one row",
         (number_in(0.0, 0.01, rule="must be the readout time of one row in (0, 0.01] s (a full-frame sensor "
-                   "reads a row in ~5-20 µs)"),
-         lambda v, s: None if v > 0 else "must be the readout time of one row in (0, 0.01] s (a full-frame "
-         "sensor reads a row in ~5-20 µs)")),
+                   "reads a row in ~5-20 µs)", open_low=True),)),
     Key("kind", "cmos", "str", "the sensor kind: cmos (integrating) or another registered kind (their keys below)",
         (_kind,)),
 ), checks=(_kind_keys_set,), properties={"width_m": property(lambda self: self.width_px * self.pixel_pitch_um * 1e-6),
@@ -205,7 +203,7 @@ EXPOSURE = SectionSpec("exposure", "ExposureSection", owner="the exposure", doc=
     Key("time_s", "auto", "float | str", "auto (metered) or seconds", (_time,), range=(1e-9, 1e4, "s")),
     Key("iso", 100.0, "float", "unset: the sensor's base_iso (a named camera's own)", range=(1.0, 1e7, "")),
     Key("auto_fraction", 0.8, "float", "where highlight and etr metering put the brightest 1 %",
-        (number_in(0.0, 1.0, rule="must lie in (0, 1]"), lambda v, s: None if v > 0 else "must lie in (0, 1]")),
+        (number_in(0.0, 1.0, rule="must lie in (0, 1]", open_low=True),)),
     Key("metering", "average", "str", "average, centre_weighted, spot, highlight, etr", (_metering,)),
     Key("compensation_ev", 0.0, "float", "exposure compensation in stops",
         (number_in(-10.0, 10.0, rule="must be a number of stops in [-10, 10]"),)),

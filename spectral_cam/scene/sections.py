@@ -14,7 +14,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from .. import spectra
-from ..keys import Key, boolean, fraction_in, is_number, one_of, triple_within, whole_in
+from ..keys import (Key, boolean, fraction_in, is_number, non_negative_whole, number_in, one_of, triple_within,
+                    whole_in)
 from ..presets import PRESETS, preset_keys
 from .camera_sections import EXPOSURE, LENS, SENSOR
 from .section import EXTENDERS, SECTION_SPECS, SectionSpec
@@ -84,13 +85,6 @@ def _illuminant(value, light):
         spectra.validate_illuminant(value)
 
 
-def _between(low: float, high: float, rule: str, *, open_low: bool = False):
-    def check(value, section):
-        inside = is_number(value) and (low < value if open_low else low <= value) and value <= high
-        return None if inside else rule
-    return check
-
-
 ILLUMINANT = SectionSpec("illuminant", "IlluminantSection", owner="the light", doc="""The light: a named SPD, ``blackbody:<K>``,
     ``daylight:<CCT>`` or a CSV path, at ``illuminance_lux`` on a surface facing the camera; ``"auto"``: the
     scene's own light (D65 for a preset, an XML scene's emitters, ``render/lights.py``); ``flicker_*``
@@ -102,14 +96,14 @@ ILLUMINANT = SectionSpec("illuminant", "IlluminantSection", owner="the light", d
     Key("emitter", "", "str", "an XML scene's emitter to take the light from (default: the one sending the "
         "camera most light)"),
     Key("flicker_hz", 0.0, "float", "flicker frequency (0: steady; 100/120 for a lamp on 50/60 Hz mains)",
-        (_between(0.0, 1e6, "the light's flicker frequency in 0..1e6 Hz (0: steady; 100 or 120 for a lamp on 50 "
+        (number_in(0.0, 1e6, rule="the light's flicker frequency in 0..1e6 Hz (0: steady; 100 or 120 for a lamp on 50 "
                   "or 60 Hz mains, an LED's PWM frequency)"),)),
     Key("flicker_depth", 1.0, "float", "modulation depth (1: the light goes dark)",
-        (_between(0.0, 1.0, "the modulation depth in 0..1 (1: the light goes dark)"),)),
+        (number_in(0.0, 1.0, rule="the modulation depth in 0..1 (1: the light goes dark)"),)),
     Key("flicker_waveform", "sine", "str", "sine (mains) or pwm (a dimmed LED)",
         (lambda v, s: None if v in ("sine", "pwm") else "valid: 'sine' (mains), 'pwm' (a dimmed LED)",)),
     Key("flicker_duty", 0.5, "float", "a PWM light's duty cycle",
-        (_between(0.0, 1.0, "the PWM duty cycle in (0, 1]", open_low=True),)),
+        (number_in(0.0, 1.0, rule="the PWM duty cycle in (0, 1]", open_low=True),)),
 ))
 
 
@@ -202,7 +196,7 @@ RENDER = SectionSpec("render", "RenderSection", owner="the renderer", doc="""Mon
     Key("bands", "auto", "str", "auto, camera, or start:stop:step band centres (400:700:10: 31 bands of ±5 nm)",
         (_bands,)),
     Key("variant", "auto", "str", "auto or a spectral Mitsuba variant", (_variant,)),
-    Key("seed", 0, "int", "the render's seed", (whole_in(0, 2 ** 63, "must be a whole number >= 0"),)),
+    Key("seed", 0, "int", "the render's seed", (non_negative_whole(),)),
     Key("max_depth", 8, "int", "path length", (_max_depth,)),
     Key("diffraction", "auto", "str", "auto, on or off (the Airy PSF per band)", (one_of(DIFFRACTION_MODES),)),
     Key("spectral_output", True, "bool", "write radiance.exr"),
