@@ -179,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
         except SpectralCamError as exc:
             print(f"spectral-cam: error: {exc}", file=sys.stderr)
             return 2
+        except BrokenPipeError:  # the reader went away (`spectral-cam keys | head`): nothing is wrong
+            _quiet_stdout()
+            return 1
         except OSError as exc:  # e.g. an output path under a file, a read-only folder
             print(f"spectral-cam: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
             return 2
@@ -190,6 +193,13 @@ def main(argv: list[str] | None = None) -> int:
             if _caused_by_interrupt(exc):
                 return _interrupted()
             raise
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null, so the interpreter's flush at exit meets no closed pipe either
+    (the Python documentation's recipe for SIGPIPE)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
 
 
 def _caused_by_interrupt(exc: BaseException) -> bool:

@@ -114,3 +114,18 @@ def test_a_user_xml_scene_renders_through_single_photon_and_event_sensors(tmp_pa
                      "--set", "sensor.width_px=48", "--set", "sensor.height_px=32", "--set", "render.spp=8", *extra)
     assert result.returncode == 0, result.stderr
     assert files <= {p.name for p in (tmp_path / "out").iterdir()}
+
+
+@pytest.mark.timeout(120)
+def test_a_reader_that_stops_early_gets_no_error_message():
+    """``spectral-cam keys | head -1``: the pipe closing is the reader's choice, not an error to print
+    (it printed 'spectral-cam: error: Broken pipe')."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "keys"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()  # as head does after its lines, here before the command has written any
+    err = proc.stderr.read().decode()
+    proc.wait(timeout=60)
+    assert "Broken pipe" not in err and "Traceback" not in err, err
