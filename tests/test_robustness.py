@@ -87,9 +87,15 @@ def test_truncated_exr_is_a_clear_error(tmp_path):
 
 
 def _slow_render_under_way(tmp_path):
-    """A ``spectral-cam render`` subprocess a second into writing its staging folder."""
+    """A ``spectral-cam render`` subprocess a second into writing its staging folder.
+
+    On the scalar variant: its passes are :data:`~spectral_cam.render.SCALAR_LANES_PER_PASS`
+    (2^20) samples, a fraction of a second, where the LLVM variant's first pass is 2^28 samples
+    (11 s on a quiet 2-core machine), and a signal reaches Python's handler only when Mitsuba's call returns. The
+    render still runs for minutes (5·10^8 samples), so the signal lands mid-render as before, and
+    the staging folder and its cleanup are the CLI's, the same for every variant."""
     scene = tmp_path / "slow.toml"
-    scene.write_text('[sensor]\nwidth_px = 64\nheight_px = 48\n[render]\nspp = 100000\n')
+    scene.write_text('[sensor]\nwidth_px = 64\nheight_px = 48\n[render]\nspp = 100000\nvariant = "scalar_spectral"\n')
     out = tmp_path / "result"
     # SIGINT as a terminal delivers it: a suite run in the background inherits it ignored
     proc = subprocess.Popen([sys.executable, "-m", "spectral_cam.cli", "render", str(scene), "-o", str(out)],
