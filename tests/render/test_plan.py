@@ -144,35 +144,22 @@ def test_dry_run_prints_the_plan_and_renders_no_radiance(tmp_path, monkeypatch, 
     assert "-o OUTDIR" in capsys.readouterr().err
 
 
-LAUNCHER = r"""
-import json, os, subprocess, sys
-proc = subprocess.Popen(json.loads(sys.argv[1]), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-_, status, usage = os.wait4(proc.pid, 0)
-print(usage.ru_maxrss)
-sys.exit(os.waitstatus_to_exitcode(status))
-"""
-
-
 @pytest.mark.timeout(600)
 @pytest.mark.parametrize("scene, width", [("colorchecker.toml", 480), ("colorchecker.toml", 960),
                                           ("tabletop.toml", 480)])
-def test_dry_run_memory_is_within_15_percent_of_the_jobs_peak(tmp_path, scene, width):
+def test_dry_run_memory_is_within_15_percent_of_the_jobs_peak(tmp_path, request, scene, width):
     """Issue 26: ``--dry-run``'s peak-memory estimate against the job's own peak resident set,
     ``ru_maxrss`` of the waited-for process (Linux wait4(2)), each in its own process; the bundled
     scenes at their own spp (64), as docs/bench/plan.csv measures them. (At 16 spp the tabletop's
     median of 4 pass means is estimated 20 % high: the model's median-of-means share is fitted at
-    8 passes; docs/design.md.)"""
-    import json
-    import subprocess
-    import sys
+    8 passes; docs/design.md.) The tabletop at its defaults is the job test_fireflies.py reads
+    (``tabletop_job``, tests/render/conftest.py): run once for both."""
+    from .conftest import planned_and_run
 
-    cli = [sys.executable, "-m", "spectral_cam.cli", "render", str(ROOT / "scenes" / scene),
-           f"--set=sensor.width_px={width}", f"--set=sensor.height_px={width * 2 // 3}"]
-    plan = json.loads(subprocess.run(cli + ["--dry-run", "--json"], capture_output=True, text=True,
-                                     check=True).stdout)
-    done = subprocess.run([sys.executable, "-c", LAUNCHER, json.dumps(cli + ["-o", str(tmp_path / "out"), "-q"])],
-                          capture_output=True, text=True, check=True)
-    peak = float(done.stdout) * 1024.0
+    if (scene, width) == ("tabletop.toml", 480):
+        plan, peak, _ = request.getfixturevalue("tabletop_job")
+    else:
+        plan, peak, _ = planned_and_run(scene, width, tmp_path)
     assert plan["budget"]["memory_bytes"] == pytest.approx(peak, rel=0.15)
 
 
