@@ -145,15 +145,18 @@ def test_dry_run_prints_the_plan_and_renders_no_radiance(tmp_path, monkeypatch, 
 
 
 @pytest.mark.timeout(600)
-@pytest.mark.parametrize("scene, width", [("colorchecker.toml", 480), ("colorchecker.toml", 960),
-                                          ("tabletop.toml", 480)])
+@pytest.mark.parametrize("scene, width", [("colorchecker.toml", 960), ("tabletop.toml", 480)])
 def test_dry_run_memory_is_within_15_percent_of_the_jobs_peak(tmp_path, request, scene, width):
     """Issue 26: ``--dry-run``'s peak-memory estimate against the job's own peak resident set,
     ``ru_maxrss`` of the waited-for process (Linux wait4(2)), each in its own process; the bundled
     scenes at their own spp (64), as docs/bench/plan.csv measures them. (At 16 spp the tabletop's
     median of 4 pass means is estimated 20 % high: the model's median-of-means share is fitted at
     8 passes; docs/design.md.) The tabletop at its defaults is the job test_fireflies.py reads
-    (``tabletop_job``, tests/render/conftest.py): run once for both."""
+    (``tabletop_job``, tests/render/conftest.py): run once for both. The two jobs are the model's
+    two regimes: the tabletop's resident scene (its displaced ground) outweighs its frame, the
+    ColorChecker at 2× its size is two thirds frame (docs/bench/plan.csv: 12 % high, the
+    closest to the bound; at its own 480 px, 2 % low, the same terms with the frame's share
+    smaller, so that case is left out)."""
     from .conftest import planned_and_run
 
     if (scene, width) == ("tabletop.toml", 480):
