@@ -300,7 +300,7 @@ def decide_estimator(config: SceneConfig, spp: int | str, *, lens: ThinLens | No
     k = (enough or passes)[0]
     record = {"choice": "amon", "passes": k, "gini_threshold": GINI_THRESHOLD,
               "reason": f"{why}: the adaptive median of {k} pass means of {spp // k} spp removes fireflies "
-                        "(the mean where the passes agree)"}
+                        "(the mean where the passes agree) and spreads the light it removed"}
     if mode == "auto" and not enough:
         share = float((probe or firefly_probe)(config, lens or ThinLens.from_config(config.lens, config.sensor)))
         record["probe_firefly_share"] = share

@@ -24,7 +24,7 @@ from ..image import SpectralImage
 from ..optics import ThinLens
 from ..scene import SceneConfig
 from .decisions import AUTO_SPP_MIN_PASSES, NoiseMonitor, auto_spp_per_pass
-from .robust import adaptive_median_of_means
+from .robust import adaptive_median_of_means, spread_removed_light
 from .films import render_film
 from .motion import ObjectMotion, exposure_span_s, is_rolling, rolling_row_weights, subframe_transform
 from .scene_dict import (TILE_PIXELS, build_scene, camera_dict, configured_camera, exact_pass_spp, frame_tiles,
@@ -364,7 +364,8 @@ class _TileRenderer:
             return accumulated.mean()
         estimate, median_share = adaptive_median_of_means(group_means)
         self.robust_shares.append(median_share)
-        return estimate
+        # the light the median removed is real (a caustic's rare paths): given back, spread thin
+        return spread_removed_light(group_means.mean(axis=0), estimate)
 
     def _one_pass(self, frame_camera, spp: int, seed_key, rows: tuple, width: int) -> np.ndarray:
         seed = pass_seed(self.config.render.seed, self.index, seed_key)

@@ -21,8 +21,9 @@ def _estimate_note(radiance) -> str:
     record = ((radiance.meta or {}).get("model_decisions") or {}).get("estimator") or {}
     if record.get("choice") == "amon":
         return (f"adaptive median of {record['passes']} pass means (Buisine et al. 2021): fireflies removed; "
-                f"{100 * record.get('median_share', 0.0):.3g} % of pixels took the median, biased low where "
-                "rare bright paths (caustics) are real; elsewhere the unbiased mean of the samples")
+                f"{100 * record.get('median_share', 0.0):.3g} % of pixels took the median, the light it removed "
+                "spread back over their surroundings (rare bright paths such as a caustic's become a glow; each "
+                "channel's total is the mean's); elsewhere the unbiased mean of the samples")
     return "the mean of the samples (unbiased, Monte-Carlo noise and any fireflies included)"
 
 
