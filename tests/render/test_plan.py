@@ -96,10 +96,12 @@ def _digest(path: Path) -> str:
 
 
 @pytest.mark.timeout(600)
-@pytest.mark.parametrize("job", sorted(JOBS))
+@pytest.mark.parametrize("job", sorted(set(JOBS) - {"tabletop_focus_object"}))
 def test_records_are_what_was_done_and_scene_toml_renders_the_same_dng(tmp_path, monkeypatch, job):
     """On the renderer's own threads (issue 39 #17: the meshes' normals no longer follow their
-    timing, so no one-thread fixture is needed)."""
+    timing, so no one-thread fixture is needed). The focus-object variant is the bundled tabletop
+    itself (scenes/tabletop.toml focuses on object_0), so its object_3 copy is left to
+    test_a_job_decides_each_thing_once (two jobs of ~3 s each saved)."""
     config = _config(job)
     meta = run_render_job(config, tmp_path / "first")
     written = (tmp_path / "first" / "scene.toml").read_text()
