@@ -201,7 +201,7 @@ ROBUST_MIN_PASS_SPP = 4
 #: Where ``render.estimator = "auto"`` takes the median without measuring: at least this many
 #: passes of at least this many samples. Splitting the samples into passes costs noise even where
 #: no pixel takes the median, as each pass is stratified on its own (0.3-0.4 % of the tabletop's
-#: pixels took the median): on the tabletop (160×108, against 2048 spp, docs/bench/estimators.csv)
+#: pixels took the median): on the tabletop (192×128, against 2048 spp, docs/bench/estimators.csv)
 #: the adaptive median's RMS error was 1.72× the mean's at 4 passes of 4 spp, 1.66× at 8 of 4,
 #: 1.17× at 8 of 8 and 1.11× at 8 of 16; on the textured glass sphere's caustics (with the removed
 #: light spread back) it was 0.10×, 0.49×, 0.46× and 0.30× (fireflies are error too). From 8 passes of 8 the split is cheap enough to keep
