@@ -277,21 +277,23 @@ def spread_removed_light(mean: np.ndarray, estimate: np.ndarray, *, peak: float 
     for index, sigma in enumerate(SPREAD_SCALES_PX):
         sources = moved & (which == index)
         if sources.any():
-            _add_spread(out, np.where(sources[..., None], removed, 0.0), sources, sigma)
+            _add_spread(out, removed, sources, sigma)
     return np.maximum(out, 0.0, out=out)
 
 
 def _add_spread(out: np.ndarray, removed: np.ndarray, sources: np.ndarray, sigma: float) -> None:
-    """Add ``removed`` blurred by a Gaussian of ``sigma`` px to ``out``, over the sources' bounding
-    box widened by OpenCV's kernel radius (4σ: nothing reaches past it) and mirrored only at the
-    frame's own edges (BORDER_REFLECT keeps the sum for a symmetric kernel)."""
+    """Add the ``sources`` pixels' ``removed`` light blurred by a Gaussian of ``sigma`` px to
+    ``out``, over the sources' bounding box widened by OpenCV's kernel radius (4σ: nothing reaches
+    past it) and mirrored only at the frame's own edges (BORDER_REFLECT keeps the sum for a
+    symmetric kernel)."""
     import cv2
 
     rows, cols = np.nonzero(sources)
     reach = int(np.ceil(4 * sigma)) + 1
     top, left = max(rows.min() - reach, 0), max(cols.min() - reach, 0)
     bottom, right = min(rows.max() + reach + 1, out.shape[0]), min(cols.max() + reach + 1, out.shape[1])
-    box = np.ascontiguousarray(removed[top:bottom, left:right], np.float32)
+    inside = sources[top:bottom, left:right, None]
+    box = np.where(inside, removed[top:bottom, left:right], np.float32(0.0)).astype(np.float32, copy=False)
     for channel in range(box.shape[-1]):
         out[top:bottom, left:right, channel] += cv2.GaussianBlur(box[..., channel], (0, 0), sigma,
                                                                  borderType=cv2.BORDER_REFLECT)
