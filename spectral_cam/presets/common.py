@@ -16,12 +16,12 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from .. import spectra
-from ..registry import Registry
+from ..registry import Entry, Registry
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..optics import ThinLens
@@ -36,9 +36,67 @@ CHART_FRAME_REFLECTANCE = 0.03
 
 
 SPECTRUM_STEP_NM = 5.0
-#: Every ``scene.preset``: name → builder ``(config, lens, mi) -> dict`` of Mitsuba scene-dict
-#: entries (shapes and emitters); its options are the ``[scene]`` keys it reads.
-PRESETS = Registry("scene preset")
+
+#: GGX roughness below which a glossy lobe counts as sharp: its peak D = 1/(πα²) exceeds
+#: 32 sr⁻¹, so a path that finds the sun or a lamp through it is rare and bright (a firefly).
+#: The bundled scenes' rough lobes lie at or above it (leaf cuticles α ≥ 0.1, the room's
+#: paints and metals α ≥ 0.12) and their plain means held at most 6.5e-6 fireflies
+#: (docs/bench/realism.csv); the tabletop's plastics and metals reach down to 0.05.
+SHARP_ALPHA = 0.1
+
+
+def no_sharp_materials(config: "SceneConfig") -> tuple[str, ...]:
+    """A preset of Lambertian (or rough, α ≥ :data:`SHARP_ALPHA`) materials and emitters only."""
+    return ()
+
+
+@dataclass(frozen=True)
+class Preset(Entry):
+    """One scene preset: its builder and what the renderer must know of it before building.
+
+    Attributes
+    ----------
+    function : callable
+        The builder, ``(config, lens, mi) -> dict`` of Mitsuba scene-dict entries (shapes and
+        emitters).
+    sharp_materials : callable
+        ``(config) -> tuple of str``: the Mitsuba BSDF plugins the preset places under
+        ``config`` whose lobes are delta (smooth ``dielectric``, ``conductor``, ``plastic``) or
+        GGX α < :data:`SHARP_ALPHA`: those that make fireflies, for which ``render.estimator
+        = "auto"`` takes the adaptive median (:mod:`spectral_cam.render.decisions`). Default:
+        none (:func:`no_sharp_materials`); tests/presets/test_sharp_materials.py holds every
+        preset's declaration to the BSDFs it builds.
+    """
+
+    sharp_materials: Callable[["SceneConfig"], tuple[str, ...]] = no_sharp_materials
+
+
+class PresetRegistry(Registry):
+    """A :class:`~spectral_cam.registry.Registry` of :class:`Preset` entries."""
+
+    def register(self, name: str, *, options: tuple[str, ...] = (), description: str = "", keys: tuple = (),
+                 checks: tuple = (), sharp_materials: Callable = no_sharp_materials):
+        """Decorator: register the decorated builder as preset ``name``."""
+
+        def decorate(function: Callable) -> Callable:
+            self.add(name, function, options=options, description=description, keys=keys, checks=checks,
+                     sharp_materials=sharp_materials)
+            return function
+
+        return decorate
+
+    def add(self, name: str, function: Callable, *, options: tuple[str, ...] = (), description: str = "",
+            keys: tuple = (), checks: tuple = (), sharp_materials: Callable = no_sharp_materials) -> Preset:
+        """Register ``function`` as preset ``name`` (a name can be registered once)."""
+        entry = super().add(name, function, options=options, description=description, keys=keys, checks=checks)
+        self._entries[name] = Preset(entry.name, entry.function, entry.options, entry.description,
+                                     keys=entry.keys, checks=entry.checks, sharp_materials=sharp_materials)
+        return self._entries[name]
+
+
+#: Every ``scene.preset``: name → :class:`Preset` (builder ``(config, lens, mi) -> dict`` of
+#: Mitsuba scene-dict entries, shapes and emitters); its options are the ``[scene]`` keys it reads.
+PRESETS = PresetRegistry("scene preset")
 
 
 def reads_light(preset: str) -> bool:

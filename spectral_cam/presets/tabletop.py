@@ -47,6 +47,8 @@ CONDUCTORS = ("Au", "Cu", "Al", "Ag", "Cr")
 #: Ground checkerboard: reflectances and squares per view width.
 GROUND_REFLECTANCES, GROUND_SQUARES_PER_VIEW = (0.1, 0.4), 12
 PLASTIC_IOR, GLASS_IOR = 1.49, "bk7"
+#: GGX roughness α of plastic and metal objects (uniform draws), from polished to satin.
+ROUGHNESS_RANGE = (0.05, 0.3)
 #: Fraction of the frame (each way) object centres must project inside.
 FRAME_MARGIN = 0.85
 
@@ -87,7 +89,7 @@ def tabletop_layout(config: "SceneConfig", lens: "ThinLens", reflectance_count: 
             shape=SHAPES[rng.integers(len(SHAPES))], east_m=east, north_m=north, size_m=size,
             turn_deg=float(rng.uniform(0, 360)), material=material,
             reflectance=int(rng.integers(reflectance_count)) if material in ("diffuse", "plastic") else -1,
-            conductor=CONDUCTORS[rng.integers(len(CONDUCTORS))], roughness=float(rng.uniform(0.05, 0.3))))
+            conductor=CONDUCTORS[rng.integers(len(CONDUCTORS))], roughness=float(rng.uniform(*ROUGHNESS_RANGE))))
     return objects
 
 
@@ -192,9 +194,22 @@ _TABLETOP_KEYS = (
 )
 
 
+#: The plugin each object material becomes (:func:`_bsdf`) where its lobe can be sharp: glass is a
+#: smooth dielectric; plastics and metals draw GGX α from :data:`ROUGHNESS_RANGE`, which reaches
+#: below :data:`~spectral_cam.presets.common.SHARP_ALPHA`.
+SHARP_PLUGINS = {"glass": "dielectric", "plastic": "roughplastic", "conductor": "roughconductor"}
+
+
+def _sharp_objects(config: "SceneConfig") -> tuple[str, ...]:
+    """The sharp-lobed plugins the tabletop's objects may be (none without objects)."""
+    if config.scene.object_count == 0:
+        return ()
+    return tuple(SHARP_PLUGINS[m] for m in config.scene.object_materials if m in SHARP_PLUGINS)
+
+
 @PRESETS.register("tabletop", options=("distance_m", "view_pitch_deg", "light", "object_count", "object_size",
                                        "object_reflectances", "layout_seed", "ground", "soil_reflectances"),
-                  keys=_TABLETOP_KEYS,
+                  keys=_TABLETOP_KEYS, sharp_materials=_sharp_objects,
                   description="objects (plastic, metal, glass, meshes) on a textured or checkered ground under the "
                               "sun and sky")
 def tabletop(config: "SceneConfig", lens: "ThinLens", mi) -> dict:

@@ -217,7 +217,10 @@ AUTO_FIREFLY_SHARE = 1e-4
 
 
 def _can_make_fireflies(config: SceneConfig) -> tuple[bool, str]:
-    """Whether a scene holds materials that make fireflies, and why."""
+    """Whether a scene holds materials that make fireflies, and why: a preset's as its registry
+    entry declares them (:attr:`spectral_cam.presets.common.Preset.sharp_materials`: delta lobes or
+    GGX α below :data:`~spectral_cam.presets.common.SHARP_ALPHA`); an XML scene's any glossy
+    plugin (:data:`GLOSSY_BSDFS`: its roughness is not read, so a rough lobe counts too)."""
     if config.scene.mitsuba_xml:
         import re
 
@@ -229,14 +232,13 @@ def _can_make_fireflies(config: SceneConfig) -> tuple[bool, str]:
         if found or "<include" in text:
             return True, f"the XML scene has {', '.join(found) or 'included files'} materials"
         return False, "the XML scene's materials are all Lambertian"
-    if config.scene.preset == "tabletop":
-        glossy = sorted(set(config.scene.object_materials) - {"diffuse"})
-        if config.scene.object_count == 0:
-            return False, "the tabletop has no objects, only its Lambertian ground"
-        if glossy:
-            return True, f"tabletop objects of {', '.join(glossy)}"
-        return False, "tabletop objects are all Lambertian"
-    return False, f"the {config.scene.preset} preset is Lambertian or emissive only"
+    from ..presets import PRESETS
+    from ..presets.common import SHARP_ALPHA
+
+    sharp = PRESETS[config.scene.preset].sharp_materials(config)
+    if sharp:
+        return True, f"the {config.scene.preset} preset places {', '.join(sorted(set(sharp)))} materials"
+    return False, (f"the {config.scene.preset} preset's materials are Lambertian or rough (GGX α ≥ {SHARP_ALPHA:g}) only")
 
 
 def decide_estimator(config: SceneConfig, spp: int | str, *, lens: ThinLens | None = None,
