@@ -1,11 +1,11 @@
 """Plants of several morphologies, grown procedurally so that no two are alike: the geometry of the
 ``vegetation`` preset's plants (issue 37 #3).
 
-Four morphologies (:data:`MORPHOLOGIES`, a :class:`~spectral_cam.registry.Registry` of growers
+Five morphologies (:data:`MORPHOLOGIES`, a :class:`~spectral_cam.registry.Registry` of growers
 ``(rng, size_m, species, shape) -> PlantGeometry``):
 
 * ``grass`` — a monocot tussock: 3–7 tillers round the crown, each of 2–4 long narrow blades
-  (width 2.5–5 % of their length, nearly parallel-sided, tapering at the tip) rising steeply and
+  (5–10 % as wide as long, nearly parallel-sided, tapering at the tip) rising steeply and
   arching over under their own weight, V-folded along the midrib; parallel veins.
 * ``rosette`` — the issue-24 plant: 6–11 lanceolate leaves set round a short axis by the golden
   angle (137.5°, Douady & Couder 1992), rising 25–65° and drooping; pinnate veins.
@@ -16,6 +16,9 @@ Four morphologies (:data:`MORPHOLOGIES`, a :class:`~spectral_cam.registry.Regist
   lengths ×0.6–0.8 and radii ×0.65 a level, splayed 25–45° and bent towards the light — a
   stochastic branching in the manner of Honda 1971 and Prusinkiewicz & Lindenmayer 1990), many
   small elliptic leaves along and at the end of the twigs; bark on the stems.
+* ``cereal`` — a row-crop cereal at mid-season (maize, sorghum): one green stalk with 7–14
+  blades a tenth as wide as long, alternate in two ranks, the middle ones the longest, arching
+  over, and a whorl of young leaves at the top (Ritchie, Hanway & Benson 1993); parallel veins.
 
 Every leaf is a blade swept along a spine whose pitch falls from its rise angle towards its
 tip (droop), its cross-section a V-fold plus a roll (curl) of the margins; its texture
@@ -42,6 +45,8 @@ References
    Physical Review Letters 68(13), 2098.
 .. [4] Esau, K. (1977). Anatomy of Seed Plants, 2nd ed., Wiley, ch. 19 (leaf venation: pinnate
    netted veins of dicots, parallel veins of monocots).
+.. [5] Ritchie, S. W., Hanway, J. J., & Benson, G. O. (1993). How a corn plant develops. Iowa State
+   University Special Report 48 (one stalk, leaves alternate in two ranks, V-stages by collars).
 """
 
 from __future__ import annotations
@@ -137,31 +142,42 @@ def draw_shape(rng: np.random.Generator, state: str) -> HealthShape:
 # ----------------------------------------------------------------------------- species
 #: Per morphology: the cuticle's GGX roughness range (Bousquet et al. 2005: σ 0.1–0.5 by species;
 #: Comar et al. 2014: wheat 0.18–0.46, sorghum 0.27–0.56; glossy evergreen shrubs at the smooth
-#: end) and the venation of its leaves.
+#: end), the venation of its leaves and the traits a species draws, in order: ``(name, "uniform",
+#: (low, high))``, ``(name, "integers", (low, high))`` (high excluded) or ``(name, "choice",
+#: options)``. ``width`` is the blade's width over its length as each grower uses it (grass and
+#: rosette: the half-width; upright, shrub and cereal: the whole width).
 SPECIES_RANGES = {
-    "grass": {"alpha": (0.2, 0.45), "venation": "parallel"},
-    "rosette": {"alpha": (0.2, 0.4), "venation": "pinnate"},
-    "upright": {"alpha": (0.25, 0.5), "venation": "pinnate"},
-    "shrub": {"alpha": (0.1, 0.3), "venation": "pinnate"},
+    "grass": {"alpha": (0.2, 0.45), "venation": "parallel",
+              "traits": (("width", "uniform", (0.025, 0.05)), ("arch", "uniform", (0.8, 1.4)))},
+    "rosette": {"alpha": (0.2, 0.4), "venation": "pinnate", "traits": (("width", "uniform", (0.14, 0.22)),)},
+    "upright": {"alpha": (0.25, 0.5), "venation": "pinnate",
+                "traits": (("phyllotaxis", "choice", ("alternate", "spiral", "opposite")),
+                           ("width", "uniform", (0.4, 0.6)), ("nodes", "integers", (5, 10)))},
+    "shrub": {"alpha": (0.1, 0.3), "venation": "pinnate",
+              "traits": (("width", "uniform", (0.35, 0.55)), ("children", "integers", (2, 4)))},
+    # maize and sorghum: a blade about a tenth as wide as long (a maize ear leaf about 9 cm × 90 cm),
+    # 8–13 leaves showing at mid-season (V8–V12; Ritchie, Hanway & Benson 1993)
+    "cereal": {"alpha": (0.27, 0.56), "venation": "parallel",
+               "traits": (("width", "uniform", (0.08, 0.12)), ("leaves", "integers", (8, 14)),
+                          ("arch", "uniform", (0.8, 1.3)))},
 }
 
 
 def draw_species(rng: np.random.Generator, morphology: str) -> dict:
     """A species of a morphology: what its plants share (cuticle roughness, venation, leaf
-    proportions, phyllotaxis), drawn once and reused for every plant of it."""
+    proportions, phyllotaxis), drawn once and reused for every plant of it
+    (:data:`SPECIES_RANGES`)."""
     MORPHOLOGIES.check(morphology)
     ranges = SPECIES_RANGES[morphology]
     species = {"morphology": morphology, "alpha": float(rng.uniform(*ranges["alpha"])),
                "venation": ranges["venation"]}
-    if morphology == "grass":
-        species.update(width=float(rng.uniform(0.025, 0.05)), arch=float(rng.uniform(0.8, 1.4)))
-    elif morphology == "rosette":
-        species.update(width=float(rng.uniform(0.14, 0.22)))
-    elif morphology == "upright":
-        species.update(phyllotaxis=str(rng.choice(["alternate", "spiral", "opposite"])),
-                       width=float(rng.uniform(0.4, 0.6)), nodes=int(rng.integers(5, 10)))
-    else:
-        species.update(width=float(rng.uniform(0.35, 0.55)), children=int(rng.integers(2, 4)))
+    for name, kind, values in ranges["traits"]:
+        if kind == "uniform":
+            species[name] = float(rng.uniform(*values))
+        elif kind == "integers":
+            species[name] = int(rng.integers(*values))
+        else:
+            species[name] = str(rng.choice(list(values)))
     return species
 
 
@@ -403,6 +419,44 @@ def shrub(rng, size_m: float, species: dict, shape: HealthShape) -> PlantGeometr
               species["width"] / 2, 0.8 * (1 - rank / max(len(order) - 1, 1)), shape,
               droop=math.radians(rng.uniform(10, 40)), roll=rng.uniform(0.0, 0.4), steps=4, sides=1,
               profile="elliptic")
+    return plant
+
+
+@MORPHOLOGIES.register("cereal", description="a row-crop cereal (maize, sorghum): one stalk, broad arching blades "
+                                              "in two ranks")
+def cereal(rng, size_m: float, species: dict, shape: HealthShape) -> PlantGeometry:
+    """Maize or sorghum at mid-season: one stalk (they seldom tiller in rows) carrying
+    ``species["leaves"]`` blades alternate in two ranks (distichous, 180° apart), the collars
+    spaced up the lower two thirds of the plant; the middle blades the longest (about 0.9 of the
+    plant's height), lower ones spreading flatter, all arching over; a rolled whorl of young
+    leaves at the top (Ritchie, Hanway & Benson 1993)."""
+    plant = PlantGeometry()
+    height = size_m * shape.stunt
+    top = height * rng.uniform(0.55, 0.7)
+    lean, lean_dir = rng.uniform(0, math.radians(6)), rng.uniform(0, 2 * np.pi)
+    z = np.linspace(0, 1, 7)
+    offset = top * math.sin(lean) * z
+    stalk = np.stack([offset * math.cos(lean_dir), offset * math.sin(lean_dir), top * z], 1)
+    _tube(plant, stalk, 0.014 * size_m * (1 - 0.5 * z), sides=6)
+    count = max(3, species["leaves"] + int(rng.integers(-1, 2)))
+    keep = _kept(rng, count, shape.leaf_loss)
+    start = rng.uniform(0, 360)
+    for k in range(count):  # k = 0 the lowest, oldest blade
+        if not keep[k]:
+            continue
+        level = k / max(count - 1, 1)
+        at = np.array([np.interp(level, z, stalk[:, i]) for i in range(3)])
+        azimuth = math.radians(start + 180.0 * k + rng.normal(0, 15))
+        length = height * rng.uniform(0.8, 1.0) * (0.55 + 0.45 * math.sin(math.pi * (0.15 + 0.7 * level)))
+        elevation = math.radians(rng.uniform(35, 55) + 25 * level)  # lower blades spread flatter
+        droop = math.radians(rng.uniform(55, 90)) * species["arch"] * (1.1 - 0.4 * level)
+        _leaf(plant, at, azimuth, elevation, length, species["width"] / 2, 0.85 * (1 - level) ** 1.2, shape,
+              droop=droop, fold=math.radians(rng.uniform(10, 25)), roll=rng.uniform(-0.1, 0.2), steps=10, sides=2,
+              profile="grass")
+    for j in range(2):  # the whorl
+        azimuth = math.radians(start + 180.0 * (count + j))
+        _leaf(plant, stalk[-1], azimuth, math.radians(80), 0.25 * height, species["width"] / 4, 0.0, shape,
+              droop=math.radians(25), fold=math.radians(40), steps=6, sides=1, profile="grass")
     return plant
 
 

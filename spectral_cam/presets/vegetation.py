@@ -2,7 +2,8 @@
 the scene of outdoor and agricultural imaging (crop monitoring, plant health).
 
 Each plant is one triangle mesh (``plant_<n>``; weeds ``weed_<n>``) grown by its species'
-morphology (:mod:`spectral_cam.presets.plants`: ``grass``, ``rosette``, ``upright``, ``shrub``),
+morphology (:mod:`spectral_cam.presets.plants`: ``grass``, ``rosette``, ``upright``, ``shrub``,
+``cereal``),
 drawn by ``scene.layout_seed`` (:func:`plant_species`: 2–4 species a scattered scene, one crop
 species a field, its weeds of another morphology), its shape bent by its health (wilting,
 curl, leaf loss, stunting). With ``scene.plant_reflectances = "prospect"`` (the
@@ -51,12 +52,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..scene import SceneConfig
 
 __all__ = ["plant_mesh", "vegetation_layout", "plant_health", "plant_species", "GOLDEN_ANGLE_DEG",
-           "CROP_MORPHOLOGIES", "WEED_MORPHOLOGIES", "BARK_SAMPLE"]
+           "CROP_MORPHOLOGIES", "WEED_MORPHOLOGIES", "SCATTER_MORPHOLOGIES", "BARK_SAMPLE"]
 
 #: Morphologies a crop row may be (lettuce, beet: rosette; bean, soybean, potato: upright; maize,
-#: wheat: grass) and those the weeds between the rows are drawn from (never the crop's).
-CROP_MORPHOLOGIES = ("rosette", "upright", "grass")
+#: sorghum: cereal; rows 0.75 m apart are what these crops are sown in, wheat is drilled closer)
+#: and those the weeds between the rows are drawn from (never the crop's); a scattered scene's
+#: species come from the wild morphologies (no maize in a meadow).
+CROP_MORPHOLOGIES = ("rosette", "upright", "cereal")
 WEED_MORPHOLOGIES = ("grass", "upright")
+SCATTER_MORPHOLOGIES = ("grass", "rosette", "upright", "shrub")
 #: The bark of woody stems: no bark spectrum is bundled (data/usgs_splib07/README.md), so the
 #: USGS dried oak leaf, a dead, brown plant tissue, stands in.
 BARK_SAMPLE = "dry_oak_leaf2_dried_ASD"
@@ -168,7 +172,8 @@ def plant_health(config: "SceneConfig", count: int) -> list[dict]:
 
 def plant_species(config: "SceneConfig", plants: int, weeds: int = 0) -> tuple[list[dict], list[dict]]:
     """Each plant's and each weed's species (:func:`spectral_cam.presets.plants.draw_species`),
-    drawn by ``layout_seed``: a scattered scene has 2–4 species of different morphologies, each
+    drawn by ``layout_seed``: a scattered scene has 2–4 species of different
+    :data:`SCATTER_MORPHOLOGIES`, each
     plant one of them; a crop field (``layout = "rows"``) one crop species of
     :data:`CROP_MORPHOLOGIES`, its weeds 1–2 species of :data:`WEED_MORPHOLOGIES` other than the
     crop's morphology."""
@@ -178,7 +183,7 @@ def plant_species(config: "SceneConfig", plants: int, weeds: int = 0) -> tuple[l
         choices = [m for m in WEED_MORPHOLOGIES if m != crop["morphology"]]
         pool = [draw_species(rng, str(m)) for m in rng.permutation(choices)[:int(rng.integers(1, len(choices) + 1))]]
         return [crop] * plants, [pool[int(rng.integers(len(pool)))] for _ in range(weeds)]
-    names = list(MORPHOLOGIES)
+    names = list(SCATTER_MORPHOLOGIES)
     pool = [draw_species(rng, str(m)) for m in rng.permutation(names)[:int(rng.integers(2, len(names) + 1))]]
     return [pool[int(rng.integers(len(pool)))] for _ in range(plants)], []
 

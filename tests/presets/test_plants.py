@@ -12,7 +12,8 @@ import pytest
 import spectral_cam as sc
 from spectral_cam.presets.plants import (HEALTH_SHAPES, MORPHOLOGIES, HealthShape, draw_shape, draw_species,
                                          vein_pattern)
-from spectral_cam.presets.vegetation import CROP_MORPHOLOGIES, WEED_MORPHOLOGIES, plant_species
+from spectral_cam.presets.vegetation import (CROP_MORPHOLOGIES, SCATTER_MORPHOLOGIES, WEED_MORPHOLOGIES,
+                                              plant_species)
 
 
 def _grow(morphology, seed, state="healthy", size=0.5, species=None):
@@ -25,10 +26,10 @@ def _grow(morphology, seed, state="healthy", size=0.5, species=None):
 
 @pytest.mark.parametrize("morphology", list(MORPHOLOGIES))
 def test_each_morphology_grows_a_plant_of_a_few_thousand_triangles_none_alike(morphology):
-    """Four morphologies; a plant is at most 6000 triangles (grass, rosette, upright ≈ 350–1000;
-    shrub ≈ 3000–5000), stands on the ground within about its size, carries texture coordinates
+    """Five morphologies; a plant is at most 6000 triangles (grass, rosette, upright, cereal ≈
+    350–1000; shrub ≈ 3000–5000), stands on the ground within about its size, carries texture coordinates
     in [0, 1] and ages in [0, 1]; only the shrub has bark; two plants of one species differ."""
-    assert set(MORPHOLOGIES) >= {"grass", "rosette", "upright", "shrub"}
+    assert set(MORPHOLOGIES) >= {"grass", "rosette", "upright", "shrub", "cereal"}
     species = draw_species(np.random.default_rng(1), morphology)
     shapes = []
     for seed in range(8):
@@ -89,7 +90,7 @@ def test_species_scatter_mixes_morphologies_and_rows_keep_one_crop():
         crop, weed = plant_species(rows, 20, 8)
         assert len({id(p) for p in crop}) == 1 and crop[0]["morphology"] in CROP_MORPHOLOGIES
         assert all(w["morphology"] in WEED_MORPHOLOGIES and w["morphology"] != crop[0]["morphology"] for w in weed)
-    assert seen == set(MORPHOLOGIES)
+    assert seen == set(SCATTER_MORPHOLOGIES)
 
 
 @pytest.mark.parametrize("venation", ["pinnate", "parallel"])
@@ -101,3 +102,28 @@ def test_the_vein_texture_pales_the_midrib_veins_and_base(venation):
     assert w[rows // 2, columns // 2 - 1: columns // 2 + 1].max() > 0.5  # the midrib halfway
     lamina = w[rows // 3: 2 * rows // 3, int(0.2 * columns): int(0.4 * columns)]
     assert np.median(lamina) < 0.15 and lamina.max() > 0.4  # mostly lamina, crossed by veins
+
+
+def test_a_cereal_holds_broad_blades_in_two_ranks():
+    """Maize and sorghum (Ritchie, Hanway & Benson 1993): the blades leave one stalk alternately
+    in two ranks, so their tips lie along one horizontal axis (within 35° of it, either way, for
+    at least 80 % of the blades), and a blade is about a tenth as wide as long (its widest
+    cross-section over its spine's length: 0.06–0.14)."""
+    species = draw_species(np.random.default_rng(3), "cereal")
+    for seed in range(4):
+        plant, _ = _grow("cereal", seed, species=species)
+        blades = [(v, uv) for v, uv in zip(plant.vertices, plant.uv) if np.ptp(uv[:, 1]) > 0 and len(v) >= 55]
+        assert 7 <= len(blades) <= 15
+        azimuths, ratios = [], []
+        for vertices, uv in blades:
+            rows = vertices.reshape(-1, 5, 3)  # (steps + 1, 2·sides + 1): across each row
+            spine = rows[:, 2]
+            length = np.linalg.norm(np.diff(spine, axis=0), axis=1).sum()
+            width = np.linalg.norm(rows[:, 0] - rows[:, -1], axis=1).max()
+            ratios.append(width / length)
+            tip = spine[-1, :2] - spine[0, :2]
+            azimuths.append(np.arctan2(tip[1], tip[0]))
+        axis = 0.5 * np.angle(np.mean(np.exp(2j * np.array(azimuths))))  # the ranks' axis (mod 180°)
+        off = np.abs(np.angle(np.exp(2j * (np.array(azimuths) - axis)))) / 2
+        assert np.mean(off < np.radians(35)) >= 0.8
+        assert 0.06 <= np.median(ratios) <= 0.14
