@@ -28,12 +28,15 @@ hold the verdicts, ``inside`` whether all hold, ``outside`` the measures that do
 
 Writes ``OUT/realism.csv`` and ``OUT/realism.png`` (the measures, photographs against ours);
 ``--readme README.md`` rewrites its table there from the CSV; ``--from-csv`` redraws the chart and
-the table from an existing CSV without rendering. A scene that fails to render is reported and
+the table from an existing CSV without rendering. ``--layout-seeds 0,1,2`` measures instead the
+world's scenes (:data:`SEED_SCENES`: issue 37's acceptance, every outdoor and indoor preset at
+three layouts) at each of those ``scene.layout_seed`` values, into ``OUT/realism_seeds.csv`` and
+its own README block (each scene's range over the seeds, and whether every seed is inside). A scene that fails to render is reported and
 left out (the script then exits with status 1, after writing what it measured).
 
 Usage::
 
-    python benchmarks/bench_realism.py docs/bench [--readme README.md] [--from-csv]
+    python benchmarks/bench_realism.py docs/bench [--readme README.md] [--from-csv] [--layout-seeds 0,1,2]
 """
 
 from __future__ import annotations
@@ -57,14 +60,19 @@ SHORT = {"detail": "detail", "dark_p25": "dark channel", "colourfulness": "colou
          "clipped": "clipped"}
 PHOTOGRAPH = "photograph"
 BEGIN, END = "<!-- realism:begin -->", "<!-- realism:end -->"
+#: The world's scenes (an outdoor or indoor preset each) measured over layouts by ``--layout-seeds``.
+SEED_SCENES = ("tabletop", "vegetation", "meadow", "field", "room")
+SEEDS_BEGIN, SEEDS_END = "<!-- realism-seeds:begin -->", "<!-- realism-seeds:end -->"
 
 
-def scene_row(name: str) -> dict:
+def scene_row(name: str, layout_seed: int | None = None) -> dict:
+    """The measures of a bundled scene at its defaults (or at ``layout_seed``)."""
     from spectral_cam import load_scene
     from spectral_cam.job import simulate
     from spectral_cam.metrics.realism import firefly_share, image_statistics, raw_levels
 
-    config = load_scene(ROOT / "scenes" / f"{name}.toml")
+    overrides = {} if layout_seed is None else {"scene.layout_seed": int(layout_seed)}
+    config = load_scene(ROOT / "scenes" / f"{name}.toml", overrides=overrides)
     sim = simulate(config)
     display = np.round(np.clip(sim.developed.image, 0, 1) * 255).astype(np.uint8)
     stats = image_statistics(display, short_side=SHORT_SIDE)
@@ -73,7 +81,8 @@ def scene_row(name: str) -> dict:
     raw = sim.raw
     top, left, height, width = raw.crop or (0, 0, *raw.mosaic.shape)
     median, p99 = raw_levels(raw.mosaic[top:top + height, left:left + width], raw.black_level, raw.white_level)
-    return {"image": f"scenes/{name}.toml", "kind": "ours (defaults)",
+    kind = "ours (defaults)" if layout_seed is None else f"ours (layout_seed {layout_seed})"
+    return {"image": f"scenes/{name}.toml", "kind": kind,
             "source": f"{display.shape[1]} × {display.shape[0]}", "licence": "", **stats, "raw_median": median,
             "raw_p99": p99,
             "estimator": sim.radiance.meta["model_decisions"].get("estimator", {}).get("choice", "mean")}
@@ -181,6 +190,37 @@ def readme_block(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def seeds_block(rows: list[dict]) -> str:
+    """The README's table of the world's scenes over layouts, from realism_seeds.csv: per scene
+    the lowest and highest of each scored measure over its layout seeds, and the seeds outside."""
+    photographs = [r for r in rows if r["kind"] == PHOTOGRAPH]
+    ours = [r for r in rows if r["kind"] != PHOTOGRAPH]
+    seeds = sorted({int(str(r["kind"]).rsplit(" ", 1)[-1].rstrip(")")) for r in ours})
+    lines = [SEEDS_BEGIN,
+             f"Each scene at `scene.layout_seed` = {', '.join(map(str, seeds))} (its other keys at their defaults),",
+             "measured as above against the same photographs: the lowest and highest over the layouts.",
+             "",
+             "| scene | " + " | ".join(heading for _key, heading, _spec in MEASURES) + " | layouts outside the range |",
+             "|---|" + "---|" * (len(MEASURES) + 1)]
+    for image in dict.fromkeys(r["image"] for r in ours):
+        mine = [r for r in ours if r["image"] == image]
+        spans = []
+        for key, _heading, spec in MEASURES:
+            values = [float(r[key]) for r in mine]
+            spans.append(f"{_format(min(values), spec)} – {_format(max(values), spec)}")
+        outside = [f"{str(r['kind']).rsplit(' ', 1)[-1].rstrip(')')} ({', '.join(SHORT[k] for k in str(r['outside']).split())})"
+                   for r in mine if not _truth(r["inside"])]
+        lines.append(f"| {image} | " + " | ".join(spans) + f" | {'; '.join(outside) or 'none'} |")
+    if photographs:
+        spans = []
+        for key, _heading, spec in MEASURES:
+            values = [float(p[key]) for p in photographs]
+            spans.append(f"{_format(min(values), spec)} – {_format(max(values), spec)}")
+        lines.append(f"| **photographs' range** ({len(photographs)}) | " + " | ".join(spans) + " | |")
+    lines.append(SEEDS_END)
+    return "\n".join(lines)
+
+
 def chart(rows: list[dict], path: Path) -> Path:
     """One strip per scored measure: the photographs (grey, their range shaded) against our scenes."""
     import matplotlib
@@ -218,40 +258,60 @@ def chart(rows: list[dict], path: Path) -> Path:
     return path
 
 
+def _measure(names, seeds) -> tuple[list[dict], list[str]]:
+    """Rows of our scenes (each at its defaults, or at each of ``seeds``) and the photographs',
+    scored; and the scenes that failed to render (reported, left out)."""
+    rows, failed = [], []
+    for name in names:
+        for seed in seeds:
+            try:
+                rows.append(scene_row(name, seed))
+            except Exception:  # report, go on with the others: one broken scene should not lose the rest
+                traceback.print_exc()
+                failed.append(name if seed is None else f"{name} (layout_seed {seed})")
+                continue
+            print(rows[-1], file=sys.stderr)
+    rows += photograph_rows()
+    return rows, failed
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("output")
     parser.add_argument("--readme", help="rewrite the realism table in this README")
     parser.add_argument("--from-csv", action="store_true",
                         help="redraw the chart and the README table from OUTPUT/realism.csv, without measuring")
+    parser.add_argument("--layout-seeds", help="measure the world's scenes at these layout seeds (e.g. 0,1,2) into "
+                                               "OUTPUT/realism_seeds.csv instead")
     args = parser.parse_args()
 
     from spectral_cam.apps.bench.common import read_rows, write_rows
 
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
+    seeded = args.layout_seeds is not None
+    table = out / ("realism_seeds.csv" if seeded else "realism.csv")
     failed = []
     if args.from_csv:
-        rows = read_rows(out / "realism.csv")
+        rows = read_rows(table)
     else:
-        rows = []
-        for name in SCENES:
-            try:
-                rows.append(scene_row(name))
-            except Exception:  # report, go on with the others: one broken scene should not lose the rest
-                traceback.print_exc()
-                failed.append(name)
-                continue
-            print(rows[-1], file=sys.stderr)
-        rows += photograph_rows() + camera_raw_rows()
+        if seeded:
+            rows, failed = _measure(SEED_SCENES, [int(v) for v in args.layout_seeds.split(",")])
+        else:
+            rows, failed = _measure(SCENES, [None])
+            rows += camera_raw_rows()
         score_ranges(rows)
-        write_rows(rows, out / "realism.csv")
-        rows = read_rows(out / "realism.csv")  # the table and chart from the CSV, as --from-csv draws them
-    chart(rows, out / "realism.png")
+        write_rows(rows, table)
+        rows = read_rows(table)  # the table and chart from the CSV, as --from-csv draws them
+    if not seeded:
+        chart(rows, out / "realism.png")
     if args.readme:
         from spectral_cam.records import replace_block
 
-        replace_block(args.readme, BEGIN, END, readme_block(rows))
+        if seeded:
+            replace_block(args.readme, SEEDS_BEGIN, SEEDS_END, seeds_block(rows))
+        else:
+            replace_block(args.readme, BEGIN, END, readme_block(rows))
     if failed:
         print(f"these scenes failed and are left out: {', '.join(failed)}", file=sys.stderr)
         sys.exit(1)
