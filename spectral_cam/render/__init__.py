@@ -183,7 +183,8 @@ def execute(plan, *, progress: Callable[[int, int, float], None] | None = None) 
     else:
         image = trace(config, plan.capture_lens, plan.lens_model, variant=plan.variant, camera_film=plan.camera_film,
                       diffraction=plan.diffraction, groups=plan.estimator_passes, subframes=plan.subframes,
-                      depth=plan.depth_m, depth_s=plan.depth_s, decisions=dict(plan.decisions), progress=progress)
+                      depth=plan.depth_m, depth_s=plan.depth_s, decisions=dict(plan.decisions), progress=progress,
+                      aerial=plan.aerial)
     model.post_render(image, plan)  # what the model records (a prescription's traced optics)
     image.meta["lens_shading"] = model.shading(config)  # what the sensor's shading reads of the render
     image.white_reference = white_reference_mask(config, plan.capture_lens)

@@ -79,6 +79,8 @@ class CapturePlan:
     depth_m : numpy.ndarray or None
         The depth probe over the capture area (m), when one was rendered; the depth output of a
         pinhole or thin-lens job.
+    aerial : bool
+        The air veils far ground (:mod:`spectral_cam.render.aerial`).
     """
 
     config: SceneConfig
@@ -97,6 +99,7 @@ class CapturePlan:
     budget: dict
     depth_m: np.ndarray | None = field(default=None, repr=False, compare=False)
     depth_s: float = 0.0
+    aerial: bool = False
 
     @property
     def channels(self) -> int:
@@ -407,6 +410,7 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     import mitsuba as mi
 
     from ..spectra import parse_bands
+    from .aerial import decide_aerial
     from .decisions import decide_bands, decide_diffraction, decide_estimator
     from .depth import render_depth
     from .lights import resolve_light
@@ -427,6 +431,7 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
     capture = frame.widened(config.sensor.crop_margin_px) if with_margin else frame
     warn_wide_view(frame)
     config, decisions["illuminant"] = resolve_light(config, lens=frame, variant=variant)
+    aerial, decisions["aerial_perspective"] = decide_aerial(config, frame)
     if config.scene.mitsuba_xml:
         decisions["field_of_view"] = xml_field_of_view_record(config, frame)
     groups, decisions["estimator"] = decide_estimator(config, config.render.spp, lens=frame)  # may probe (few passes)
@@ -481,5 +486,5 @@ def make_plan(config: SceneConfig, *, with_margin: bool = True, with_depth: bool
                        variant=variant, decisions=decisions, camera_film=camera_film, diffraction=diffract,
                        estimator_passes=groups, subframes=subframes, layered_margin_px=margin,
                        tiles=len(frame_tiles(traced.width_px, traced.height_px)), budget=budget, depth_m=depth,
-                       depth_s=depth_s)
+                       depth_s=depth_s, aerial=aerial)
 

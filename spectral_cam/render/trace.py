@@ -158,7 +158,7 @@ def check_tiling(config: SceneConfig, lens: ThinLens) -> None:
 def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str, camera_film: bool,
           diffraction: bool, groups: int = 1, subframes: int = 1,
           depth: np.ndarray | None = None, depth_s: float = 0.0, decisions: dict | None = None,
-          progress: Callable[[int, int, float], None] | None = None) -> SpectralImage:
+          progress: Callable[[int, int, float], None] | None = None, aerial: bool = False) -> SpectralImage:
     """Render the radiance of ``config`` through ``lens`` as ``lens_model`` with Mitsuba's
     current variant (``variant``, already set), as a capture plan decided
     (:func:`spectral_cam.render.plan.make_plan`: nothing is decided here but ``spp = "auto"``'s stop).
@@ -191,6 +191,8 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
         Called after each pass with (spp done, spp total, seconds so far); a frame of more
         than :data:`~spectral_cam.render.scene_dict.TILE_PIXELS` pixels renders in tiles and
         adds the keyword ``tile=(tiles finished, tiles)``.
+    aerial : bool
+        Veil far ground with the air (:mod:`spectral_cam.render.aerial`).
 
     Returns
     -------
@@ -212,8 +214,13 @@ def trace(config: SceneConfig, lens: ThinLens, lens_model: str, *, variant: str,
     started = time.perf_counter()
     camera = configured_camera(mi, config, lens, lens_model, render_film(config, film.use_camera, width, height),
                                passes.spp_per_pass)
-    scene, sensor, integrator = build_scene(mi, config, lens, camera,
-                                            {"type": "path", "max_depth": config.render.max_depth})
+    integrator = {"type": "path", "max_depth": config.render.max_depth}
+    if aerial:
+        from .aerial import aerial_integrator, register
+
+        register(mi)
+        integrator = aerial_integrator(config, integrator)
+    scene, sensor, integrator = build_scene(mi, config, lens, camera, integrator)
     load_s = time.perf_counter() - started
     # the pose of the render (camera.json): the exposure's middle (sub-frames move about it)
     camera_to_world = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]

@@ -121,7 +121,8 @@ def _sky_number(low: float, high: float, what: str):
 SKY = SectionSpec("sky", "SkySection", owner="the outdoor presets' sun and sky", doc="""Mitsuba's ``sunsky`` (Hosek–Wilkie sky and sun) for the outdoor
     presets: the sun where it stands at local clock ``hour`` on ``date`` at the place (NOAA's solar position,
     :mod:`spectral_cam.solar`), ``turbidity`` the haze, ``heading_deg`` the camera's compass heading,
-    ``cloud_cover`` the share of the sky a layer of cumulus hides (:mod:`spectral_cam.presets.clouds`).""", keys=(
+    ``cloud_cover`` the share of the sky a layer of cumulus hides (:mod:`spectral_cam.presets.clouds`),
+    ``aerial_perspective`` the air's veil over far ground (:mod:`spectral_cam.render.aerial`).""", keys=(
     Key("date", "2026-06-21", "str", "the day (YYYY-MM-DD)", (_date,)),
     Key("hour", 14.0, "float", "local clock time", (_sky_number(0.0, 24.0, "a local clock time in hours"),)),
     Key("utc_offset_h", 2.0, "float", "the clock's offset from UTC",
@@ -134,6 +135,9 @@ SKY = SectionSpec("sky", "SkySection", owner="the outdoor presets' sun and sky",
         (lambda v, s: None if isinstance(v, float) and is_number(v) else "must be a compass heading in degrees",)),
     Key("cloud_cover", 0.0, "float", "the share of the sky a layer of cumulus hides (0: clear)",
         (_sky_number(0.0, 1.0, "the share of the sky under cloud (0: clear)"),)),
+    Key("aerial_perspective", "auto", "str", "the air's veil over far ground: auto (where it dims the farthest "
+        "ground by 0.5 % or more), on or off",
+        (one_of(("auto", "on", "off"), "must be auto, on or off: the air's veil over far ground"),)),
 ))
 
 
