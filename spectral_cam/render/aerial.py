@@ -3,12 +3,15 @@ sky's light, so distant hills are paler and bluer than the same hills near.
 
 Light from a surface s metres along a camera ray reaches the camera as
 
-    L(λ) = L₀(λ)·T(λ) + L_h(λ)·(1 − T(λ)),   T(λ) = exp(−β(λ)·s),
+    L(λ) = L₀(λ)·T(λ) + L_s(λ)·(1 − T(λ))/(1 − T∞(λ)),
 
-``L_h`` the sky's radiance just above the horizon in the ray's azimuth: what an endless
-horizontal path through the same air sends, to which the path's in-scattered light tends (the
-sky model holds the sun's angle and the haze). Rays that meet no surface see the sky model,
-which holds its own atmosphere, and are left alone. The extinction at sea level is Rayleigh's,
+T the path's transmittance and ``L_s`` the sky's radiance along the ray (at least 1° above the
+horizon): what the whole path to space sends (the sky model holds the sun's angle and the haze),
+of which the path to the surface holds the share (1 − T)/(1 − T∞), T∞ the whole path's
+transmittance. A level ray (the far ground) has T = exp(−β(λ)·s) and T∞ = 0, so its light tends
+to the horizon's; the air thins upwards with the molecules' and the haze's scale heights H, so a
+ray climbing at elevation e (to a cloud) crosses Σ β·H·(1 − exp(−s·sin e/H))/sin e. Rays that meet
+no surface see the sky model, which holds its own atmosphere, and are left alone. The extinction at sea level is Rayleigh's,
 β_R(550 nm) = 1.149·10⁻⁵ m⁻¹ ∝ λ^−4.09 (colour-science's Bodhaine et al. 1999 within 1 % over
 400–700 nm), plus the haze's, set by the sky's ``turbidity`` T (Preetham et al. 1999: the ratio
 of the whole vertical optical depth to the molecules'), with the molecules' and the haze's
@@ -167,19 +170,29 @@ def _integrator_class(mi):
             radiance, valid, aovs = self.inner.sample(scene, sampler, ray, medium, active)
             hit = active & first.is_valid()
             ratio = 550.0 / ray.wavelengths
-            beta = self.rayleigh * dr.power(ratio, RAYLEIGH_POWER) + self.haze * dr.power(ratio, ANGSTROM_POWER)
-            transmittance = dr.exp(-beta * dr.select(hit, first.t, 0.0))
+            rayleigh = self.rayleigh * dr.power(ratio, RAYLEIGH_POWER)
+            haze = self.haze * dr.power(ratio, ANGSTROM_POWER)
             up = mi.Vector3f(self.up)
-            level = ray.d - dr.dot(ray.d, up) * up
+            rise = dr.dot(ray.d, up)  # sine of the ray's elevation
+            distance = dr.select(hit, first.t, 0.0)
+            transmittance = dr.exp(-rayleigh * _thinning(dr, distance, rise, RAYLEIGH_HEIGHT_M)
+                                   - haze * _thinning(dr, distance, rise, HAZE_HEIGHT_M))
+            # the in-scattered light: the sky's along the ray (at least 1° up), of which the path to
+            # the surface holds the share (1 − T)/(1 − T∞) of the whole path's to space
+            level = ray.d - rise * up
             level = dr.select(dr.norm(level) > 1e-6, dr.normalize(level), mi.Vector3f(1, 0, 0))
-            horizon = level * self.lift[0] + up * self.lift[1]
+            low = rise < self.lift[1]
+            toward = dr.select(low, level * self.lift[0] + up * self.lift[1], ray.d)
+            # a level ray's path to space never ends (T∞ = 0); the sky is read 1° up all the same
+            endless = dr.select(rise > 1e-6, dr.exp(-(rayleigh * RAYLEIGH_HEIGHT_M + haze * HAZE_HEIGHT_M)
+                                                    / dr.maximum(rise, 1e-6)), 0.0)
             sky = scene.environment()
             light = dr.zeros(mi.Spectrum)
             if sky is not None:
                 point = dr.zeros(mi.SurfaceInteraction3f)
-                point.wi = -horizon
+                point.wi = -toward
                 point.wavelengths = ray.wavelengths
-                light = sky.eval(point, hit)
+                light = sky.eval(point, hit) / (1.0 - endless)
             veiled = radiance * transmittance + light * (1.0 - transmittance)
             return dr.select(hit, veiled, radiance), valid, aovs
 
@@ -190,6 +203,14 @@ def _integrator_class(mi):
             return f"AerialPerspective[inner={self.inner}]"
 
     return AerialPerspective
+
+
+def _thinning(dr, distance, rise, height_m: float):
+    """∫₀ˢ exp(−z/H) ds along a ray climbing at sine ``rise`` from the ground (z = s·rise): the
+    path's optical depth over the sea-level coefficient's, m; a level or falling ray keeps the
+    ground's density (the camera stands within metres of it)."""
+    x = distance * dr.maximum(rise, 0.0) / height_m
+    return dr.select(x > 1e-4, distance * (1.0 - dr.exp(-x)) / dr.maximum(x, 1e-4), distance * (1.0 - 0.5 * x))
 
 
 def register(mi) -> None:
