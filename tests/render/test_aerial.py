@@ -79,6 +79,21 @@ def _facing(mi, distance_m, elevation_deg):
             .rotate([0, 1, 0], 180).scale(1e3))
 
 
+def _targets(mi):
+    """Builders of the two targets of known radiance, ``(distance, elevation) -> scene entries``:
+    one glowing with L₀ = 2 and no sky; one black under a uniform sky of radiance 3."""
+    def glowing(d, elevation=0.0):
+        return {"target": {"type": "rectangle", "to_world": _facing(mi, d, elevation),
+                           "emitter": {"type": "area", "radiance": {"type": "uniform", "value": 2.0}}}}
+
+    def black_under_sky(d, elevation=0.0):
+        return {"target": {"type": "rectangle", "to_world": _facing(mi, d, elevation),
+                           "bsdf": {"type": "diffuse", "reflectance": 0.0}},
+                "sky": {"type": "constant", "radiance": {"type": "uniform", "value": 3.0}}}
+
+    return glowing, black_under_sky
+
+
 @pytest.mark.parametrize("turbidity", [1.0, 3.0])
 def test_the_veil_is_the_closed_form_on_targets_of_known_radiance(variant, turbidity):
     """A glowing target (radiance L₀, no sky) 5 km away reaches the camera as L₀·T(λ); a black
@@ -91,15 +106,7 @@ def test_the_veil_is_the_closed_form_on_targets_of_known_radiance(variant, turbi
     s = 5000.0
     transmittance = np.exp(-extinction_per_m(bands, turbidity) * s)
 
-    def glowing(d, elevation=0.0):
-        return {"target": {"type": "rectangle", "to_world": _facing(mi, d, elevation),
-                           "emitter": {"type": "area", "radiance": {"type": "uniform", "value": 2.0}}}}
-
-    def black_under_sky(d, elevation=0.0):
-        return {"target": {"type": "rectangle", "to_world": _facing(mi, d, elevation),
-                           "bsdf": {"type": "diffuse", "reflectance": 0.0}},
-                "sky": {"type": "constant", "radiance": {"type": "uniform", "value": 3.0}}}
-
+    glowing, black_under_sky = _targets(mi)
     np.testing.assert_allclose(_render(mi, glowing, s, turbidity, bands), 2.0 * transmittance, rtol=0.01)
     np.testing.assert_allclose(_render(mi, black_under_sky, s, turbidity, bands), 3.0 * (1 - transmittance), rtol=0.01)
 
@@ -163,15 +170,7 @@ def test_a_climbing_ray_crosses_thinner_air_and_the_skys_share_of_its_path(varia
     endless = np.exp(-(rayleigh * RAYLEIGH_HEIGHT_M + haze * HAZE_HEIGHT_M) / sine)
     assert depth[1] < 0.6 * extinction_per_m(550.0, turbidity) * s  # thinner than the ground's air
 
-    def glowing(d, e):
-        return {"target": {"type": "rectangle", "to_world": _facing(mi, d, e),
-                           "emitter": {"type": "area", "radiance": {"type": "uniform", "value": 2.0}}}}
-
-    def black_under_sky(d, e):
-        return {"target": {"type": "rectangle", "to_world": _facing(mi, d, e),
-                           "bsdf": {"type": "diffuse", "reflectance": 0.0}},
-                "sky": {"type": "constant", "radiance": {"type": "uniform", "value": 3.0}}}
-
+    glowing, black_under_sky = _targets(mi)
     np.testing.assert_allclose(_render(mi, glowing, s, turbidity, bands, elevation), 2.0 * transmittance, rtol=0.01)
     np.testing.assert_allclose(_render(mi, black_under_sky, s, turbidity, bands, elevation),
                                3.0 * (1 - transmittance) / (1 - endless), rtol=0.01)
