@@ -1,6 +1,6 @@
-"""Render twelve items of the natural-content dataset plan (tabletop, vegetation and dead_leaves
-with preset, sun time, layout, materials and aperture drawn per item) through the whole chain on
-the local Dask cluster and draw their contact sheet as docs/natural_presets.png.
+"""Render twelve items of the world's dataset plan (tabletop and vegetation, with the preset,
+sun time, cloud cover, layout, materials, focal length and aperture drawn per item) through the
+whole chain on the local Dask cluster and draw their contact sheet as docs/natural_presets.png.
 
     .venv/bin/python docs/make_natural_figure.py
 """
@@ -22,7 +22,7 @@ def main() -> None:
         if summary.failed:
             raise SystemExit(f"{summary.failed} items failed")
         path = write_contact_sheet(Path(folder) / "natural", HERE / "natural_presets.png", columns=4,
-                                   keys=["scene.preset", "sky.hour", "lens.f_number"])
+                                   keys=["scene.preset", "sky.hour", "sky.cloud_cover", "lens.f_number"])
     print(f"wrote {path}")
 
 
