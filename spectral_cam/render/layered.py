@@ -137,7 +137,7 @@ def render_layered(config, *, lens: ThinLens | None = None, depth_supersample: i
     wide_lens = lens.widened(margin)  # the scene stays laid out for the frame
     sharp = trace(plan.config, wide_lens, "pinhole", variant=plan.variant, camera_film=plan.camera_film,
                   diffraction=False, groups=plan.estimator_passes, subframes=plan.subframes,
-                  decisions=dict(plan.decisions), progress=progress)
+                  decisions=dict(plan.decisions), progress=progress, aerial=plan.aerial)
     timings["pinhole_render"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     depth = nearest_depth(plan.config, lens=wide_lens, supersample=depth_supersample, variant=plan.variant)
