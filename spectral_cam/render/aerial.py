@@ -16,7 +16,7 @@ no surface see the sky model, which holds its own atmosphere, and are left alone
 400–700 nm), plus the haze's, set by the sky's ``turbidity`` T (Preetham et al. 1999: the ratio
 of the whole vertical optical depth to the molecules'), with the molecules' and the haze's
 scale heights 8 km and 1.2 km: β_M(550) = β_R(550)·(T − 1)·8/1.2, ∝ λ^−1.3 (Ångström). At T = 3
-the meteorological range (Koschmieder, 3.912/β at 550 nm) is 23 km.
+the meteorological range (Koschmieder, 3.912/β at 550 nm) is 24 km.
 
 It is applied per camera sample by an integrator wrapping the path tracer
 (:func:`aerial_integrator`): the distance is the sample's own ray's (depth of field, motion and
