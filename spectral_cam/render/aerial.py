@@ -63,7 +63,6 @@ HORIZON_ELEVATION_DEG = 1.0
 MIN_VEIL = 0.005
 #: The integrator plugin's name.
 PLUGIN = "spectral_cam_aerial"
-_REGISTERED: set[str] = set()
 
 
 def extinction_per_m(wavelength_nm, turbidity: float):
@@ -215,8 +214,6 @@ def _thinning(dr, distance, rise, height_m: float):
 
 def register(mi) -> None:
     """Register the aerial-perspective integrator for the current variant, once."""
-    if mi.variant() in _REGISTERED:
-        return
-    cls = _integrator_class(mi)
-    mi.register_integrator(PLUGIN, lambda props: cls(props))
-    _REGISTERED.add(mi.variant())
+    from .plugins import register_once
+
+    register_once(mi, "integrator", PLUGIN, _integrator_class)

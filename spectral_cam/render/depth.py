@@ -11,6 +11,7 @@ import numpy as np
 
 from ..optics import ThinLens
 from ..scene import SceneConfig
+from .plugins import register_once
 from .scene_dict import (build_scene, camera_dict, configured_camera, frame_tiles, pass_seed, release_render_memory,
                          tile_sensors)
 
@@ -278,18 +279,14 @@ def render_shape_coverage(mi, config: SceneConfig, lens: ThinLens, *, model: str
 
 
 ALBEDO_INTEGRATOR = "spectral_cam_albedo"
-_ALBEDO_REGISTERED: set[str] = set()
 
 
-def _register_albedo(mi) -> None:
+def _albedo_class(mi):
     """A Mitsuba integrator returning, at each camera ray's first hit, its BSDF's diffuse
     reflectance (``eval_diffuse_reflectance``) at the ray's wavelengths: on a band film, the band
     integral of ρ(λ). (Mitsuba's own ``aov`` albedo aborts on a ``specfilm``: heap corruption in
-    3.9.1.) Registered once per variant."""
+    3.9.1.) Registered once per variant (:func:`.plugins.register_once`)."""
     import drjit as dr
-
-    if mi.variant() in _ALBEDO_REGISTERED:
-        return
 
     # Mitsuba requires this class inside a function: a Python plugin subclasses the active variant's
     # mi.SamplingIntegrator, which exists only once mi.set_variant has run and is another class in each variant
@@ -301,8 +298,7 @@ def _register_albedo(mi) -> None:
             value = si.bsdf(ray).eval_diffuse_reflectance(si, hit)
             return dr.select(hit, value, 0.0), hit, []
 
-    mi.register_integrator(ALBEDO_INTEGRATOR, lambda props: Albedo(props))
-    _ALBEDO_REGISTERED.add(mi.variant())
+    return Albedo
 
 
 #: The albedo's bands: 5 nm over the camera curves' range (the render's 10-nm bands put the
@@ -326,7 +322,7 @@ def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = ALBEDO_
     from .. import spectra
     from .films import band_film
 
-    _register_albedo(mi)
+    register_once(mi, "integrator", ALBEDO_INTEGRATOR, _albedo_class)
     width, height = lens.width_px, lens.height_px
     bands = spectra.parse_bands(bands)
     _, _, tiles = _pinhole_probe(mi, config, lens, band_film(bands, width, height), {"type": ALBEDO_INTEGRATOR},
@@ -340,17 +336,13 @@ def render_albedo(mi, config: SceneConfig, lens: ThinLens, *, spp: int = ALBEDO_
 #: Surfaces each pinhole ray is followed through for the amodal masks (a closed object takes two).
 AMODAL_LAYERS = 8
 _LAYERS_INTEGRATOR = "spectral_cam_shape_layers"
-_LAYERS_REGISTERED: set = set()
 
 
-def _register_shape_layers(mi) -> None:
+def _shape_layers_class(mi):
     """A Mitsuba integrator returning, along each camera ray, the shape and primitive of each of
     the first :data:`AMODAL_LAYERS` surfaces it passes through (AOVs ``<k>_s``, ``<k>_p``; 0 past
     the last): the ray is spawned on from every hit, whatever the material."""
     import drjit as dr
-
-    if mi.variant() in _LAYERS_REGISTERED:
-        return
 
     # Mitsuba requires this class inside a function: a Python plugin subclasses the active variant's
     # mi.SamplingIntegrator, which exists only once mi.set_variant has run and is another class in each variant
@@ -369,8 +361,7 @@ def _register_shape_layers(mi) -> None:
                 ray = si.spawn_ray(ray.d)
             return mi.Spectrum(0.0), mi.Bool(True), layers
 
-    mi.register_integrator(_LAYERS_INTEGRATOR, lambda props: ShapeLayers(props))
-    _LAYERS_REGISTERED.add(mi.variant())
+    return ShapeLayers
 
 
 def render_shape_layers(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray | None:
@@ -386,7 +377,7 @@ def render_shape_layers(mi, config: SceneConfig, lens: ThinLens) -> np.ndarray |
     """
     if mi.variant().startswith("scalar"):
         return None
-    _register_shape_layers(mi)
+    register_once(mi, "integrator", _LAYERS_INTEGRATOR, _shape_layers_class)
     width, height = lens.width_px, lens.height_px
     # the shape map's stream and spp: the same rays as the segmentation's (render.depth.render_shapes)
     scene, _, tiles = _pinhole_probe(mi, config, lens, _luminance_film(width, height), {"type": _LAYERS_INTEGRATOR},

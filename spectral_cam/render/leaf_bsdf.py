@@ -86,7 +86,6 @@ from ..leaves import LEAF_PLUGIN as PLUGIN
 
 __all__ = ["PLUGIN", "register", "fresnel", "hemispherical_transmissivity"]
 
-_REGISTERED: set[str] = set()
 
 
 def fresnel(cos_theta, eta: float):
@@ -343,8 +342,6 @@ def _diffuse_reflectance(mi, dr, leaf, si, active):
 
 def register(mi) -> None:
     """Register the leaf BSDF for the current variant (Python plugins are per variant), once."""
-    if mi.variant() in _REGISTERED:
-        return
-    cls = _bsdf_class(mi)
-    mi.register_bsdf(PLUGIN, lambda props: cls(props))
-    _REGISTERED.add(mi.variant())
+    from .plugins import register_once
+
+    register_once(mi, "bsdf", PLUGIN, _bsdf_class)

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..optics import ThinLens
 from ..scene import SceneConfig
+from .plugins import register_once
 from .variants import choose_variant
 
 __all__ = ["LightMixture", "render_light_mixture", "MIXTURE_SPP"]
@@ -108,20 +109,17 @@ def _camera_rgb(config: SceneConfig, spectra: np.ndarray) -> np.ndarray:
 
 
 WHITE_BOUNCE_INTEGRATOR = "spectral_cam_white_bounce"
-_REGISTERED: set[str] = set()
 
 
-def _register_white_bounce(mi) -> None:
+def _white_bounce_class(mi):
     """A Mitsuba integrator returning, for each camera ray, the radiance a perfect white
     diffuser would reflect at its first hit: E(λ)/π, the irradiance there over π. Direct light
     by emitter sampling (unbiased for area, point, directional and environment emitters alone),
     indirect light by one cosine-weighted ray continued by Mitsuba's ``path`` with the emitters
     it sees at once hidden (emitter sampling counted them). A ray that meets an emitter, or
-    the environment, returns that light's own radiance. Registered once per variant."""
+    the environment, returns that light's own radiance. Registered once per variant
+    (:func:`.plugins.register_once`)."""
     import drjit as dr
-
-    if mi.variant() in _REGISTERED:
-        return
 
     # Mitsuba requires this class inside a function: a Python plugin subclasses the active variant's
     # mi.SamplingIntegrator, which exists only once mi.set_variant has run and is another class in each variant
@@ -148,8 +146,7 @@ def _register_white_bounce(mi) -> None:
             value = seen + dr.select(surface, direct + indirect, 0.0)
             return value, active, []
 
-    mi.register_integrator(WHITE_BOUNCE_INTEGRATOR, lambda props: WhiteBounce(props))
-    _REGISTERED.add(mi.variant())
+    return WhiteBounce
 
 
 #: Presets whose surfaces are emitters standing in for lit surfaces (each leaf sends ρ·E/π):
@@ -220,7 +217,7 @@ def render_light_mixture(config: SceneConfig, *, lens: ThinLens | None = None, s
     if not config.scene.mitsuba_xml and config.scene.preset in EMISSIVE_CHARTS:
         return _one_light_everywhere(config, lens)
     mi.set_variant(choose_variant(config.render.variant))
-    _register_white_bounce(mi)
+    register_once(mi, "integrator", WHITE_BOUNCE_INTEGRATOR, _white_bounce_class)
     width, height = lens.width_px, lens.height_px
     integrator = {"type": WHITE_BOUNCE_INTEGRATOR, "max_depth": config.render.max_depth}
     rgb, spectra, names = None, [], []

@@ -39,7 +39,8 @@ import numpy as np
 from ..optics.glass import LINES_NM
 from ..optics.aperture import rounded_boundary
 from ..optics.prescription import Prescription, sag_and_slope
-from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
+from .plugins import register_once
+from .python_sensor import film_uv, one_wavelength, with_ray_differential
 
 __all__ = ["PLUGIN", "register", "plugin_dict", "pupil_bounds", "trace_surfaces"]
 
@@ -113,7 +114,7 @@ def _text(values) -> str:
 
 def register(mi) -> None:
     """Register the plugin with Mitsuba's current variant (once per variant and process)."""
-    register_once(mi, PLUGIN, _sensor_class)
+    register_once(mi, "sensor", PLUGIN, _sensor_class)
 
 
 def _floats(props, key) -> list[float]:

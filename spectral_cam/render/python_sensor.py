@@ -1,5 +1,5 @@
 """What our Mitsuba cameras written in Python share (:mod:`.spectral_lens`,
-:mod:`.prescription_lens`): registration once per variant, the film position of a sample
+:mod:`.prescription_lens`; registered by :func:`.plugins.register_once`): the film position of a sample
 (crop windows included), one wavelength per ray where the optics disperse, and the ray
 differential Mitsuba's integrators ask for.
 
@@ -12,22 +12,7 @@ References
 
 from __future__ import annotations
 
-from typing import Callable
-
-__all__ = ["register_once", "film_uv", "one_wavelength", "with_ray_differential"]
-
-_REGISTERED: set[tuple[str, str]] = set()
-
-
-def register_once(mi, name: str, make_class: Callable) -> None:
-    """``mi.register_sensor(name, ...)`` for the current variant, once per process (a Python
-    plugin is registered per variant); ``make_class(mi)`` builds the ``mi.Sensor`` subclass."""
-    key = (mi.variant(), name)
-    if key in _REGISTERED:
-        return
-    cls = make_class(mi)
-    mi.register_sensor(name, lambda props: cls(props))
-    _REGISTERED.add(key)
+__all__ = ["film_uv", "one_wavelength", "with_ray_differential"]
 
 
 def film_uv(sensor, position_sample):

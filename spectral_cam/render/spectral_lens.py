@@ -44,7 +44,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..optics.aperture import rounded_boundary
-from .python_sensor import film_uv, one_wavelength, register_once, with_ray_differential
+from .plugins import register_once
+from .python_sensor import film_uv, one_wavelength, with_ray_differential
 
 __all__ = ["PLUGIN", "register", "plugin_dict"]
 
@@ -56,7 +57,7 @@ TABLE_NM = np.arange(360.0, 831.0, 5.0)
 
 def register(mi) -> None:
     """Register the plugin with Mitsuba's current variant (once per variant and process)."""
-    register_once(mi, PLUGIN, _sensor_class)
+    register_once(mi, "sensor", PLUGIN, _sensor_class)
 
 
 def _sensor_class(mi):
