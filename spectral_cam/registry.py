@@ -65,6 +65,10 @@ class Registry(Mapping):
     ----------
     kind : str
         What the entries are, for messages (``"demosaic method"``, ``"scene preset"``).
+    entry : type
+        The :class:`Entry` subclass its entries are (default :class:`Entry`); its own fields are
+        given to :meth:`register` and :meth:`add` as keywords (a scene preset's
+        ``sharp_materials``).
 
     Examples
     --------
@@ -83,28 +87,30 @@ class Registry(Mapping):
     spectral_cam.errors.ConfigError: unknown greeting 'bye'; valid: hello
     """
 
-    def __init__(self, kind: str):
+    def __init__(self, kind: str, *, entry: type = Entry):
         self.kind = kind
+        self.entry = entry  # an Entry subclass whose extra fields register() and add() pass on
         self._entries: dict[str, Entry] = {}
 
     def register(self, name: str, *, options: tuple[str, ...] = (), description: str = "", keys: tuple = (),
-                 checks: tuple = ()):
-        """Decorator: register the decorated function under ``name``."""
+                 checks: tuple = (), **fields):
+        """Decorator: register the decorated function under ``name`` (``fields``: the entry
+        type's own)."""
 
         def decorate(function: Callable) -> Callable:
-            self.add(name, function, options=options, description=description, keys=keys, checks=checks)
+            self.add(name, function, options=options, description=description, keys=keys, checks=checks, **fields)
             return function
 
         return decorate
 
     def add(self, name: str, function: Callable, *, options: tuple[str, ...] = (), description: str = "",
-            keys: tuple = (), checks: tuple = ()) -> Entry:
+            keys: tuple = (), checks: tuple = (), **fields) -> Entry:
         """Register ``function`` under ``name`` (a name can be registered once); the keys it
         declares are among its options."""
         if name in self._entries:
             raise ValueError(f"{self.kind} {name!r} is registered twice")
         options = tuple(options) + tuple(k.name for k in keys if k.name not in options)
-        entry = Entry(name, function, options, description, keys=tuple(keys), checks=tuple(checks))
+        entry = self.entry(name, function, options, description, keys=tuple(keys), checks=tuple(checks), **fields)
         self._entries[name] = entry
         return entry
 

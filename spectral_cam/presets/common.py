@@ -71,32 +71,9 @@ class Preset(Entry):
     sharp_materials: Callable[["SceneConfig"], tuple[str, ...]] = no_sharp_materials
 
 
-class PresetRegistry(Registry):
-    """A :class:`~spectral_cam.registry.Registry` of :class:`Preset` entries."""
-
-    def register(self, name: str, *, options: tuple[str, ...] = (), description: str = "", keys: tuple = (),
-                 checks: tuple = (), sharp_materials: Callable = no_sharp_materials):
-        """Decorator: register the decorated builder as preset ``name``."""
-
-        def decorate(function: Callable) -> Callable:
-            self.add(name, function, options=options, description=description, keys=keys, checks=checks,
-                     sharp_materials=sharp_materials)
-            return function
-
-        return decorate
-
-    def add(self, name: str, function: Callable, *, options: tuple[str, ...] = (), description: str = "",
-            keys: tuple = (), checks: tuple = (), sharp_materials: Callable = no_sharp_materials) -> Preset:
-        """Register ``function`` as preset ``name`` (a name can be registered once)."""
-        entry = super().add(name, function, options=options, description=description, keys=keys, checks=checks)
-        self._entries[name] = Preset(entry.name, entry.function, entry.options, entry.description,
-                                     keys=entry.keys, checks=entry.checks, sharp_materials=sharp_materials)
-        return self._entries[name]
-
-
 #: Every ``scene.preset``: name → :class:`Preset` (builder ``(config, lens, mi) -> dict`` of
 #: Mitsuba scene-dict entries, shapes and emitters); its options are the ``[scene]`` keys it reads.
-PRESETS = PresetRegistry("scene preset")
+PRESETS = Registry("scene preset", entry=Preset)
 
 
 def reads_light(preset: str) -> bool:

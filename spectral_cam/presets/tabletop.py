@@ -49,6 +49,10 @@ GROUND_REFLECTANCES, GROUND_SQUARES_PER_VIEW = (0.1, 0.4), 12
 PLASTIC_IOR, GLASS_IOR = 1.49, "bk7"
 #: GGX roughness α of plastic and metal objects (uniform draws), from polished to satin.
 ROUGHNESS_RANGE = (0.05, 0.3)
+#: The Mitsuba plugin each non-diffuse object material becomes (:func:`_bsdf`), each of whose lobes
+#: can be sharp: glass is a smooth dielectric; plastics and metals draw GGX α from
+#: :data:`ROUGHNESS_RANGE`, which reaches below :data:`~spectral_cam.presets.common.SHARP_ALPHA`.
+SHARP_PLUGINS = {"glass": "dielectric", "plastic": "roughplastic", "conductor": "roughconductor"}
 #: Fraction of the frame (each way) object centres must project inside.
 FRAME_MARGIN = 0.85
 
@@ -138,12 +142,13 @@ def colorchecker_board(config: "SceneConfig", lens: "ThinLens", mi, view: outdoo
 def _bsdf(item: TabletopObject, samples) -> dict:
     if item.material == "diffuse":
         return diffuse(samples.sds[item.reflectance])
+    plugin = SHARP_PLUGINS[item.material]
     if item.material == "plastic":
-        return {"type": "roughplastic", "distribution": "ggx", "alpha": item.roughness, "int_ior": PLASTIC_IOR,
+        return {"type": plugin, "distribution": "ggx", "alpha": item.roughness, "int_ior": PLASTIC_IOR,
                 "diffuse_reflectance": reflectance_spectrum(samples.sds[item.reflectance])}
     if item.material == "conductor":
-        return {"type": "roughconductor", "distribution": "ggx", "alpha": item.roughness, "material": item.conductor}
-    return {"type": "dielectric", "int_ior": GLASS_IOR, "ext_ior": "air"}
+        return {"type": plugin, "distribution": "ggx", "alpha": item.roughness, "material": item.conductor}
+    return {"type": plugin, "int_ior": GLASS_IOR, "ext_ior": "air"}
 
 
 def _shape(mi, view: outdoor.GroundView, item: TabletopObject, bsdf: dict, name: str) -> dict:
@@ -192,12 +197,6 @@ _TABLETOP_KEYS = (
     Key("chart", False, "bool", "true stands a ColorChecker in the tabletop, facing the camera",
         (boolean("true places a ColorChecker in the tabletop, false none"),)),
 )
-
-
-#: The plugin each object material becomes (:func:`_bsdf`) where its lobe can be sharp: glass is a
-#: smooth dielectric; plastics and metals draw GGX α from :data:`ROUGHNESS_RANGE`, which reaches
-#: below :data:`~spectral_cam.presets.common.SHARP_ALPHA`.
-SHARP_PLUGINS = {"glass": "dielectric", "plastic": "roughplastic", "conductor": "roughconductor"}
 
 
 def _sharp_objects(config: "SceneConfig") -> tuple[str, ...]:

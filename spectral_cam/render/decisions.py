@@ -204,8 +204,8 @@ ROBUST_MIN_PASS_SPP = 4
 #: pixels took the median): on the tabletop (192×128, against 2048 spp, docs/bench/estimators.csv)
 #: the adaptive median's RMS error was 1.72× the mean's at 4 passes of 4 spp, 1.66× at 8 of 4,
 #: 1.17× at 8 of 8 and 1.11× at 8 of 16; on the textured glass sphere's caustics (with the removed
-#: light spread back) it was 0.10×, 0.49×, 0.46× and 0.30× (fireflies are error too). From 8 passes of 8 the split is cheap enough to keep
-#: always against fireflies.
+#: light spread back) it was 0.10×, 0.49×, 0.46× and 0.30× (fireflies are error too). From 8
+#: passes of 8 the split is cheap enough to keep always against fireflies.
 AUTO_MIN_PASSES = 8
 AUTO_MIN_PASS_SPP = 8
 #: Below that, ``auto`` measures: a pinhole probe of the scene this wide (px), at the render's spp,
@@ -238,7 +238,7 @@ def _can_make_fireflies(config: SceneConfig) -> tuple[bool, str]:
     sharp = PRESETS[config.scene.preset].sharp_materials(config)
     if sharp:
         return True, f"the {config.scene.preset} preset places {', '.join(sorted(set(sharp)))} materials"
-    return False, (f"the {config.scene.preset} preset's materials are Lambertian or rough (GGX α ≥ {SHARP_ALPHA:g}) only")
+    return False, f"the {config.scene.preset} preset's materials are Lambertian or rough (GGX α ≥ {SHARP_ALPHA:g}) only"
 
 
 def decide_estimator(config: SceneConfig, spp: int | str, *, lens: ThinLens | None = None,
